@@ -1,0 +1,48 @@
+"""User-facing errors: one message `file:line:col: error: ...`, the line, and a caret."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Loc:
+    """A place in a model file (1-based line and column)."""
+
+    file: str
+    line: int
+    col: int
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}"
+
+
+class CalError(Exception):
+    """An error in the user's input (model, data, options): reported, never a traceback."""
+
+    def __init__(self, message: str, loc: Loc | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.loc = loc
+
+    def render(self) -> str:
+        """`file:line:col: error: message`, then the offending line and a caret under the column."""
+        if self.loc is None:
+            return f"error: {self.message}"
+        head = f"{self.loc}: error: {self.message}"
+        line = _source_line(self.loc.file, self.loc.line)
+        if line is None:
+            return head
+        caret = " " * (max(self.loc.col, 1) - 1) + "^"
+        return f"{head}\n    {line}\n    {caret}"
+
+
+def _source_line(file: str, line: int) -> str | None:
+    try:
+        lines = Path(file).read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    if 1 <= line <= len(lines):
+        return lines[line - 1].expandtabs(1)
+    return None
