@@ -1,0 +1,132 @@
+"""The `calibc` command line: compile, solve, simulate."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import traceback
+from collections.abc import Callable
+from functools import wraps
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .errors import CalError
+
+FORMULATION = click.option("--formulation", type=click.Choice(["matrix", "rotation"]),
+                           default="matrix", show_default=True,
+                           help="How a robot chain becomes constraints.")
+DATA = click.option("--data", type=click.Path(dir_okay=False),
+                    help="CSV file replacing the one the model's table names.")
+
+
+def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """User errors print `file:line:col: error: ...` and exit 2, never a traceback."""
+
+    @wraps(fn)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except CalError as err:
+            click.echo(err.render(), err=True)
+            sys.exit(2)
+        except RecursionError:
+            click.echo("error: the model nests too deeply to elaborate", err=True)
+            sys.exit(2)
+        except (click.exceptions.Exit, click.ClickException, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # a bug of ours: say so plainly
+            if os.environ.get("CALIBC_DEBUG"):
+                traceback.print_exc()
+            click.echo(f"calibc: internal error: {type(exc).__name__}: {exc} "
+                       "(set CALIBC_DEBUG=1 for the traceback)", err=True)
+            sys.exit(3)
+
+    return run
+
+
+def _load(model: str, formulation: str, data: str | None):
+    from .elaborate import elaborate
+    from .program import compile_model
+
+    return compile_model(elaborate(model, formulation=formulation, data=data))
+
+
+@click.group()
+@click.version_option(package_name="calibc")
+def main() -> None:
+    """calibc: guaranteed robot calibration by interval constraint propagation."""
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="Write the listing here.")
+@click.option("--json", "as_json", is_flag=True, help="Print counts as JSON instead.")
+@FORMULATION
+@DATA
+@user_errors
+def compile(model: str, output: str | None, as_json: bool, formulation: str,
+            data: str | None) -> None:
+    """Compile MODEL into its primitive-constraint listing."""
+    from .listing import listing_json, render_listing
+
+    prog = _load(model, formulation, data)
+    text = render_listing(prog)
+    if output:
+        Path(output).write_text(text, encoding="utf-8")
+    if as_json:
+        click.echo(listing_json(prog))
+    elif not output:
+        click.echo(text, nl=False)
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("--tol", type=click.FloatRange(min=0.0), default=1e-5, show_default=True,
+              help="Stop when a sweep contracts every declared unknown by less than this "
+                   "relative amount.")
+@click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True)
+@click.option("--json", "json_path", type=click.Path(dir_okay=False),
+              help="Also write the result as JSON to this file ('-' for stdout).")
+@FORMULATION
+@DATA
+@user_errors
+def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, formulation: str,
+          data: str | None) -> None:
+    """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
+    from .propagate import propagate
+    from .report import render_summary, render_table, result_json
+
+    prog = _load(model, formulation, data)
+    res = propagate(prog, tol=tol, max_sweeps=max_sweeps)
+    strategy = "hc4"
+    if json_path != "-":
+        click.echo(render_table(prog, res))
+        click.echo()
+        click.echo(render_summary(prog, res, strategy))
+    if json_path:
+        text = json.dumps(result_json(prog, res, strategy), indent=2)
+        if json_path == "-":
+            click.echo(text)
+        else:
+            Path(json_path).write_text(text + "\n", encoding="utf-8")
+    if res.status == "infeasible":
+        sys.exit(1)
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("--configs", type=click.IntRange(min=1), required=True,
+              help="Number of configurations (rows) to draw.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
+@FORMULATION
+@user_errors
+def simulate(model: str, configs: int, seed: int, output: str, formulation: str) -> None:
+    """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
+    from .simulate import simulate as run
+
+    run(model, configs, seed, formulation=formulation, out_csv=Path(output))
+    click.echo(f"wrote {configs} configurations to {output}")

@@ -1,0 +1,81 @@
+"""The flat program: plain arrays ready for a vectorized propagator.
+
+Primitives are grouped by (DAG level, operation): a group is a handful of integer arrays, and
+the propagator runs one group with a few numpy calls, whatever its size.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+
+from .decompose import Primitive, Slots, decompose
+from .model import Model
+
+
+@dataclass
+class Group:
+    op: str
+    level: int
+    out: np.ndarray  # (n, 1), or (n, 2) for rot
+    args: np.ndarray  # (n, k) slot indices
+    param: np.ndarray | None  # (n,) exponent for pow
+    prim: np.ndarray  # (n,) index into Program.primitives (for reports)
+    # Column j of `out`/`args` has no repeated slot: a plain fancy assignment intersects it.
+    out_unique: tuple[bool, ...]
+    args_unique: tuple[bool, ...]
+
+
+@dataclass
+class Program:
+    source: str
+    formulation: str
+    slots: Slots
+    primitives: list[Primitive]
+    groups: list[Group]
+    true_values: dict[str, float | None]
+
+    @property
+    def op_counts(self) -> dict[str, int]:
+        return dict(sorted(Counter(p.op for p in self.primitives).items()))
+
+    def counts(self) -> dict:
+        kinds = Counter(self.slots.kinds)
+        return {
+            "variables": len(self.slots.names) - kinds["const"],
+            "declared": len(self.slots.declared),
+            "temporaries": kinds["temp"],
+            "constants": kinds["const"],
+            "primitives": len(self.primitives),
+            "groups": len(self.groups),
+            "levels": 1 + max((g.level for g in self.groups), default=0),
+            "ops": self.op_counts,
+        }
+
+
+def compile_model(model: Model) -> Program:
+    slots, prims = decompose(model)
+    truth = {v.name: v.true for v in model.dag.variables.values()}
+    return Program(model.path, model.formulation, slots, prims, make_groups(prims), truth)
+
+
+def make_groups(prims: list[Primitive]) -> list[Group]:
+    buckets: dict[tuple[int, str], list[int]] = {}
+    for i, p in enumerate(prims):
+        buckets.setdefault((p.level, p.op), []).append(i)
+    return [_group(op, level, idx, prims) for (level, op), idx in sorted(buckets.items())]
+
+
+def _group(op: str, level: int, idx: list[int], prims: list[Primitive]) -> Group:
+    out = np.array([prims[i].out for i in idx], dtype=np.int64)
+    args = np.array([prims[i].args for i in idx], dtype=np.int64)
+    params = [prims[i].param for i in idx]
+    param = None if params[0] is None else np.array(params, dtype=float)
+    return Group(op, level, out, args, param, np.array(idx, dtype=np.int64),
+                 tuple(_unique(c) for c in out.T), tuple(_unique(c) for c in args.T))
+
+
+def _unique(column: np.ndarray) -> bool:
+    return len(np.unique(column)) == len(column)
