@@ -59,6 +59,9 @@ class Dag:
     nodes: list[Node] = field(default_factory=list)
     variables: dict[str, Variable] = field(default_factory=dict)
     constraints: list[Constraint] = field(default_factory=list)
+    # Measured cells: constant node -> the (table, column, row) it was read from. Equal
+    # constants share a node, so a node may have several.
+    cells: dict[int, set[tuple[str, str, int]]] = field(default_factory=dict)
     _table: dict[Node, int] = field(default_factory=dict)
 
     # -- leaves -----------------------------------------------------------------------------
@@ -78,6 +81,13 @@ class Dag:
     def literal(self, text: str) -> int:
         """A decimal literal, enclosed exactly: `0.1` becomes the two floats around 1/10."""
         return self.const(*enclose_decimal(text))
+
+    def cell(self, lo: float, hi: float, table: str, column: str, row: int) -> int:
+        """A measured value [lo, hi], remembered as table.column[row] (for the tight strategy,
+        which linearizes in the measurement errors of one configuration at a time)."""
+        node = self.const(lo, hi)
+        self.cells.setdefault(node, set()).add((table, column, row))
+        return node
 
     def pi(self) -> int:
         return self.const(np.nextafter(np.pi, -np.inf), np.nextafter(np.pi, np.inf))

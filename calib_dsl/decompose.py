@@ -43,6 +43,10 @@ class Slots:
     origin: list[Loc | None]
     declared: list[int]  # slots of declared unknowns, in declaration order
     declared_names: list[str]
+    # Measured cells: the configuration (table row) and table column a constant slot was read
+    # from; -1 for other slots, -2 for a constant shared by several configurations.
+    cell_row: np.ndarray | None = None
+    cell_col: np.ndarray | None = None
 
 
 class _UnionFind:
@@ -186,7 +190,27 @@ def _make_slots(dag: Dag, live: np.ndarray, uf: _UnionFind, caps: list):
     for node, clo, chi, loc in caps:
         _narrow(lo, hi, origin, slot_of[node], clo, chi, loc)
     decl_slots = [int(slot_of[v.node]) for v in declared]
-    return slot_of, Slots(names, kinds, lo, hi, origin, decl_slots, [v.name for v in declared])
+    rows, cols = _cell_tags(dag, slot_of, m)
+    return slot_of, Slots(names, kinds, lo, hi, origin, decl_slots, [v.name for v in declared],
+                          rows, cols)
+
+
+def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    row_ids: dict[tuple[str, int], int] = {}
+    col_ids: dict[tuple[str, str], int] = {}
+    rows, cols = np.full(m, -1, dtype=np.int64), np.full(m, -1, dtype=np.int64)
+    for node, tags in dag.cells.items():
+        s = slot_of[node]
+        if s < 0:
+            continue
+        for table, column, row in tags:
+            r = row_ids.setdefault((table, row), len(row_ids))
+            c = col_ids.setdefault((table, column), len(col_ids))
+            if rows[s] == -1:
+                rows[s], cols[s] = r, c
+            elif rows[s] != r or cols[s] != c:
+                rows[s] = -2
+    return rows, cols
 
 
 def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:

@@ -60,71 +60,184 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray) -> LinearRelaxation | N
 
 
 class _Evaluation:
-    """One forward pass: box range F, value at the center C, gradient G of every slot."""
+    """One forward pass over the groups, computing for every slot:
+    F, its range over the box; C, its value at the center p^ with every measured cell at its
+    midpoint; G, its gradient w.r.t. p over the box; D, its gradient w.r.t. the measured cells
+    of the one configuration it depends on (`owner`), one column per table column.
+
+    A measurement error dq is folded into a row as |D| e: the rows of one configuration share
+    its dq, but each row bounds it alone (no LP variable per measured value). Where a primitive
+    mixes two configurations, their D are folded into C first, so columns are never confused.
+    """
 
     def __init__(self, prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
                  center: np.ndarray) -> None:
         n, k = len(lo), len(ind)
+        s = prog.slots
         self.prog = prog
-        self.F = [lo.copy(), hi.copy()]
+        kinds = np.array(s.kinds)
+        self.temp, self.const = kinds == "temp", kinds == "const"
+        self.box = (lo, hi)
+        # A temporary's range over the box is recomputed from its definition: the contraction
+        # propagation gave it is valid on the solution set only, and the mean-value theorem
+        # needs derivatives along whole segments of the box.
+        self.F = [np.where(self.temp, -np.inf, lo), np.where(self.temp, np.inf, hi)]
         self.C = [lo.copy(), hi.copy()]
-        self.C[0][ind] = center
-        self.C[1][ind] = center
+        self.C[0][ind], self.C[1][ind] = center, center
         self.G = [np.zeros((n, k)), np.zeros((n, k))]
         self.G[0][ind, np.arange(k)] = 1.0
         self.G[1][ind, np.arange(k)] = 1.0
-        kinds = prog.slots.kinds
-        temp = np.array([kd == "temp" for kd in kinds], dtype=bool)
-        # A temporary's range over the box is recomputed from its definition: forget the
-        # contraction propagation gave it (valid only on the solution set).
-        self.F[0][temp], self.F[1][temp] = -np.inf, np.inf
-        self.masks = _defining_masks(prog, temp)
-        self.box = (lo, hi)
-        self.const = np.array([kd == "const" for kd in kinds], dtype=bool)
-        self.temp = temp
-        # (C_f, G_f, target slots, whether the target is the slot's box domain)
-        self.rows: list[tuple[Iv, Iv, np.ndarray, bool]] = []
+        self._init_cells(lo, hi)
+        self.masks = _defining_masks(prog, self.temp)
+        # (C_f, G_f, D_f, owner_f, target slots, whether the target is the slot's box domain)
+        self.rows: list[tuple] = []
+
+    def _init_cells(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        s = self.prog.slots
+        n = len(lo)
+        rows = s.cell_row if s.cell_row is not None else np.full(n, -1)
+        cols = s.cell_col if s.cell_col is not None else np.full(n, -1)
+        cell = (rows >= 0) & self.const & (hi > lo) & np.isfinite(lo) & np.isfinite(hi)
+        ncol = int(cols.max()) + 1 if np.any(cell) else 0
+        mid = 0.5 * (lo + hi)
+        err = np.where(cell, np.maximum(hi - mid, mid - lo), 0.0)
+        self.e = np.zeros(ncol)  # per column: a bound on |q - q^| (rounded up)
+        if ncol:
+            np.maximum.at(self.e, cols[cell], err[cell])
+            self.e = self.e * (1 + 4 * _REL) + 1e-300
+        self.C[0][cell], self.C[1][cell] = mid[cell], mid[cell]
+        self.owner = np.where(cell, rows, -1)
+        self.D = [np.zeros((n, ncol)), np.zeros((n, ncol))]
+        idx = np.flatnonzero(cell)
+        self.D[0][idx, cols[idx]] = 1.0
+        self.D[1][idx, cols[idx]] = 1.0
 
     def run(self) -> list[tuple[Iv, Iv]]:
         for g, mask in zip(self.prog.groups, self.masks.defining, strict=True):
-            outs = _group_forms(g, self.F, self.C, self.G)
-            for j, (f, c, gr) in enumerate(outs):
+            for j, form in enumerate(self._group(g)):
                 slots, d = g.out[:, j], mask[:, j]
-                self._store(slots[d], f, c, gr, d)
+                self._store(slots[d], form, d)
                 nd = ~d
                 if np.any(nd):
-                    rows = ((c[0][nd], c[1][nd]), (gr[0][nd], gr[1][nd]))
                     by_domain = self.const[slots[nd]]
                     for flag in (True, False):
-                        pick = by_domain == flag
-                        if np.any(pick):
-                            self.rows.append(((rows[0][0][pick], rows[0][1][pick]),
-                                              (rows[1][0][pick], rows[1][1][pick]),
-                                              slots[nd][pick], flag))
+                        pick = np.flatnonzero(nd)[by_domain == flag]
+                        if len(pick):
+                            self.rows.append((*_take(form, pick), slots[pick], flag))
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
-    def _store(self, slots, f, c, gr, d) -> None:
+    def _group(self, g: Group) -> list[tuple]:
+        """(F, C, G, D, owner) of each output of the group's primitives."""
+        cols = list(g.args.T)
+        owner, fold = _owners([self.owner[c] for c in cols])
+        fa = [(self.F[0][c], self.F[1][c]) for c in cols]
+        ca = [self._center(c, f) for c, f in zip(cols, fold, strict=True)]
+        ga = [(self.G[0][c], self.G[1][c]) for c in cols]
+        da = [_zero_rows((self.D[0][c], self.D[1][c]), f) for c, f in zip(cols, fold, strict=True)]
+        if g.op == "rot":
+            parts = _rotation_partials(fa)
+            values = [(forward(op, fa), forward(op, ca)) for op in ("rotu", "rotv")]
+        else:
+            f = forward(g.op, fa, g.param)
+            parts = [_partials(g.op, fa, f, g.param)]
+            values = [(f, forward(g.op, ca, g.param))]
+        return [(f, c, _chain(p, ga), _chain(p, da), owner)
+                for (f, c), p in zip(values, parts, strict=True)]
+
+    def _center(self, col: np.ndarray, fold: np.ndarray) -> Iv:
+        """C of the arguments; where configurations mix, with their cell errors folded in."""
+        lo, hi = self.C[0][col], self.C[1][col]
+        if not np.any(fold) or self.D[0].shape[1] == 0:
+            return lo, hi
+        dl, dh = self.D[0][col[fold]], self.D[1][col[fold]]
+        spread = _spread(dl, dh, self.e)
+        lo, hi = lo.copy(), hi.copy()
+        lo[fold] = lo[fold] - spread
+        hi[fold] = hi[fold] + spread
+        return _widen(lo, hi)
+
+    def _store(self, slots: np.ndarray, form: tuple, d: np.ndarray) -> None:
+        f, c, gr, dd, owner = form
         self.F[0][slots], self.F[1][slots] = f[0][d], f[1][d]
         self.C[0][slots], self.C[1][slots] = c[0][d], c[1][d]
         self.G[0][slots], self.G[1][slots] = gr[0][d], gr[1][d]
+        self.D[0][slots], self.D[1][slots] = dd[0][d], dd[1][d]
+        self.owner[slots] = owner[d]
 
     def _capped_temporaries(self) -> None:
         """A temporary with a domain of its own (an inequality) is a constraint too."""
         s = self.prog.slots
         capped = np.flatnonzero(self.temp & (np.isfinite(s.lo) | np.isfinite(s.hi)))
         if len(capped):
-            self.rows.append(((self.C[0][capped], self.C[1][capped]),
-                              (self.G[0][capped], self.G[1][capped]), capped, True))
+            form = ((self.F[0][capped], self.F[1][capped]), (self.C[0][capped],
+                    self.C[1][capped]), (self.G[0][capped], self.G[1][capped]),
+                    (self.D[0][capped], self.D[1][capped]), self.owner[capped])
+            self.rows.append((*form, capped, True))
 
-    def _difference(self, c: Iv, gr: Iv, slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv]:
-        """f - s: the row says 0 is in (C_f - C_s) + (G_f - G_s)(p - p^)."""
+    def _difference(self, f: Iv, c: Iv, gr: Iv, dd: Iv, owner: np.ndarray,
+                    slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv]:
+        """f - s: the row says 0 is in (C_f - C_s) + (G_f - G_s)(p - p^), cells folded."""
+        c = self._fold(c, dd)
         if by_domain:  # a constant, or a capped temporary: its current box domain
             target = (self.box[0][slots], self.box[1][slots])
             return forward("sub", [c, target]), gr
-        target = (self.C[0][slots], self.C[1][slots])
+        target = self._fold((self.C[0][slots], self.C[1][slots]),
+                            (self.D[0][slots], self.D[1][slots]))
         return forward("sub", [c, target]), _flat("sub", gr, (self.G[0][slots],
                                                                self.G[1][slots]))
+
+    def _fold(self, c: Iv, dd: Iv) -> Iv:
+        if dd[0].shape[1] == 0:
+            return c
+        spread = _spread(dd[0], dd[1], self.e)
+        return _widen(c[0] - spread, c[1] + spread)
+
+
+def _take(form: tuple, pick: np.ndarray) -> tuple:
+    f, c, gr, dd, owner = form
+    return tuple((x[0][pick], x[1][pick]) for x in (f, c, gr, dd)) + (owner[pick],)
+
+
+def _owners(owners: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The configuration an output depends on, and which arguments must fold their cell
+    errors first because they come from different configurations."""
+    out = np.full(len(owners[0]), -1)
+    for o in owners:
+        out = np.maximum(out, o)
+    mixed = np.zeros(len(out), dtype=bool)
+    for o in owners:
+        mixed |= (o >= 0) & (o != out)
+    fold = [mixed & (o >= 0) for o in owners]
+    return np.where(mixed, -1, out), fold
+
+
+def _zero_rows(d: Iv, rows: np.ndarray) -> Iv:
+    if not np.any(rows):
+        return d
+    lo, hi = d[0].copy(), d[1].copy()
+    lo[rows], hi[rows] = 0.0, 0.0
+    return lo, hi
+
+
+def _spread(dl: np.ndarray, dh: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """An upper bound on |D (q - q^)| for |q - q^| <= e, rounding included."""
+    mag = np.maximum(np.abs(dl), np.abs(dh))
+    return (mag @ e) * (1 + 4 * _REL) + 1e-300
+
+
+def _widen(lo: np.ndarray, hi: np.ndarray) -> Iv:
+    return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+
+
+def _chain(partials: list[Iv], grads: list[Iv]) -> Iv:
+    """Sum over arguments of partial derivative times the argument's gradient."""
+    total: Iv | None = None
+    for d, gi in zip(partials, grads, strict=True):
+        term = _flat("mul", (d[0][:, None], d[1][:, None]), gi)
+        total = term if total is None else _flat("add", total, term)
+    assert total is not None
+    return total
 
 
 def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
@@ -143,41 +256,12 @@ def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
     return _Masks(masks)
 
 
-def _group_forms(g: Group, F, C, G) -> list[tuple[Iv, Iv, Iv]]:
-    """(range over the box, value at the center, gradient) of each output of a group."""
-    fa = [(F[0][c], F[1][c]) for c in g.args.T]
-    ca = [(C[0][c], C[1][c]) for c in g.args.T]
-    ga = [(G[0][c], G[1][c]) for c in g.args.T]
-    if g.op == "rot":
-        return _rotation_forms(fa, ca, ga)
-    f = forward(g.op, fa, g.param)
-    c = forward(g.op, ca, g.param)
-    grad = None
-    for d, gi in zip(_partials(g.op, fa, f, g.param), ga, strict=True):
-        term = _flat("mul", (d[0][:, None], d[1][:, None]), gi)
-        grad = term if grad is None else _flat("add", grad, term)
-    assert grad is not None
-    return [(f, c, grad)]
-
-
-def _rotation_forms(fa, ca, ga) -> list[tuple[Iv, Iv, Iv]]:
-    b, u, v = fa
+def _rotation_partials(fa: list[Iv]) -> list[list[Iv]]:
+    """u2 = u cos b - v sin b: (-v2, cos b, -sin b);  v2 = u sin b + v cos b: (u2, sin b, cos b)."""
+    b = fa[0]
     cb, sb = forward("cos", [b]), forward("sin", [b])
-    outs = []
-    for op in ("rotu", "rotv"):
-        f = forward(op, fa)
-        c = forward(op, ca)
-        if op == "rotu":  # u2 = u cos b - v sin b: d/db = -v2, d/du = cos b, d/dv = -sin b
-            parts = [forward("neg", [forward("rotv", fa)]), cb, forward("neg", [sb])]
-        else:  # v2 = u sin b + v cos b: d/db = u2, d/du = sin b, d/dv = cos b
-            parts = [forward("rotu", fa), sb, cb]
-        grad = None
-        for d, gi in zip(parts, ga, strict=True):
-            term = _flat("mul", (d[0][:, None], d[1][:, None]), gi)
-            grad = term if grad is None else _flat("add", grad, term)
-        assert grad is not None
-        outs.append((f, c, grad))
-    return outs
+    u2, v2 = forward("rotu", fa), forward("rotv", fa)
+    return [[forward("neg", [v2]), cb, forward("neg", [sb])], [u2, sb, cb]]
 
 
 def _partials(op: str, a: list[Iv], out: Iv, param: np.ndarray | None) -> list[Iv]:
@@ -255,3 +339,21 @@ def _inequalities(rows: list[tuple[Iv, Iv]], center: np.ndarray, plo: np.ndarray
     b = np.concatenate([b_up, b_dn])
     keep = np.isfinite(b) & np.all(np.isfinite(A), axis=1) & np.any(A != 0, axis=1)
     return A[keep], b[keep]
+
+
+def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None = None,
+                        hi: np.ndarray | None = None) -> np.ndarray:
+    """The Jacobian (midpoints) of every constraint row w.r.t. the declared unknowns at a point.
+
+    Rows are the program's constraints in the order `relax` builds them; columns follow
+    `independents(prog)`. For identifiability: no guarantee is claimed from it.
+    """
+    ind = independents(prog)
+    blo = prog.slots.lo.copy() if lo is None else lo.copy()
+    bhi = prog.slots.hi.copy() if hi is None else hi.copy()
+    blo[ind], bhi[ind] = point, point
+    rows = _Evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float)).run()
+    if not rows:
+        return np.zeros((0, len(ind)))
+    h = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])
+    return h

@@ -1,6 +1,6 @@
 """Rigorous bounds from a linear program (Neumaier–Shcherbina).
 
-The LP solver (HiGHS through scipy) works in floating point, so its optimum is never trusted.
+The LP solver (HiGHS, through its official Python binding highspy) works in floating point, so its optimum is never trusted.
 Only its dual multipliers are used, as a *certificate*: for any y >= 0 and any p in the box
 with A p <= b,
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
+import highspy
 import numpy as np
 
 # Relative rounding-error budget of a float dot product of length <= 10^6 in round-to-nearest
@@ -60,32 +61,56 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     return dot_up(y, b) + box_max_up(r - err, r + err, rel.lo, rel.hi)
 
 
-def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
+              skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
-    Where the LP fails (or finds the relaxation infeasible, which we do not certify), the
-    bound falls back to the box's own bound on c.p: never wrong, just not tighter.
+    One HiGHS model is loaded, and each objective re-solved from the previous basis (a few
+    pivots each). Where the LP fails (or finds the relaxation infeasible, which we do not
+    certify), the bound falls back to the box's own bound on c.p: never wrong, just not
+    tighter. Objectives flagged in `skip` get the box bound without an LP.
     """
-    from scipy.optimize import linprog
-
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
-    bounds = list(zip(_finite_or_none(rel.lo), _finite_or_none(rel.hi), strict=True))
+    h = _load(rel)
+    n = rel.A.shape[1]
+    cols = np.arange(n, dtype=np.int32)
     for i, c in enumerate(objectives):
-        for sign in (1.0, -1.0):  # maximize sign * c.p
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                res = linprog(-sign * c, A_ub=rel.A, b_ub=rel.b, bounds=bounds, method="highs")
-            if res.status != 0 or res.ineqlin is None:
-                bound = box_max_up(sign * c, sign * c, rel.lo, rel.hi)
+        for sign in (1.0, -1.0):  # maximize sign * c.p, as: minimize -sign * c.p
+            box = box_max_up(sign * c, sign * c, rel.lo, rel.hi)
+            if skip is not None and skip[i]:
+                bound = box
             else:
-                y = -np.asarray(res.ineqlin.marginals)  # HiGHS: <= 0 for a minimization
-                bound = certified_max(rel, sign * c, y)
+                h.changeColsCost(n, cols, (-sign * c).astype(float))
+                h.run()
+                ok = h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+                y = -np.asarray(h.getSolution().row_dual) if ok else None
+                bound = box if y is None else min(box, certified_max(rel, sign * c, y))
             if sign > 0:
                 upper[i] = bound
             else:
                 lower[i] = -bound
     return lower, upper
+
+
+def _load(rel: LinearRelaxation) -> highspy.Highs:
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    m, n = rel.A.shape
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = n, m
+    lp.col_cost_ = np.zeros(n)
+    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo, -highspy.kHighsInf)
+    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi, highspy.kHighsInf)
+    lp.row_lower_ = np.full(m, -highspy.kHighsInf)
+    lp.row_upper_ = rel.b.astype(float)
+    csc = rel.A.T.copy()  # column-wise storage of A, dense columns
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = np.arange(0, m * n + 1, m, dtype=np.int32)
+    lp.a_matrix_.index_ = np.tile(np.arange(m, dtype=np.int32), n)
+    lp.a_matrix_.value_ = csc.ravel()
+    h.passModel(lp)
+    return h
 
 
 def _finite_or_none(x: np.ndarray) -> list[float | None]:

@@ -1,0 +1,136 @@
+"""Identifiability: which parameters the measurements can determine, and which only through
+a combination (e.g. two translations along parallel axes: only their sum is seen).
+
+The Jacobian of all constraints w.r.t. the declared unknowns is taken at their nominal (true)
+values, each column scaled by its search-domain width (so a direction is weak relative to what
+we wanted to learn). Its singular values give the rank; the null space gives the combinations
+that no data of this kind can separate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import CalError
+from .linearize import constraint_jacobian, independents
+from .program import Program
+
+RANK_TOL = 1e-9  # singular values below this times the largest are structural zeros
+
+
+@dataclass
+class Identifiability:
+    names: list[str]
+    rank: int
+    singular_values: np.ndarray
+    identifiable: list[str]
+    # Each non-identifiable group: its parameters, and the combinations that ARE identifiable
+    # (coefficient vectors over the group), e.g. (["r2", "r3"], [[1, 1]]).
+    groups: list[tuple[list[str], list[np.ndarray]]] = field(default_factory=list)
+    weakest: list[tuple[float, dict[str, float]]] = field(default_factory=list)
+
+    def combination_text(self, names: list[str], coef: np.ndarray) -> str:
+        return format_combination(names, coef)
+
+
+def analyse(prog: Program) -> Identifiability:
+    ind = independents(prog)
+    names = [prog.slots.names[i] for i in ind]
+    point = _nominal(prog, ind, names)
+    J = constraint_jacobian(prog, point)
+    scale = prog.slots.hi[ind] - prog.slots.lo[ind]
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    Js = J * scale
+    _, s, vt = np.linalg.svd(Js, full_matrices=True)
+    s_full = np.zeros(len(names))
+    s_full[: len(s)] = s
+    top = s_full.max() if len(s_full) else 0.0
+    rank = int(np.sum(s_full > RANK_TOL * top)) if top > 0 else 0
+    null = vt[rank:].T  # (n, n - rank), in scaled coordinates
+    touched = np.linalg.norm(null, axis=1) > 1e-6 if null.size else np.zeros(len(names), bool)
+    ident = [n for n, t in zip(names, touched, strict=True) if not t]
+    groups = _groups(names, null, touched, scale)
+    weakest = [(float(s_full[k]), _direction(names, vt[k], scale))
+               for k in np.argsort(s_full)[: min(3, rank)] if s_full[k] > RANK_TOL * top]
+    weakest = [w for w in sorted(weakest)][:3]
+    return Identifiability(names, rank, s_full, ident, groups, weakest)
+
+
+def _nominal(prog: Program, ind: np.ndarray, names: list[str]) -> np.ndarray:
+    vals = []
+    for slot, name in zip(ind, names, strict=True):
+        t = prog.true_values.get(name)
+        if t is None:  # no nominal value: the middle of a finite domain will do
+            lo, hi = prog.slots.lo[slot], prog.slots.hi[slot]
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                raise CalError(f"identify needs a nominal value for '{name}' "
+                               "(give it `true` or a finite domain)")
+            t = 0.5 * (lo + hi)
+        vals.append(t)
+    return np.array(vals, dtype=float)
+
+
+def _groups(names, null, touched, scale) -> list[tuple[list[str], list[np.ndarray]]]:
+    """Split the null space into groups of coupled parameters; per group, the identifiable
+    combinations are the complement of the null directions within the group."""
+    if not null.size:
+        return []
+    idx = np.flatnonzero(touched)
+    # couple parameters that appear together in a null vector (connected components)
+    comp = {int(i): int(i) for i in idx}
+
+    def find(i: int) -> int:
+        while comp[i] != i:
+            i = comp[i]
+        return i
+
+    for v in null.T:
+        members = [int(i) for i in idx if abs(v[i]) > 1e-6]
+        for m in members[1:]:
+            comp[find(m)] = find(members[0])
+    groups: dict[int, list[int]] = {}
+    for i in idx:
+        groups.setdefault(find(int(i)), []).append(int(i))
+    out = []
+    for members in groups.values():
+        sub = null[members]  # null directions restricted to the group (scaled coordinates)
+        u, s, _ = np.linalg.svd(sub, full_matrices=True)
+        k = int(np.sum(s > 1e-6))
+        complement = u[:, k:].T  # identifiable directions in scaled coordinates
+        combos = [c / scale[members] for c in complement]  # back to parameter units
+        combos = [c / c[np.argmax(np.abs(c))] for c in combos]
+        out.append(([names[i] for i in members], combos))
+    return out
+
+
+def _direction(names, v, scale) -> dict[str, float]:
+    c = v / scale
+    c = c / np.max(np.abs(c))
+    return {n: float(x) for n, x in zip(names, c, strict=True) if abs(x) > 0.05}
+
+
+def format_combination(names: list[str], coef: np.ndarray) -> str:
+    parts = []
+    for n, c in zip(names, coef, strict=True):
+        if abs(c) < 1e-9:
+            continue
+        sign = "-" if c < 0 else "+"
+        mag = "" if abs(abs(c) - 1) < 1e-9 else f"{abs(c):.4g} "
+        parts.append(f"{sign} {mag}{n}")
+    text = " ".join(parts)
+    return text[2:] if text.startswith("+ ") else text
+
+
+def render(info: Identifiability) -> str:
+    lines = [f"identifiability: rank {info.rank} of {len(info.names)} parameters"]
+    lines.append("identifiable: " + (" ".join(info.identifiable) or "(none)"))
+    for members, combos in info.groups:
+        shown = ", ".join(format_combination(members, c) for c in combos) or "nothing"
+        lines.append(f"not identifiable separately: {' '.join(members)}; "
+                     f"identifiable only through {shown}")
+    for s, d in info.weakest:
+        shown = " ".join(f"{v:+.3g}*{n}" for n, v in d.items())
+        lines.append(f"weak direction (singular value {s:.3g}): {shown}")
+    return "\n".join(lines)
