@@ -41,6 +41,8 @@ FUNCTIONS = {"sqr": 1, "sqrt": 1, "exp": 1, "log": 1, "sin": 1, "cos": 1, "tan":
 SPECIAL = {"rows": 1, "dot": 2}
 BUILTINS = set(FUNCTIONS) | set(SPECIAL)
 _ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div"}
+_OP_NAMES = {"add": "the sum", "sub": "the difference", "mul": "the product",
+             "div": "the quotient", "neg": "the opposite", "pow": "the power"}
 MAX_POW = 1024  # exact rational powers up to this exponent; beyond, interval arithmetic
 MAX_UNROLL = 10_000_000  # loop iterations / family elements: a guard against typos
 
@@ -166,6 +168,9 @@ class _Elaborator:
         self.included: set[Path] = set()
         self.expanding: list[Macro] = []
         self._consts: dict[Fraction, int] = {}
+        # Robot uses are pure functions of their arguments: computed once each.
+        self._robot_frames: dict[tuple, list[Any]] = {}
+        self._robot_calls: dict[tuple, tuple[int, ...]] = {}
         self._stmts: dict[type, Callable[[Any, Scope, bool], None]] = {
             ast.Const: self._const, ast.Let: self._let, ast.Def: self._def,
             ast.Decl: self._decl, ast.For: self._for, ast.Include: self._include,
@@ -181,7 +186,7 @@ class _Elaborator:
         }
 
     # -- files and statements -------------------------------------------------------------
-    def file(self, shown: str, loc: Loc | None = None) -> None:
+    def file(self, shown: str) -> None:
         resolved = Path(shown).resolve()
         self.including.append((resolved, shown))
         try:
@@ -234,7 +239,7 @@ class _Elaborator:
             chain = " -> ".join([n for _, n in self.including] + [shown])
             raise CalError(f"include cycle: {chain}", s.loc)
         if resolved not in self.included:  # a file already included is not included again
-            self.file(shown, s.loc)
+            self.file(shown)
 
     def _constraint(self, s: ast.Constraint, scope: Scope, top: bool) -> None:
         if s.rel == "=":
@@ -358,22 +363,37 @@ class _Elaborator:
         if len(e.args) != len(robot.params):
             raise CalError(f"robot '{e.robot}' takes {_count(len(robot.params), 'joint value')}"
                            f", got {len(e.args)}", e.loc)
-        inner = Scope(robot.scope)
-        for p, a in zip(robot.params, e.args, strict=True):
-            inner.names[p.id] = (self.scalar(self.value(a, scope), a.loc, "a joint value"), p.loc)
+        args = tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
         point = self.value(e.point, scope)
         if not isinstance(point, tuple) or len(point) != 3:
             raise CalError(f"a tool point is a 3-vector (x, y, z), not {_kind(point)}",
                            e.point.loc)
-        frames = [self._frame(robot.base, inner, base=True)]
-        frames += [self._frame(j, inner, base=False) for j in robot.joints]
-        from . import robot as chain  # late import: robot.py is the kinematics layer
-
         where = e.point.loc
         xyz = (self.node(point[0], where), self.node(point[1], where), self.node(point[2], where))
-        return tuple(chain.forward_point(self.dag, frames, xyz, self.formulation))
+        key = (id(robot), args, xyz)
+        found = self._robot_calls.get(key)
+        if found is None:
+            from . import robot as chain  # late import: robot.py is the kinematics layer
 
-    def _frame(self, decl: ast.FrameDecl | None, scope: Scope, base: bool) -> Any:
+            frames = self._frames(robot, args)
+            found = tuple(chain.forward_point(self.dag, frames, xyz, self.formulation))
+            self._robot_calls[key] = found
+        return found
+
+    def _frames(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
+        """The frames of a robot for these joint values (the same for every tool point)."""
+        key = (id(robot), args)
+        frames = self._robot_frames.get(key)
+        if frames is None:
+            inner = Scope(robot.scope)
+            for p, a in zip(robot.params, args, strict=True):
+                inner.names[p.id] = (a, p.loc)
+            frames = [self._frame(robot.base, inner)]
+            frames += [self._frame(j, inner) for j in robot.joints]
+            self._robot_frames[key] = frames
+        return frames
+
+    def _frame(self, decl: ast.FrameDecl | None, scope: Scope) -> Any:
         from . import robot as chain
 
         values = {}
@@ -405,9 +425,10 @@ class _Elaborator:
             rows = data.rows
             cells = {}
             for c in columns:
-                lo, hi = cell_bounds(data.columns[c.name], c.tol)
-                cells[c.name] = [self.dag.const(a, b) for a, b in zip(lo.tolist(), hi.tolist(),
-                                                                      strict=True)]
+                lo, hi = cell_bounds(*data.enclosures[c.name], c.tol)
+                cells[c.name] = [self.dag.cell(a, b, s.name.id, c.name, k)
+                                 for k, (a, b) in enumerate(zip(lo.tolist(), hi.tolist(),
+                                                                strict=True), start=1)]
         self.tables.append(Table(s.name.id, path, columns, rows, s.loc))
         scope.define(s.name, TableRef(s.name.id, rows, cells))
 
@@ -449,8 +470,9 @@ class _Elaborator:
     def value(self, e: ast.Expr, scope: Scope) -> Value:
         """The value of an expression: a number, a DAG node, or a vector."""
         ent = self._exprs[type(e)](e, scope)
-        if isinstance(ent, Fraction | int | tuple):
-            return ent
+        kind = type(ent)
+        if kind is int or kind is Fraction or kind is tuple:  # (faster than isinstance)
+            return ent  # type: ignore[return-value]
         return self._as_value(ent, e.loc)
 
     def _as_value(self, ent: Entity, loc: Loc) -> Value:
@@ -701,8 +723,9 @@ class _Elaborator:
     # -- conversions ----------------------------------------------------------------------
     def node(self, v: Scalar, loc: Loc) -> int:
         """The DAG node of a scalar (an exact number becomes its enclosing constant)."""
-        if not isinstance(v, Fraction):
+        if type(v) is int:
             return v
+        assert isinstance(v, Fraction)
         found = self._consts.get(v)
         if found is None:
             found = self._consts[v] = self.dag.const(*_enclose(v, loc))
@@ -747,10 +770,12 @@ class _Elaborator:
         try:
             n = self.dag.op(op, *args, data=data)
         except (ArithmeticError, ValueError) as err:
-            raise CalError(f"cannot compute {op} of these constants ({err})", loc) from None
+            raise CalError(f"cannot compute {_OP_NAMES.get(op, op)} of these constants ({err})",
+                           loc) from None
         node = self.dag.nodes[n]
         if node.op == "const" and not node.data[0] <= node.data[1]:
-            raise CalError(f"{op} of these constants has no value (out of its domain)", loc)
+            raise CalError(f"{_OP_NAMES.get(op, op)} of these constants has no value (an "
+                           "argument is outside the function's domain)", loc)
         return n
 
 

@@ -203,7 +203,7 @@ class _Builder(Transformer[Token, Any]):
 # -- syntax errors ----------------------------------------------------------------------------
 _EXPR_START = {"NAME", "NUMBER", "PI", "INF", "LPAR", "LSQB", "MINUS", "PLUS"}
 _STMT_START = {"CONST", "LET", "DEF", "PARAM", "VAR", "FOR", "INCLUDE", "ROBOT", "TABLE"}
-_OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "CIRCUMFLEX", "DOT", "LSQB", "__ANON_1"}
+_OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "CIRCUMFLEX", "DOT", "LSQB", "PM"}
 _WORDS = {"NAME": "a name", "NUMBER": "a number", "STRING": 'a "string"', "$END": "end of file"}
 
 
@@ -245,6 +245,8 @@ def _hint(tok: Token, expected: set[str]) -> str:
         return "'=' defines a name; a constraint is stated with '=='"
     if tok.type == "EQ" and ("ASSIGN" in expected or expected == {"SEMICOLON"}):
         return "'==' states a constraint; a definition uses '='"
+    if tok.type == "DOT" and "NUMBER" in expected:
+        return "a number starts with a digit: write 0.5, not .5"
     if "NAME" in expected and str(tok).isidentifier() and tok.type != "NAME":
         return f"'{tok}' is a reserved word"
     return ""

@@ -15,6 +15,7 @@ multiplying by the constants 0 and 1 creates no node), so no value is ever lost.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 from .dag import Dag
@@ -39,7 +40,7 @@ class Frame:
 def forward_point(dag: Dag, frames: list[Frame], point: Vec3, formulation: str) -> Vec3:
     """Workshop coordinates T0 T1 ... Tn . point as DAG nodes (`point` is in the last frame)."""
     if formulation == "matrix":
-        return _apply(dag, chain_matrix(dag, frames), point)
+        return _apply(dag, _cached_chain_matrix(dag, frames), point)
     if formulation == "rotation":
         return _rotation_chain(dag, frames, point)
     raise ValueError(f"unknown formulation {formulation!r}; expected one of {FORMULATIONS}")
@@ -53,6 +54,25 @@ def chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
     m = frame_matrix(dag, frames[-1])
     for frame in reversed(frames[:-1]):
         m = _matmul(dag, frame_matrix(dag, frame), m)
+    return m
+
+
+# The elaborator asks for each tool point of a configuration in turn: hash-consing would
+# share the matrix anyway, but rebuilding it costs 3x the dag.op calls. Nodes are immutable,
+# so a matrix stays valid for its DAG; the weak reference tells a reused id from the same DAG.
+_CACHE_SIZE = 8
+_matrix_cache: dict[tuple[int, tuple[int, ...]], tuple[weakref.ref[Dag], Mat34]] = {}
+
+
+def _cached_chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
+    key = (id(dag), tuple(n for f in frames for n in (f.alpha, f.d, f.theta, f.r)))
+    hit = _matrix_cache.get(key)
+    if hit is not None and hit[0]() is dag:
+        return hit[1]
+    m = chain_matrix(dag, frames)
+    if len(_matrix_cache) >= _CACHE_SIZE:
+        del _matrix_cache[next(iter(_matrix_cache))]  # the oldest
+    _matrix_cache[key] = (weakref.ref(dag), m)
     return m
 
 

@@ -37,11 +37,12 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
     from .elaborate import elaborate  # late import: the elaborator imports much more
 
     model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows)
-    tables = simulate_model(model, seed)
+    if not model.tables:
+        raise CalError("the model has no `table` to simulate")
     if out_csv is not None and len(model.tables) != 1:
         raise CalError(f"the model has {len(model.tables)} tables; simulate writes one CSV "
-                       "per table, so give no output path", model.tables[-1].loc
-                       if model.tables else None)
+                       "per table, so give no output path", model.tables[-1].loc)
+    tables = simulate_model(model, seed)
     for table in model.tables:
         write_csv(Path(out_csv) if out_csv is not None else Path(table.path), table,
                   tables[table.name])
@@ -77,7 +78,10 @@ def write_csv(path: Path, table: Table, data: Array) -> None:
     """Header = column names; full-precision floats (repr round-trips exactly)."""
     lines = [",".join(c.name for c in table.columns)]
     lines += [",".join(repr(float(x)) for x in row) for row in data]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    try:
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    except OSError as err:
+        raise CalError(f"cannot write {path}: {err.strerror}", table.loc) from err
 
 
 def cell_name(table: str, column: str, row: int) -> str:

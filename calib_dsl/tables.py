@@ -11,6 +11,7 @@ import csv
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -26,11 +27,14 @@ _NON_FINITE = re.compile(r"[+-]?(nan|inf|infinity)", re.IGNORECASE)
 
 @dataclass
 class CsvData:
-    """The declared columns of a CSV file: `columns[name][row - 1]` is a cell value."""
+    """The declared columns of a CSV file: `columns[name][row - 1]` is a cell value (the
+    nearest float); `enclosures[name]` = (lo, hi), the tightest floats around the exact decimal
+    value of each cell (lo == hi when the decimal is a float)."""
 
     path: str
     rows: int
     columns: dict[str, FloatArray] = field(default_factory=dict)
+    enclosures: dict[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
     lines: list[int] = field(default_factory=list)  # the CSV line of each data row
 
 
@@ -51,26 +55,34 @@ def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = No
         raise CalError(f"data file '{name}' has a header but no data rows",
                        Loc(name, head_line + 1, 1))
     out = CsvData(name, len(data), lines=[line for line, _ in data])
-    values = np.empty((len(columns), len(data)))
+    values = np.empty((3, len(columns), len(data)))  # nearest, lo, hi
     for k, (line, row) in enumerate(data, start=1):
         if len(row) != len(header):
             raise CalError(f"data file '{name}', row {k}: {len(row)} fields, but the header "
                            f"has {len(header)}", Loc(name, line, min(len(row), len(header)) + 1))
         for j, col in enumerate(columns):
-            values[j, k - 1] = _cell(row[where[col]], name, line, k, col, where[col] + 1)
-    out.columns = {col: values[j] for j, col in enumerate(columns)}
+            values[:, j, k - 1] = _cell(row[where[col]], name, line, k, col, where[col] + 1)
+    out.columns = {col: values[0, j] for j, col in enumerate(columns)}
+    out.enclosures = {col: (values[1, j], values[2, j]) for j, col in enumerate(columns)}
     return out
 
 
-def cell_bounds(values: FloatArray, tol: float) -> tuple[FloatArray, FloatArray]:
-    """Intervals surely holding `value +- tol` for each cell, rounded outward.
+def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray, FloatArray]:
+    """[lo - tol, hi + tol] for each cell, rounded outward (and exact when it can be)."""
+    return _sub_down(lo, tol), _add_up(hi, tol)
 
-    A cell's float is the nearest to its decimal text, so the text's exact value lies within
-    one float step of it; the sum with `tol` is rounded to nearest, then one more step out.
-    """
-    lo = np.nextafter(np.nextafter(values, -np.inf) - tol, -np.inf)
-    hi = np.nextafter(np.nextafter(values, np.inf) + tol, np.inf)
-    return lo, hi
+
+def _add_up(a: FloatArray, b: float) -> FloatArray:
+    """a + b rounded up: TwoSum gives the rounding error of the float sum exactly."""
+    s = a + b
+    t = s - a
+    err = (a - (s - t)) + (b - t)
+    return np.where(err > 0, np.nextafter(s, np.inf), s)
+
+
+def _sub_down(a: FloatArray, b: float) -> FloatArray:
+    """a - b rounded down."""
+    return -_add_up(-a, b)
 
 
 # -- steps ----------------------------------------------------------------------------------
@@ -126,7 +138,9 @@ def _quoted(names: list[str]) -> str:
     return ", ".join(f"'{n}'" for n in names)
 
 
-def _cell(text: str, name: str, line: int, row: int, col: str, field_no: int) -> float:
+def _cell(text: str, name: str, line: int, row: int, col: str,
+          field_no: int) -> tuple[float, float, float]:
+    """(nearest float, lo, hi) of a cell: [lo, hi] holds its exact decimal value."""
     cell = text.strip()
     where = f"data file '{name}', row {row}, column '{col}'"
     loc = Loc(name, line, field_no)
@@ -139,4 +153,9 @@ def _cell(text: str, name: str, line: int, row: int, col: str, field_no: int) ->
     value = float(cell)
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
-    return value
+    exact, near = Decimal(cell), Decimal(value)  # both exact
+    if near == exact:
+        return value, value, value
+    if near < exact:
+        return value, value, float(np.nextafter(value, np.inf))
+    return value, float(np.nextafter(value, -np.inf)), value

@@ -259,3 +259,39 @@ def test_empty_chain_and_unknown_formulation():
         assert forward_point(dag, [], p, formulation) == p
     with pytest.raises(ValueError, match="formulation"):
         forward_point(dag, [], p, "quaternion")
+
+
+def test_matrix_is_built_once_per_configuration():
+    # Each tool point of a configuration reuses the chain's matrix: few dag.op calls per point.
+    dag, values = Dag(), {}
+    p = rx90_params(dag, values)
+    frames = rx90_config(dag, values, p, np.zeros(6))
+    calls = Counter()
+    op = dag.op
+
+    def counting(*args, **kwargs):
+        calls["op"] += 1
+        return op(*args, **kwargs)
+
+    dag.op = counting  # type: ignore[method-assign]
+    forward_point(dag, frames, tool_points(p)[0], "matrix")
+    first = calls["op"]
+    forward_point(dag, frames, tool_points(p)[1], "matrix")
+    assert calls["op"] - first == 18  # x = M p only
+
+
+def test_matrix_cache_never_crosses_dags():
+    # Same frame node ids in two DAGs that mean different things.
+    results = []
+    for sign in (1.0, -1.0):
+        dag = Dag()
+        zero = dag.const(0.0)
+        t = dag.var("t", -9.0, 9.0)
+        frame = Frame(zero, zero, t, zero)
+        pt = tuple(dag.var(c, -9.0, 9.0) for c in "xyz")
+        out = forward_point(dag, [frame], pt, "matrix")
+        val = evaluate(dag, {t: sign * 0.5, pt[0]: 1.0, pt[1]: 0.0, pt[2]: 0.0})
+        results.append([val[o] for o in out])
+        del dag
+    np.testing.assert_allclose(results[0], [math.cos(0.5), math.sin(0.5), 0.0])
+    np.testing.assert_allclose(results[1], [math.cos(0.5), -math.sin(0.5), 0.0])

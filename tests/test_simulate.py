@@ -150,8 +150,9 @@ def test_constraint_met_inside_a_constant_interval():
 # -- end to end: the elaborated RX90 model ---------------------------------------------------
 RX90_MODEL = ROOT / "models" / "rx90_lengths.cal"
 needs_elaborator = pytest.mark.skipif(
-    find_spec("calib_dsl.elaborate") is None or not RX90_MODEL.exists(),
-    reason="calib_dsl.elaborate or models/rx90_lengths.cal not written yet")
+    any(find_spec(f"calib_dsl.{m}") is None for m in ("elaborate", "projections"))
+    or not RX90_MODEL.exists(),
+    reason="calib_dsl.elaborate, calib_dsl.projections or models/rx90_lengths.cal not written yet")
 
 
 def read_csv(path: Path) -> tuple[list[str], np.ndarray]:
@@ -188,3 +189,49 @@ def test_rx90_model_end_to_end(tmp_path, formulation):
     tol_q = max(c.tol for c in inputs)
     bound = np.array([c.tol for c in outputs]) + 6 * 1.5 * tol_q
     assert np.all(np.abs(x - rx90_forward(q).reshape(30, 9)) <= bound)
+
+
+# -- evaluate.py: the float evaluator the simulation runs on ----------------------------------
+def test_evaluate_every_op_against_math():
+    from calib_dsl.dag import ARITY
+    from calib_dsl.evaluate import evaluate
+
+    dag = Dag()
+    x, y, z = (dag.var(n, -9.0, 9.0) for n in "xyz")
+    vx, vy, vz = 0.7, -1.3, 2.1
+    expect = {
+        "neg": -vx, "sqr": vx * vx, "sqrt": math.sqrt(vx), "exp": math.exp(vx),
+        "log": math.log(vx), "sin": math.sin(vx), "cos": math.cos(vx), "tan": math.tan(vx),
+        "abs": abs(vx), "add": vx + vy, "sub": vx - vy, "mul": vx * vy, "div": vx / vy,
+        "atan2": math.atan2(vx, vy),
+        "rotu": vy * math.cos(vx) - vz * math.sin(vx),
+        "rotv": vy * math.sin(vx) + vz * math.cos(vx),
+    }
+    nodes = {op: dag.op(op, *(x, y, z)[:ARITY[op]]) for op in expect}
+    cube = dag.op("pow", y, data=3)
+    half = dag.op("mul", dag.const(0.25, 0.75), z)  # a constant counts as its midpoint
+    assert set(expect) == set(ARITY) - {"pow"}
+    val = evaluate(dag, {x: vx, y: vy, z: vz})
+    for op, node in nodes.items():
+        assert val[node] == pytest.approx(expect[op], rel=1e-15), op
+    assert val[cube] == pytest.approx(vy ** 3) and val[half] == pytest.approx(0.5 * vz)
+
+
+def test_evaluate_batches_and_missing_values():
+    from calib_dsl.evaluate import evaluate, values_by_name
+
+    dag = Dag()
+    a, b = dag.var("a", 0, 1), dag.var("b", 0, 1)
+    s = dag.op("add", dag.op("sin", a), b)
+    val = evaluate(dag, values_by_name(dag, {"a": np.array([0.0, 1.0, 2.0]), "b": 1.0}))
+    np.testing.assert_allclose(val[s], np.sin([0.0, 1.0, 2.0]) + 1.0)
+    with pytest.raises(KeyError, match="'b'"):
+        evaluate(dag, {a: 0.5})
+    assert math.isnan(evaluate(dag, {a: 0.5}, default=math.nan)[s])
+
+
+def test_unwritable_output_is_a_user_error(tmp_path):
+    model = rx90_sim_model(1)
+    with pytest.raises(CalError, match="cannot write"):
+        write_csv(tmp_path / "no" / "such" / "dir.csv", model.tables[0],
+                  simulate_model(model, 0)["m"])
