@@ -37,6 +37,9 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             sys.exit(2)
         except (click.exceptions.Exit, click.ClickException, KeyboardInterrupt):
             raise
+        except BrokenPipeError:  # `calibc solve ... | head`: the reader left, nothing is wrong
+            sys.stderr.close()
+            sys.exit(0)
         except Exception as exc:  # a bug of ours: say so plainly
             if os.environ.get("CALIBC_DEBUG"):
                 traceback.print_exc()
@@ -90,18 +93,26 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
 @click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False),
               help="Also write the result as JSON to this file ('-' for stdout).")
+@click.option("--strategy", type=click.Choice(["tight", "hc4"]), default="tight",
+              show_default=True,
+              help="hc4: forward-backward propagation only (the paper's method); tight: "
+                   "propagation alternated with a certified linear relaxation (LP).")
 @FORMULATION
 @DATA
 @user_errors
-def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, formulation: str,
-          data: str | None) -> None:
+def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
+          formulation: str, data: str | None) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from .propagate import propagate
     from .report import render_summary, render_table, result_json
 
     prog = _load(model, formulation, data)
-    res = propagate(prog, tol=tol, max_sweeps=max_sweeps)
-    strategy = "hc4"
+    if strategy == "tight":
+        from .tight import solve_tight
+
+        res = solve_tight(prog, tol=tol, max_sweeps=max_sweeps)
+    else:
+        res = propagate(prog, tol=tol, max_sweeps=max_sweeps)
     if json_path != "-":
         click.echo(render_table(prog, res))
         click.echo()

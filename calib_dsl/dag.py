@@ -115,7 +115,7 @@ class Dag:
         simple = self._simplify(op, args)
         if simple is not None:
             return simple
-        if all(self.nodes[a].op == "const" for a in args):
+        if all(self._foldable(a) for a in args):
             return self._fold(op, args, data)
         if op in COMMUTATIVE:
             args = tuple(sorted(args))
@@ -137,6 +137,12 @@ class Dag:
         if n.op == "const" and n.data[0] == n.data[1]:
             return float(n.data[0])
         return None
+
+    def _foldable(self, node: int) -> bool:
+        """A constant, but not an uncertain measured value: cos(q6) must stay a function of
+        the measured q6, or a linearization could not follow its error."""
+        n = self.nodes[node]
+        return n.op == "const" and (node not in self.cells or n.data[0] == n.data[1])
 
     def _simplify(self, op: str, args: tuple[int, ...]) -> int | None:
         # Exact identities only: they hold for every real value of the other operand.

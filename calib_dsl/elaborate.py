@@ -43,7 +43,7 @@ BUILTINS = set(FUNCTIONS) | set(SPECIAL)
 _ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div"}
 _OP_NAMES = {"add": "the sum", "sub": "the difference", "mul": "the product",
              "div": "the quotient", "neg": "the opposite", "pow": "the power"}
-MAX_POW = 1024  # exact rational powers up to this exponent; beyond, interval arithmetic
+MAX_POW_BITS = 1 << 16  # exact rational powers up to this size; beyond, interval arithmetic
 MAX_UNROLL = 10_000_000  # loop iterations / family elements: a guard against typos
 
 Scalar = Union[Fraction, int]  # noqa: UP007 - an alias used at run time too
@@ -334,7 +334,10 @@ class _Elaborator:
         lo, hi = self.constant_interval(v, e.loc, what)
         if not (math.isfinite(lo) and math.isfinite(hi)):
             raise CalError(f"{what} must be finite", e.loc)
-        return lo if lo == hi else 0.5 * lo + 0.5 * hi
+        mid = lo if lo == hi else 0.5 * lo + 0.5 * hi
+        if hi - lo > 1e-9 * max(1.0, abs(mid)):  # wider than rounding: a real interval
+            raise CalError(f"{what} must be a number, not an interval [{lo!r}, {hi!r}]", e.loc)
+        return mid
 
     # -- robots ---------------------------------------------------------------------------
     def _robot(self, s: ast.Robot, scope: Scope, top: bool) -> None:
@@ -567,7 +570,8 @@ class _Elaborator:
         if isinstance(base, Fraction):
             if base == 0 and n < 0:
                 raise CalError("division by zero (0 to a negative power)", e.loc)
-            if abs(n) <= MAX_POW or base in (0, 1, -1):
+            bits = max(base.numerator.bit_length(), base.denominator.bit_length())
+            if bits * abs(n) <= MAX_POW_BITS or base in (0, 1, -1):
                 return base ** n  # type: ignore[no-any-return]
         if n == 0:
             return Fraction(1)

@@ -58,15 +58,29 @@ def up(x: Arr) -> Arr:
     return np.where(x == -INF, x, np.nextafter(x, INF))
 
 
+_EPS = 2.0**-52
+_TINY = 2.0**-1074
+_SMALL = 256  # below this many elements nextafter is cheaper than 5 arithmetic ops
+
+
 def dn1(x: Arr) -> Arr:
-    """Lower bound of a correctly rounded (+ - * / sqrt) result. Unlike `down`, maps an
-    overflowed +inf to MAX: the exact value is finite, so +inf would exclude it."""
-    return np.nextafter(x, -INF)
+    """Lower bound of a correctly rounded (+ - * / sqrt) result x: one float down (`nextafter`)
+    for small arrays; for large ones x - (|x| 2**-52 + 2**-1074), which is one or two floats
+    down (|x| 2**-52 is at least an ulp of x, and rounding the difference to nearest cannot
+    come back above x - ulp/2). Unlike `down`, an overflowed +inf becomes about MAX: the exact
+    value is finite, so +inf would exclude it."""
+    if x.size <= _SMALL:
+        return np.nextafter(x, -INF)
+    m = np.minimum(x, MAX)
+    return m - (np.abs(m) * _EPS + _TINY)
 
 
 def up1(x: Arr) -> Arr:
-    """Upper bound of a correctly rounded result (an overflowed -inf becomes -MAX)."""
-    return np.nextafter(x, INF)
+    """Upper bound of a correctly rounded result (an overflowed -inf becomes about -MAX)."""
+    if x.size <= _SMALL:
+        return np.nextafter(x, INF)
+    m = np.maximum(x, -MAX)
+    return m + (np.abs(m) * _EPS + _TINY)
 
 
 def lib_lo(y: Arr) -> Arr:
@@ -132,6 +146,13 @@ def hull(x: Interval, y: Interval) -> Interval:
     lo = np.minimum(np.where(ex, INF, x[0]), np.where(ey, INF, y[0]))
     hi = np.maximum(np.where(ex, -INF, x[1]), np.where(ey, -INF, y[1]))
     return canon((lo, hi))
+
+
+def rows(*xs: Arr) -> Arr:
+    """Stack arrays as rows (broadcasting them first only when their shapes differ)."""
+    if len({x.shape for x in xs}) == 1:
+        return np.array(xs)
+    return np.stack(np.broadcast_arrays(*xs))
 
 
 def contains(x: Interval, v: Arr) -> NDArray[np.bool_]:
@@ -222,6 +243,12 @@ def div_pieces(x: Interval, y: Interval) -> tuple[Interval, NDArray[np.bool_],
 
 def div(x: Interval, y: Interval) -> Interval:
     """Hull of { a / b : a in x, b in y, b != 0 } (empty where y == [0, 0])."""
+    if not ((y[0] <= 0) & (y[1] >= 0)).any():  # usual case: 0 in no divisor
+        a, b = x
+        c, d = y
+        q1, q2, q3, q4 = a / c, a / d, b / c, b / d  # inf/inf NaN: skipped, see mul
+        return (dn1(np.fmin(np.fmin(q1, q2), np.fmin(q3, q4))),
+                up1(np.fmax(np.fmax(q1, q2), np.fmax(q3, q4))))
     pos, pok, ng, nok = div_pieces(x, y)
     whole = (np.full_like(pos[0], -INF), np.full_like(pos[0], INF))
     return hull_in(whole, [(pos, pok), (ng, nok)])
@@ -290,8 +317,12 @@ def pow_int(x: Interval, n: Arr) -> Interval:
     even = np.floor(m * 0.5) * 2.0 == m
     mig, mag = mig_mag(x)
     blo, bhi = np.where(even, mig, x[0]), np.where(even, mag, x[1])
-    # numpy.power on an integer-valued float exponent: pow(), accurate to an ulp, exact sign
-    lo, hi = lib_lo(np.power(blo, m)), lib_hi(np.power(bhi, m))
+    # numpy.power on an integer-valued float exponent: libm pow (< 1 ulp, exact sign). The
+    # extra m * 2**-53 relative would even cover a product-by-squaring implementation.
+    plo, phi = np.minimum(np.power(blo, m), MAX), np.maximum(np.power(bhi, m), -MAX)
+    rel = LIB_REL + m * 2.0**-53
+    lo = plo - (np.abs(plo) * rel + LIB_ABS)
+    hi = phi + (np.abs(phi) * rel + LIB_ABS)
     lo = np.where(even, np.maximum(lo, 0.0), lo)
     if (n < 0).any():
         rlo, rhi = div((np.ones_like(lo), np.ones_like(hi)), (lo, hi))
@@ -367,8 +398,8 @@ def atan2(y: Interval, x: Interval) -> Interval:
     extreme angles are at corners (a corner at the origin is skipped). Otherwise [-pi, pi]."""
     yl, yh = y[0] + 0.0, y[1] + 0.0  # + 0.0: no -0.0, so atan2(0, x<0) = +pi
     xl, xh = x[0] + 0.0, x[1] + 0.0
-    ys = np.stack(np.broadcast_arrays(yl, yh, yl, yh))
-    xs = np.stack(np.broadcast_arrays(xl, xl, xh, xh))
+    ys = rows(yl, yh, yl, yh)
+    xs = rows(xl, xl, xh, xh)
     t = np.arctan2(ys, xs)
     orig = (xl <= 0) & (xh >= 0) & (yl <= 0) & (yh >= 0)
     if orig.any():

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 from .lpbound import LinearRelaxation
 from .program import Group, Program
@@ -44,8 +45,15 @@ def independents(prog: Program) -> np.ndarray:
                     dtype=np.int64)
 
 
-def relax(prog: Program, lo: np.ndarray, hi: np.ndarray) -> LinearRelaxation | None:
-    """Valid inequalities A p <= b on the declared unknowns over the box [lo, hi]."""
+def relax(prog: Program, lo: np.ndarray, hi: np.ndarray,
+          cell_variables: bool = True) -> LinearRelaxation | None:
+    """Valid inequalities A x <= b over the box [lo, hi]; x = (p, dq).
+
+    p are the declared unknowns (the first `main` columns). With `cell_variables`, each
+    measured value's error dq of one configuration is an LP variable too (bounded by its
+    tolerance), so the rows of a configuration share it, as they should; without, each row
+    bounds it alone (folded into the right-hand side: fewer columns, a little looser).
+    """
     ind = independents(prog)
     plo, phi = lo[ind], hi[ind]
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
@@ -55,8 +63,7 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray) -> LinearRelaxation | N
     rows = ev.run()
     if not rows:
         return None
-    A, b = _inequalities(rows, center, plo, phi)
-    return LinearRelaxation(A, b, plo, phi)
+    return _inequalities(rows, center, plo, phi, ev.e, cell_variables)
 
 
 class _Evaluation:
@@ -176,16 +183,19 @@ class _Evaluation:
             self.rows.append((*form, capped, True))
 
     def _difference(self, f: Iv, c: Iv, gr: Iv, dd: Iv, owner: np.ndarray,
-                    slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv]:
-        """f - s: the row says 0 is in (C_f - C_s) + (G_f - G_s)(p - p^), cells folded."""
-        c = self._fold(c, dd)
+                    slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv, Iv, np.ndarray]:
+        """f - s: the row says 0 is in (C_f - C_s) + (G_f - G_s)(p - p^) + D_f (q - q^)."""
         if by_domain:  # a constant, or a capped temporary: its current box domain
             target = (self.box[0][slots], self.box[1][slots])
-            return forward("sub", [c, target]), gr
+            return forward("sub", [c, target]), gr, dd, owner
+        # two computed sides: fold both sides' cell errors (rows of this kind are rare)
+        c = self._fold(c, dd)
         target = self._fold((self.C[0][slots], self.C[1][slots]),
                             (self.D[0][slots], self.D[1][slots]))
-        return forward("sub", [c, target]), _flat("sub", gr, (self.G[0][slots],
-                                                               self.G[1][slots]))
+        zero = np.zeros_like(dd[0])
+        return (forward("sub", [c, target]),
+                _flat("sub", gr, (self.G[0][slots], self.G[1][slots])),
+                (zero, zero), np.full(len(slots), -1))
 
     def _fold(self, c: Iv, dd: Iv) -> Iv:
         if dd[0].shape[1] == 0:
@@ -318,27 +328,56 @@ def _flat(op: str, x: Iv, y: Iv) -> Iv:
     return lo.reshape(shape), hi.reshape(shape)
 
 
-def _inequalities(rows: list[tuple[Iv, Iv]], center: np.ndarray, plo: np.ndarray,
-                  phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """0 in D + H (p - p^)  =>  h.p <= -D_lo + r.w + h.p^  and  -h.p <= D_hi + r.w - h.p^."""
-    dlo = np.concatenate([r[0][0] for r in rows])
-    dhi = np.concatenate([r[0][1] for r in rows])
-    hlo = np.concatenate([r[1][0] for r in rows])
-    hhi = np.concatenate([r[1][1] for r in rows])
-    h = 0.5 * (hlo + hhi)
-    rad = np.maximum(h - hlo, hhi - h)
-    rad = rad * (1 + 4 * _REL) + 1e-300  # covers the rounding of the midpoint
+def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,
+                  e: np.ndarray, cell_variables: bool) -> LinearRelaxation:
+    """0 in D + H (p - p^) + Q dq  with  |p - p^| <= w, |dq| <= e  gives two inequalities:
+    h.p + q.dq <= -D_lo + slack + h.p^  and  -h.p - q.dq <= D_hi + slack - h.p^, where h, q
+    are midpoints and the slack bounds the radii times w and e (and every rounding)."""
+    dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
+    hlo, hhi = (np.concatenate([r[1][i] for r in rows]) for i in (0, 1))
+    qlo, qhi = (np.concatenate([r[2][i] for r in rows]) for i in (0, 1))
+    owner = np.concatenate([r[3] for r in rows])
+    h, hrad = _mid_rad(hlo, hhi)
+    q, qrad = _mid_rad(qlo, qhi)
     w = np.maximum(center - plo, phi - center) * (1 + 4 * _REL)
-    slack = rad @ w
+    slack = hrad @ w + qrad @ e
+    folded = np.abs(q) @ e
+    if not cell_variables:
+        slack = slack + folded  # each row bounds the cell errors alone
+        q = q[:, :0]
     hc = h @ center
-    err = _REL * (np.abs(rad) @ w + np.abs(h) @ np.abs(center) + np.abs(dlo) + np.abs(dhi)
-                  + np.abs(slack) + np.abs(hc)) + 1e-300
+    err = _REL * (hrad @ w + qrad @ e + folded + np.abs(h) @ np.abs(center)
+                  + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
-    A = np.concatenate([h, -h])
+    extra, xlo, xhi = _cell_columns(q, owner, e)
+    A = sparse.vstack([sparse.hstack([sparse.csr_matrix(h), extra]),
+                       -sparse.hstack([sparse.csr_matrix(h), extra])]).tocsr()
     b = np.concatenate([b_up, b_dn])
-    keep = np.isfinite(b) & np.all(np.isfinite(A), axis=1) & np.any(A != 0, axis=1)
-    return A[keep], b[keep]
+    keep = np.flatnonzero(np.isfinite(b) & (np.diff(A.indptr) > 0))
+    return LinearRelaxation(A[keep], b[keep], np.concatenate([plo, xlo]),
+                            np.concatenate([phi, xhi]), main=len(plo))
+
+
+def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Midpoint and a radius covering [lo, hi] around it (rounding included)."""
+    mid = 0.5 * (lo + hi)
+    rad = np.maximum(mid - lo, hi - mid) * (1 + 4 * _REL) + 1e-300
+    return mid, rad
+
+
+def _cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
+    """One LP column per (configuration, table column) that some row uses: q's midpoints
+    scattered into those columns; bounds +- e."""
+    m, k = q.shape
+    rows, cols = np.nonzero((q != 0) & (owner[:, None] >= 0))
+    if k == 0 or len(rows) == 0:
+        return sparse.csr_matrix((m, 0)), np.zeros(0), np.zeros(0)
+    key = owner[rows] * k + cols
+    uniq, col = np.unique(key, return_inverse=True)
+    extra = sparse.csr_matrix((q[rows, cols], (rows, col)), shape=(m, len(uniq)))
+    bound = e[uniq % k]
+    return extra, -bound, bound
 
 
 def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None = None,
@@ -355,5 +394,4 @@ def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None 
     rows = _Evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float)).run()
     if not rows:
         return np.zeros((0, len(ind)))
-    h = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])
-    return h
+    return np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])

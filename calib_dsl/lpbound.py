@@ -17,21 +17,24 @@ from dataclasses import dataclass
 
 import highspy
 import numpy as np
+from scipy import sparse
 
 # Relative rounding-error budget of a float dot product of length <= 10^6 in round-to-nearest
 # (gamma_n = n u / (1 - n u) with u = 2^-53, n <= 10^6, is below 1.2e-10): 1e-9 covers it.
 _REL = 1e-9
 _ABS = 1e-300
+_LP_PAD = 0.0
 
 
 @dataclass
 class LinearRelaxation:
     """Valid inequalities A p <= b over the box lo <= p <= hi (in exact arithmetic)."""
 
-    A: np.ndarray  # (m, n)
+    A: sparse.csr_matrix  # (m, n)
     b: np.ndarray  # (m,)
     lo: np.ndarray  # (n,)
     hi: np.ndarray  # (n,)
+    main: int = 0  # the first `main` columns are the unknowns; the others nuisance variables
 
 
 def dot_up(x: np.ndarray, y: np.ndarray) -> float:
@@ -54,10 +57,10 @@ def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarra
 def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     """A rigorous upper bound on max c.p over the relaxation, from a dual guess y."""
     y = np.where(np.isfinite(y) & (y > 0), y, 0.0)  # any y >= 0 is a certificate
-    used = y > 0
+    used = np.flatnonzero(y > 0)
     A, b, y = rel.A[used], rel.b[used], y[used]
     r = c - A.T @ y
-    err = _REL * (np.abs(c) + np.abs(A).T @ y) + _ABS  # rounding error of r, componentwise
+    err = _REL * (np.abs(c) + abs(A).T @ y) + _ABS  # rounding error of r, componentwise
     return dot_up(y, b) + box_max_up(r - err, r + err, rel.lo, rel.hi)
 
 
@@ -75,7 +78,9 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     h = _load(rel)
     n = rel.A.shape[1]
     cols = np.arange(n, dtype=np.int32)
+    pad = np.zeros(n - objectives.shape[1])
     for i, c in enumerate(objectives):
+        c = np.concatenate([c, pad])  # nuisance columns have no cost
         for sign in (1.0, -1.0):  # maximize sign * c.p, as: minimize -sign * c.p
             box = box_max_up(sign * c, sign * c, rel.lo, rel.hi)
             if skip is not None and skip[i]:
@@ -100,15 +105,19 @@ def _load(rel: LinearRelaxation) -> highspy.Highs:
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = n, m
     lp.col_cost_ = np.zeros(n)
-    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo, -highspy.kHighsInf)
-    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi, highspy.kHighsInf)
+    # The LP sees a slightly larger box: at a fixed point the rows are nearly all active
+    # at the box's faces, and that degeneracy makes the simplex crawl. The certificate
+    # still uses the true box, so this costs no tightness and no rigour.
+    pad = _LP_PAD * (rel.hi - rel.lo)
+    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo - pad, -highspy.kHighsInf)
+    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi + pad, highspy.kHighsInf)
     lp.row_lower_ = np.full(m, -highspy.kHighsInf)
     lp.row_upper_ = rel.b.astype(float)
-    csc = rel.A.T.copy()  # column-wise storage of A, dense columns
+    csc = sparse.csc_matrix(rel.A)
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    lp.a_matrix_.start_ = np.arange(0, m * n + 1, m, dtype=np.int32)
-    lp.a_matrix_.index_ = np.tile(np.arange(m, dtype=np.int32), n)
-    lp.a_matrix_.value_ = csc.ravel()
+    lp.a_matrix_.start_ = csc.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = csc.indices.astype(np.int32)
+    lp.a_matrix_.value_ = csc.data.astype(float)
     h.passModel(lp)
     return h
 

@@ -14,6 +14,8 @@ from . import ast
 from .errors import CalError, Loc
 from .grammar import cal_parser
 
+MAX_EXPONENT = 400  # of a decimal literal: floats span about 1e-324 .. 1e308
+
 
 def parse(text: str, filename: str) -> tuple[ast.Stmt, ...]:
     """The statements of a `.cal` source; `filename` goes into every location."""
@@ -137,7 +139,12 @@ class _Builder(Transformer[Token, Any]):
 
     # -- expressions
     def number(self, meta: Any, c: list) -> ast.Number:
-        return ast.Number(Fraction(str(c[0])), str(c[0]), self._loc(meta))
+        text = str(c[0])
+        mantissa, _, exponent = text.lower().partition("e")
+        if exponent and abs(int(exponent)) > MAX_EXPONENT:  # beyond floats, and costly exactly
+            raise CalError(f"number {text} is out of range (exponent beyond "
+                           f"+-{MAX_EXPONENT})", self._loc(meta))
+        return ast.Number(Fraction(text), text, self._loc(meta))
 
     def name(self, meta: Any, c: list) -> ast.Name:
         return ast.Name(str(c[0]), self._loc(meta))

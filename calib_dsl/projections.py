@@ -29,9 +29,9 @@ def forward(op: str, args: list[Interval], param: Arr | None = None) -> Interval
     if fn is None:
         raise ValueError(f"unknown primitive {op!r}")
     with iv.quiet():
-        boxes, e = _prepare(args)
+        boxes, e = prepare_boxes(args)
         lo, hi = fn(boxes, param)
-        return _finish((lo, hi), e)
+        return finish_box((lo, hi), e)
 
 
 def backward(op: str, out: Interval, args: list[Interval],
@@ -42,16 +42,16 @@ def backward(op: str, out: Interval, args: list[Interval],
     if fn is None:
         raise ValueError(f"unknown primitive {op!r}")
     with iv.quiet():
-        boxes, e = _prepare([out, *args])
+        boxes, e = prepare_boxes([out, *args])
         res = fn(boxes[0], boxes[1:], param)
         res = [iv.intersect(r, a) for r, a in zip(res, boxes[1:], strict=True)]
         for r in res:  # no solution for one argument means no solution at all
             re = iv.empty_mask(r)
             e = re if e is None else e | re
-        return [_finish(r, e) for r in res]
+        return [finish_box(r, e) for r in res]
 
 
-def _prepare(args: list[Interval]) -> tuple[list[Interval], Bool | None]:
+def prepare_boxes(args: list[Interval]) -> tuple[list[Interval], Bool | None]:
     """float64 arrays, and the mask of elements where some interval is empty (replaced by
     [0, 0] so that the raw operations only ever see non-empty intervals)."""
     boxes = [(np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64))
@@ -65,10 +65,12 @@ def _prepare(args: list[Interval]) -> tuple[list[Interval], Bool | None]:
     return [(np.where(e, 0.0, lo), np.where(e, 0.0, hi)) for lo, hi in boxes], e
 
 
-def _finish(r: Interval, e: Bool | None) -> Interval:
+def finish_box(r: Interval, e: Bool | None) -> Interval:
+    """Canonical empties where e. The raw operations return canonical empties or non-empty
+    intervals, and backward folds its own empty results into e, so nothing else to fix."""
     if e is not None and e.any():
-        r = np.where(e, INF, r[0]), np.where(e, -INF, r[1])
-    return iv.canon_raw(r)
+        return np.where(e, INF, r[0]), np.where(e, -INF, r[1])
+    return r
 
 
 # -- shared projection helpers --------------------------------------------------------------
@@ -308,13 +310,39 @@ def _cot_hi(t: Arr) -> Arr:
     return iv.lib_hi(1.0 / np.tan(t))
 
 
+def _nonneg_div(a: Interval, b: Interval) -> Interval:
+    """{ w >= 0 : w * t = s for some s in a, t in b } for a, b inside [0, inf) (possibly empty,
+    lo > hi): t = 0 needs s = 0 and then leaves w free; else w = s / t."""
+    free = (a[0] <= 0) & (b[0] <= 0)
+    lo = np.maximum(iv.dn1(a[0] / b[1]), 0.0)
+    hi = iv.up1(a[1] / b[0])
+    bad = (a[0] > a[1]) | (b[0] > b[1])
+    lo = np.where(bad, INF, np.where(free, 0.0, lo))
+    return lo, np.where(bad, -INF, np.where(free, INF, hi))
+
+
+def _cone_half(out: Interval, t: Interval, cur: Interval, sign: float) -> Interval:
+    """Projection of cur from out = cur * t when cur is confined to one sign (sign * cur >= 0):
+    the sign of out is then sign * sign(t), so each half of t meets one half of out. Unlike
+    mul_project this never keeps 0 as a limit reached from the other side of 0."""
+    op = (np.maximum(out[0], 0.0), out[1])      # out ∩ [0, inf)
+    on = (np.maximum(-out[1], 0.0), -out[0])    # -(out ∩ (-inf, 0])
+    tp = (np.maximum(t[0], 0.0), t[1])
+    tn = (np.maximum(-t[1], 0.0), -t[0])
+    if sign > 0:
+        w1, w2 = _nonneg_div(op, tp), _nonneg_div(on, tn)
+        return iv.hull_in(cur, [(w1, None), (w2, None)])
+    w1, w2 = _nonneg_div(on, tp), _nonneg_div(op, tn)
+    return iv.hull_in(cur, [(iv.neg(w1), None), (iv.neg(w2), None)])
+
+
 def _bw_atan2(z: Interval, a: list[Interval], p: Arr | None) -> list[Interval]:
     """(x, y) = r (cos t, sin t), r > 0, t in z.  For x: on the half-plane x >= 0,
     y = x tan t with t in z ∩ [-pi/2, pi/2]; on x <= 0, y = x tan t with t in z taken mod 2pi
-    inside [pi/2, 3pi/2]. Each is the mul projection with the tan range. For y: the same with
-    x = y cot t on y >= 0 (t in [0, pi]) and y <= 0 (t in [-pi, 0]). Sound; optimal except
-    that the left half uses the hull of its two angle pieces when z holds both pi/2 and -pi/2
-    (the tan range then misses a wedge around pi), and the origin is kept as a limit point."""
+    inside [pi/2, 3pi/2]: sign-aware products (_cone_half) with the tan range. For y: the same
+    with x = y cot t on y >= 0 (t in [0, pi]) and y <= 0 (t in [-pi, 0]). Sound; optimal up to
+    rounding except that the left half uses the hull of its two angle pieces when z holds both
+    pi/2 and -pi/2 (the tan range then misses a wedge around pi)."""
     y, x = a
     zl, zh = np.maximum(z[0], -PI_HI), np.minimum(z[1], PI_HI)
     bad = ~(zl <= zh)
@@ -323,23 +351,23 @@ def _bw_atan2(z: Interval, a: list[Interval], p: Arr | None) -> list[Interval]:
     r_ok = (zl <= HALF_PI_HI) & (zh >= -HALF_PI_HI)
     t_r = (np.where(zl <= -HALF_PI_LO, -INF, iv.lib_lo(tl)),
            np.where(zh >= HALF_PI_LO, INF, iv.lib_hi(th)))
-    x_r = mul_project(y, t_r, (np.maximum(x[0], 0.0), x[1]))
+    x_r = _cone_half(y, t_r, (np.maximum(x[0], 0.0), x[1]), 1.0)
     # -- x: left half-plane, pieces [pi/2, pi] and [-pi, -pi/2] (= [pi, 3pi/2])
     l1 = zh >= HALF_PI_LO
     l2 = zl <= -HALF_PI_LO
     t1lo = np.where(zl <= HALF_PI_HI, -INF, iv.lib_lo(tl))
     t2hi = np.where(zh >= -HALF_PI_HI, INF, iv.lib_hi(th))
     t_l = (np.where(l1, t1lo, iv.lib_lo(tl)), np.where(l2, t2hi, iv.lib_hi(th)))
-    x_l = mul_project(y, t_l, (x[0], np.minimum(x[1], 0.0)))
+    x_l = _cone_half(y, t_l, (x[0], np.minimum(x[1], 0.0)), -1.0)
     xs = iv.hull_in(x, [(x_r, r_ok), (x_l, l1 | l2)])
     # -- y: upper half-plane, angles [0, pi], cot decreasing
     u_ok = zh >= 0
     c_u = (np.where(zh >= PI_LO, -INF, _cot_lo(zh)), np.where(zl <= 0, INF, _cot_hi(zl)))
-    y_u = mul_project(x, c_u, (np.maximum(y[0], 0.0), y[1]))
-    # -- y: lower half-plane, angles [-pi, 0] (the angle pi alone is y = 0: in y_u's closure)
+    y_u = _cone_half(x, c_u, (np.maximum(y[0], 0.0), y[1]), 1.0)
+    # -- y: lower half-plane, angles [-pi, 0] (the angle pi alone is y = 0: in y_u already)
     d_ok = zl <= 0
     c_d = (np.where(zh >= 0, -INF, _cot_lo(zh)), np.where(zl <= -PI_LO, INF, _cot_hi(zl)))
-    y_d = mul_project(x, c_d, (y[0], np.minimum(y[1], 0.0)))
+    y_d = _cone_half(x, c_d, (y[0], np.minimum(y[1], 0.0)), -1.0)
     ys = iv.hull_in(y, [(y_u, u_ok), (y_d, d_ok)])
     return [_empty_where(ys, bad), _empty_where(xs, bad)]
 
@@ -350,22 +378,22 @@ def rot_forward(beta: Interval, u: Interval, v: Interval, which: str) -> Interva
     """rotu = u cos b - v sin b = rho cos(b + phi), rotv = rho sin(b + phi) with (u, v) =
     rho (cos phi, sin phi). For fixed b the extremes over the (u, v) box are at corners, so the
     exact range is the hull over the 4 corners of rho_c * cos(B + phi_c) (resp. sin): optimal
-    up to rounding. Non-finite u, v fall back to the (sound) interval formula."""
-    f = iv.cos if which == "rotu" else iv.sin
-    us = np.stack(np.broadcast_arrays(u[0], u[0], u[1], u[1]))
-    vs = np.stack(np.broadcast_arrays(v[0], v[1], v[0], v[1]))
-    finite = np.isfinite(us).all(axis=0) & np.isfinite(vs).all(axis=0)
-    rho = iv.hypot_point(us, vs)
-    phi = iv.atan2_point(vs, us)
-    t = iv.mul(rho, f(iv.add(beta, phi)))
-    lo, hi = t[0].min(axis=0), t[1].max(axis=0)
-    if finite.all():
-        return lo, hi
+    up to rounding (a few ulps of rho, phi, cos each). Intersected with the plain interval
+    formula, which is tighter for a point-like b (fewer roundings) and the only one used for
+    non-finite u, v."""
     c, s = iv.cos(beta), iv.sin(beta)
     if which == "rotu":
         nlo, nhi = iv.sub(iv.mul(u, c), iv.mul(v, s))
     else:
         nlo, nhi = iv.add(iv.mul(u, s), iv.mul(v, c))
+    f = iv.cos if which == "rotu" else iv.sin
+    us = iv.rows(u[0], u[0], u[1], u[1])
+    vs = iv.rows(v[0], v[1], v[0], v[1])
+    finite = np.isfinite(us).all(axis=0) & np.isfinite(vs).all(axis=0)
+    t = iv.mul(iv.hypot_point(us, vs), f(iv.add(beta, iv.atan2_point(vs, us))))
+    lo, hi = np.maximum(t[0].min(axis=0), nlo), np.minimum(t[1].max(axis=0), nhi)
+    if finite.all():
+        return lo, hi
     return np.where(finite, lo, nlo), np.where(finite, hi, nhi)
 
 

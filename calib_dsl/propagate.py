@@ -38,6 +38,7 @@ class Result:
     seconds: float
     stop: str  # why the loop stopped: "fixed point", "tolerance", "max sweeps", "empty"
     emptied: Emptied | None = None
+    rounds: int = 0  # LP rounds (tight strategy)
 
 
 def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,

@@ -48,7 +48,8 @@ def render_table(prog: Program, res: Result) -> str:
 
 def render_summary(prog: Program, res: Result, strategy: str) -> str:
     c = prog.counts()
-    lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}",
+    lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}"
+             + (f", LP rounds: {res.rounds}" if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
              f"time: {res.seconds:.3f} s"]
@@ -75,6 +76,7 @@ def result_json(prog: Program, res: Result, strategy: str) -> dict[str, Any]:
         "status": res.status,
         "stop": res.stop,
         "sweeps": res.sweeps,
+        "lp_rounds": res.rounds,
         "seconds": res.seconds,
         "primitives": len(prog.primitives),
         "formulation": prog.formulation,

@@ -21,60 +21,87 @@ import numpy as np
 
 from . import interval as iv
 from .interval import TWO_PI_LO, Arr, Interval
-from .projections import _finish, _prepare, periodic_hull, sqr_project
+from .projections import finish_box, periodic_hull, prepare_boxes, sqr_project
 
 Bool = np.ndarray
 Rot = tuple[Interval, Interval, Interval, Interval, Interval]
 
 
 def rot_contract(beta: Interval, u: Interval, v: Interval, u2: Interval, v2: Interval,
-                 sweeps: int = 3) -> Rot:
+                 sweeps: int = 2) -> Rot:
     """Contract (beta, u, v, u2, v2) under (u2, v2) = rot(beta, (u, v)); elementwise over
     arrays. Returns the five contracted intervals (all empty where the box has no solution)."""
     with iv.quiet():
-        boxes, e = _prepare([beta, u, v, u2, v2])
-        b0, u0, v0, u20, v20 = boxes
+        boxes, e = prepare_boxes([beta, u, v, u2, v2])
+        flat = np.broadcast_arrays(*(x for b in boxes for x in b))  # one shape for all
+        b0, u0, v0, u20, v20 = ((flat[i], flat[i + 1]) for i in range(0, 10, 2))
         res = rot_contract_raw(b0, u0, v0, u20, v20, sweeps=sweeps)
         for r in res:
             re = iv.empty_mask(r)
             e = re if e is None else e | re
-        b, uu, vv, uu2, vv2 = (_finish(r, e) for r in res)
+        b, uu, vv, uu2, vv2 = (finish_box(r, e) for r in res)
         return b, uu, vv, uu2, vv2
 
 
 def rot_contract_raw(beta: Interval, u: Interval, v: Interval, u2: Interval, v2: Interval,
-                     sweeps: int = 3) -> Rot:
+                     sweeps: int = 2) -> Rot:
     """rot_contract on non-empty inputs, inside iv.quiet(); an element may come out empty
     in some coordinates only (the caller spreads emptiness)."""
     for _ in range(sweeps):
         beta = _angle_step(beta, u, v, u2, v2)
         c, s = iv.cos(beta), iv.sin(beta)
-        u, v, u2, v2 = _linear_step(c, s, u, v, u2, v2)
+        u, v, u2, v2 = _linear_step(beta, c, s, u, v, u2, v2)
         u, v, u2, v2 = _norm_step(u, v, u2, v2)
     return beta, u, v, u2, v2
 
 
 def _stack(*xs: Interval) -> Interval:
-    return (np.stack(np.broadcast_arrays(*(x[0] for x in xs))),
-            np.stack(np.broadcast_arrays(*(x[1] for x in xs))))
+    return iv.rows(*(x[0] for x in xs)), iv.rows(*(x[1] for x in xs))
 
 
-def _linear_step(c: Interval, s: Interval, u: Interval, v: Interval, u2: Interval,
-                 v2: Interval) -> tuple[Interval, Interval, Interval, Interval]:
+def _linear_step(beta: Interval, c: Interval, s: Interval, u: Interval, v: Interval,
+                 u2: Interval, v2: Interval) -> tuple[Interval, Interval, Interval, Interval]:
     """Targets (u2, v2, u, v), each from three formulas, stacked so that one call serves all:
          A = S1 c + S2 s,   B = (S1 + S3 s) / c,   C = (S2 - S3 c) / s
     with S1 = (u, v, u2, v2), S2 = (-v, u, v2, -u2), S3 = (-v2, u2, v, -u). E.g. for u2:
-    u cos b - v sin b,  (u - v2 sin b) / cos b,  (v2 cos b - v) / sin b."""
+    u cos b - v sin b,  (u - v2 sin b) / cos b,  (v2 cos b - v) / sin b.
+    A (the rotation itself, forward and inverse) is evaluated exactly over the interval b by
+    corners (_rotations); B and C by interval arithmetic."""
     nu, nv, nu2, nv2 = iv.neg(u), iv.neg(v), iv.neg(u2), iv.neg(v2)
     s1 = _stack(u, v, u2, v2)
     s2 = _stack(nv, u, v2, nu2)
     s3 = _stack(nv2, u2, v, nu)
-    t = _stack(u2, v2, u, v)
-    t = iv.intersect(t, iv.add(iv.mul(s1, c), iv.mul(s2, s)))
+    t = iv.intersect(_stack(u2, v2, u, v), _rotations(beta, u, v, u2, v2))
     t = iv.intersect(t, iv.div(iv.add(s1, iv.mul(s3, s)), c))
     t = iv.intersect(t, iv.div(iv.sub(s2, iv.mul(s3, c)), s))
     lo, hi = t
     return (lo[2], hi[2]), (lo[3], hi[3]), (lo[0], hi[0]), (lo[1], hi[1])
+
+
+def _rotations(beta: Interval, u: Interval, v: Interval, u2: Interval,
+               v2: Interval) -> Interval:
+    """Exact ranges (up to rounding) over the boxes and the interval beta of
+         u2 = u cos b - v sin b = rho cos(b + phi),   v2 = rho sin(b + phi),
+         u = u2 cos b + v2 sin b = rho' cos(b - phi'),  v = -rho' sin(b - phi'),
+    with (u, v) = rho (cos phi, sin phi), (u2, v2) = rho' (cos phi', sin phi'). For fixed b the
+    extremes over a box are at corners, so each range is the hull over the 4 corners of the
+    box of rho_c cos(B ± phi_c) (resp. sin): 8 corner rows, one cos and one sin call."""
+    xs = iv.rows(u[0], u[0], u[1], u[1], u2[0], u2[0], u2[1], u2[1])
+    ys = iv.rows(v[0], v[1], v[0], v[1], v2[0], v2[1], v2[0], v2[1])
+    rho = iv.hypot_point(xs, ys)
+    plo, phi = iv.atan2_point(ys, xs)
+    # B + phi for the (u, v) corners, B - phi' for the (u2, v2) corners
+    a = (np.concatenate([beta[0] + plo[:4], beta[0] - phi[4:]]),
+         np.concatenate([beta[1] + phi[:4], beta[1] - plo[4:]]))
+    a = iv.dn1(a[0]), iv.up1(a[1])
+    c = iv.mul(rho, iv.cos(a))
+    s = iv.mul(rho, iv.sin(a))
+    lo = np.array([c[0][:4].min(axis=0), s[0][:4].min(axis=0),
+                   c[0][4:].min(axis=0), -s[1][4:].max(axis=0)])
+    hi = np.array([c[1][:4].max(axis=0), s[1][:4].max(axis=0),
+                   c[1][4:].max(axis=0), -s[0][4:].min(axis=0)])
+    finite = np.isfinite(xs).all(axis=0) & np.isfinite(ys).all(axis=0)
+    return np.where(finite, lo, -np.inf), np.where(finite, hi, np.inf)
 
 
 def _norm_step(u: Interval, v: Interval, u2: Interval,
@@ -87,6 +114,8 @@ def _norm_step(u: Interval, v: Interval, u2: Interval,
                      iv.add((lo[2], hi[2]), (lo[3], hi[3])))
     other = (lo[[1, 0, 3, 2]], hi[[1, 0, 3, 2]])
     qlo, qhi = sqr_project(iv.sub(n, other), q)
+    bad = ~(n[0] <= n[1])  # the two norms cannot match: no solution
+    qlo, qhi = np.where(bad, np.inf, qlo), np.where(bad, -np.inf, qhi)
     return (qlo[0], qhi[0]), (qlo[1], qhi[1]), (qlo[2], qhi[2]), (qlo[3], qhi[3])
 
 
@@ -96,8 +125,8 @@ def polar_range(u: Interval, v: Interval) -> tuple[Arr, Arr, Bool]:
     box is finite, avoids the origin (then its angles form an arc narrower than pi, with the
     centre's angle inside and the extremes at corners) and the arc is narrower than 3 rad."""
     ul, uh, vl, vh = u[0] + 0.0, u[1] + 0.0, v[0] + 0.0, v[1] + 0.0
-    us = np.stack(np.broadcast_arrays(ul, ul, uh, uh))
-    vs = np.stack(np.broadcast_arrays(vl, vh, vl, vh))
+    us = iv.rows(ul, ul, uh, uh)
+    vs = iv.rows(vl, vh, vl, vh)
     a = np.arctan2(vs, us)
     mid = np.arctan2(vl * 0.5 + vh * 0.5, ul * 0.5 + uh * 0.5)
     a = a + np.round((mid - a) * (0.5 / np.pi)) * TWO_PI_LO  # k in {-1, 0, 1}

@@ -202,6 +202,16 @@ def _as_fractions(py: str) -> str:
     return "".join(out)
 
 
+def test_huge_exact_powers_fall_back_to_intervals(tmp_path):
+    start = time.perf_counter()
+    model = elab(tmp_path, "var x; x == ((10^300)^300)^300 * x; x == (1/3)^2000 * x;")
+    assert time.perf_counter() - start < 1.0  # not a 10^27000000 integer
+    big, small = [model.dag.nodes[model.dag.nodes[c.rhs].args[1]].data
+                  for c in model.dag.constraints]
+    assert big[0] >= 1.7e308 and big[1] == math.inf  # sound: the value is beyond any float
+    assert small[0] == 0.0 and 0 < small[1] < 1e-300
+
+
 # -- operations ---------------------------------------------------------------------------
 def test_powers_and_squares(tmp_path):
     model = elab(tmp_path, """

@@ -275,6 +275,30 @@ def test_sincos_range_tight(name: str, a: float, w: float) -> None:
         assert float(elo) - lo[0] <= 1e-14 and hi[0] - float(ehi) <= 1e-14
 
 
+@pytest.mark.parametrize("which", ["sin", "cos"])
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_sincos_extremum_inside_huge(which: str, seed: int) -> None:
+    """[a, b] = the floats around a true extremum far from 0 (|x| up to 6e15): the range must
+    reach +-1 there, although the float spacing may exceed 0.1 and sin(a) be far from +-1."""
+    mpmath = pytest.importorskip("mpmath")
+    rng = np.random.default_rng(seed)
+    n = 40
+    ks = rng.integers(-10**15, 10**15, n) // 10 ** rng.integers(0, 15, n)
+    odd = rng.integers(0, 2, n)
+    a, b = np.empty(n), np.empty(n)
+    with mpmath.workprec(200):
+        for i in range(n):
+            phase = mpmath.pi / 2 if which == "sin" else 0
+            t = phase + (2 * int(ks[i]) + int(odd[i])) * mpmath.pi
+            f = float(t)
+            a[i] = f if mpmath.mpf(f) <= t else nxt(f, 1, -INF)
+            b[i] = f if mpmath.mpf(f) >= t else nxt(f, 1, INF)
+    with iv.quiet():
+        lo, hi = getattr(iv, which)((a, b))
+    assert (lo[odd == 1] == -1.0).all() and (hi[odd == 0] == 1.0).all()
+
+
 def test_tan_pole_and_branch() -> None:
     with iv.quiet():
         lo, hi = iv.tan((A([1.0, 1.5, -1.0, 1.0, 4.0]), A([2.0, iv.HALF_PI_LO, 1.0, 1.2, 4.5])))
@@ -340,6 +364,11 @@ def test_atan2_quadrants() -> None:
     lo, hi = r((0, 1), (0, 1))  # origin at a corner: [0, pi/2]
     assert lo <= 0 and lo > -1e-15 and hi >= math.pi / 2 and hi < math.pi / 2 + 1e-14
     assert r((-1, 1), (-1, 1)) == (-iv.PI_HI, iv.PI_HI)
+    # touches the cut from below: y = 0 gives pi, y < 0 gives angles near -pi
+    lo, hi = r((-1, 0), (-2, -1))
+    assert lo <= -math.pi + 1e-9 and hi >= math.pi
+    lo, hi = r((-1, -0.0), (-2, -1))
+    assert lo <= -math.pi + 1e-9 and hi >= math.pi
     lo, hi = r((-1, 1), (0, 1))  # origin on an edge: [-pi/2, pi/2]
     assert lo <= -math.pi / 2 and hi >= math.pi / 2 and hi - lo < math.pi + 1e-14
 

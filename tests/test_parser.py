@@ -3,6 +3,7 @@ syntax errors (message and location)."""
 
 from __future__ import annotations
 
+import re
 import tomllib
 from fractions import Fraction
 from pathlib import Path
@@ -275,3 +276,18 @@ def test_deep_nesting_is_a_user_error():
     # Parentheses alone add no depth to the tree.
     (c,) = parse("x == " + "(" * 3000 + "1" + ")" * 3000 + ";", "t.cal")
     assert c.rhs.value == 1
+
+
+# -- the documentation and the shipped models parse ------------------------------------------
+def test_every_cal_block_of_the_language_doc_parses():
+    text = (ROOT / "docs" / "language.md").read_text()
+    blocks = [body for lang, body in re.findall(r"```(\w*)\n(.*?)```", text, re.S) if not lang]
+    assert len(blocks) >= 10
+    for k, body in enumerate(blocks):
+        assert parse(body, f"language.md block {k}") is not None
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "models").rglob("*.cal")),
+                         ids=lambda p: p.name)
+def test_every_model_parses(path):
+    assert parse_file(path)

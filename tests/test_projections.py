@@ -423,16 +423,21 @@ def test_periodic_at_extrema_sound(k: int, which: str, off: float, wz: float) ->
 # -- atan2 ----------------------------------------------------------------------------------
 
 def _grid_projection(z, y, x, n: int = 401):
-    """Inner approximation of atan2's projections on a grid (points in the box whose angle is
-    in z), plus the grid step."""
-    ys = np.linspace(y[0], y[1], n)
-    xs = np.linspace(x[0], x[1], n)
-    gy, gx = np.meshgrid(ys, xs, indexing="ij")
+    """Inner approximation of atan2's projections: points of a box grid whose angle is in z,
+    and points of a polar grid (angles in z, radii down to 1e-9) that lie in the box."""
+    gy, gx = np.meshgrid(np.linspace(y[0], y[1], n), np.linspace(x[0], x[1], n), indexing="ij")
     t = np.arctan2(gy + 0.0, gx + 0.0)
     ok = (t >= z[0]) & (t <= z[1]) & ~((gx == 0) & (gy == 0))
-    if not ok.any():
+    ys, xs = [gy[ok]], [gx[ok]]
+    tt, rr = np.meshgrid(np.linspace(z[0], z[1], 301), np.geomspace(1e-9, 5, 400))
+    py, px = rr * np.sin(tt), rr * np.cos(tt)
+    ok = (py >= y[0]) & (py <= y[1]) & (px >= x[0]) & (px <= x[1])
+    ys.append(py[ok])
+    xs.append(px[ok])
+    ay, ax = np.concatenate(ys), np.concatenate(xs)
+    if ay.size == 0:
         return None
-    return (gy[ok].min(), gy[ok].max()), (gx[ok].min(), gx[ok].max())
+    return (ay.min(), ay.max()), (ax.min(), ax.max())
 
 
 @settings(max_examples=200, deadline=None)

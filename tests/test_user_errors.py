@@ -54,10 +54,14 @@ CASES = [
     ("var x; var y in x;", "a domain must be a constant; this depends on unknowns", 1, 17),
     ("param p in [0, 1] true 2;", "true value 2.0 of 'p' is outside its domain [0.0, 1.0]", 1, 24),
     ("param p in [0, 1] true [0, 1];", "a true value must be a number, not an interval", 1, 24),
+    ("const c = 0.5 +- 0.1;\nparam p in [0, 1] true c;", "a true value must be a number, not "
+     "an interval [0.3999", 2, 24),
     ("param b[1..3] in [0, 1] true (0.1, 0.2);", "2 true values for 'b', which has 3", 1, 30),
     ("param p true (1, 2);", "'p' is a scalar: its true value is a number", 1, 14),
     ("var x; x == oo;", "'oo' (infinity) can only be a bound of an interval", 1, 13),
-    ("var x; x == 1e400;", "number too large for a float", 1, 13),
+    ("var x; x == 1e300 * 1e300;", "number too large for a float", 1, 13),
+    ("var x; x == 1e99999999;", "number 1e99999999 is out of range (exponent beyond +-400)",
+     1, 13),
     ("var q[2..1];", "empty index range 2..1", 1, 6),
     # arguments
     ("var x; x == atan2(x);", "function 'atan2' takes 2 arguments, got 1", 1, 13),
