@@ -97,14 +97,17 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
               show_default=True,
               help="hc4: forward-backward propagation only (the paper's method); tight: "
                    "propagation alternated with a certified linear relaxation (LP).")
+@click.option("--identify/--no-identify", default=True, show_default=True,
+              help="Report which parameters the data cannot separate.")
+@click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
 @FORMULATION
 @DATA
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          formulation: str, data: str | None) -> None:
+          identify: bool, lsq: bool, formulation: str, data: str | None) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
+    from . import report
     from .propagate import propagate
-    from .report import render_summary, render_table, result_json
 
     prog = _load(model, formulation, data)
     if strategy == "tight":
@@ -113,18 +116,41 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         res = solve_tight(prog, tol=tol, max_sweeps=max_sweeps)
     else:
         res = propagate(prog, tol=tol, max_sweeps=max_sweeps)
+    extra = report.Extras()
+    if res.status == "contracted":
+        if identify:
+            extra.identify(prog, res, use_lp=strategy == "tight")
+        if lsq:
+            extra.least_squares(prog, res)
     if json_path != "-":
-        click.echo(render_table(prog, res))
+        click.echo(report.render_table(prog, res, extra))
         click.echo()
-        click.echo(render_summary(prog, res, strategy))
+        click.echo(report.render_summary(prog, res, strategy, extra))
     if json_path:
-        text = json.dumps(result_json(prog, res, strategy), indent=2)
+        text = json.dumps(report.result_json(prog, res, strategy, extra), indent=2)
         if json_path == "-":
             click.echo(text)
         else:
             Path(json_path).write_text(text + "\n", encoding="utf-8")
     if res.status == "infeasible":
         sys.exit(1)
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print the analysis as JSON.")
+@FORMULATION
+@DATA
+@user_errors
+def identify(model: str, as_json: bool, formulation: str, data: str | None) -> None:
+    """Which parameters of MODEL the measurements can determine (rank of the Jacobian)."""
+    from .identify import analyse, identifiability_json, render
+
+    info = analyse(_load(model, formulation, data))
+    if as_json:
+        click.echo(json.dumps(identifiability_json(info), indent=2))
+    else:
+        click.echo(render(info))
 
 
 @main.command()

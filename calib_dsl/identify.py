@@ -52,9 +52,8 @@ def analyse(prog: Program) -> Identifiability:
     touched = np.linalg.norm(null, axis=1) > 1e-6 if null.size else np.zeros(len(names), bool)
     ident = [n for n, t in zip(names, touched, strict=True) if not t]
     groups = _groups(names, null, touched, scale)
-    weakest = [(float(s_full[k]), _direction(names, vt[k], scale))
-               for k in np.argsort(s_full)[: min(3, rank)] if s_full[k] > RANK_TOL * top]
-    weakest = [w for w in sorted(weakest)][:3]
+    nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > RANK_TOL * top][:3]
+    weakest = [(float(s_full[k]), _direction(names, vt[k], scale)) for k in nonzero]
     return Identifiability(names, rank, s_full, ident, groups, weakest)
 
 
@@ -127,10 +126,60 @@ def render(info: Identifiability) -> str:
     lines = [f"identifiability: rank {info.rank} of {len(info.names)} parameters"]
     lines.append("identifiable: " + (" ".join(info.identifiable) or "(none)"))
     for members, combos in info.groups:
-        shown = ", ".join(format_combination(members, c) for c in combos) or "nothing"
-        lines.append(f"not identifiable separately: {' '.join(members)}; "
-                     f"identifiable only through {shown}")
+        if combos:
+            shown = ", ".join(format_combination(members, c) for c in combos)
+            lines.append(f"not identifiable separately: {' '.join(members)}; "
+                         f"identifiable only through {shown}")
+        else:
+            lines.append(f"not identifiable at all: {' '.join(members)}")
     for s, d in info.weakest:
         shown = " ".join(f"{v:+.3g}*{n}" for n, v in d.items())
         lines.append(f"weak direction (singular value {s:.3g}): {shown}")
     return "\n".join(lines)
+
+
+def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
+                           hi: np.ndarray, use_lp: bool) -> list[tuple[str, float, float]]:
+    """A guaranteed enclosure of each identifiable combination over the box [lo, hi]:
+    certified LP bounds over the linear relaxation (tight), else interval arithmetic."""
+    ind = independents(prog)
+    index = {n: k for k, n in enumerate(info.names)}
+    rows, texts = [], []
+    for members, combos in info.groups:
+        for c in combos:
+            full = np.zeros(len(ind))
+            for name, coef in zip(members, c, strict=True):
+                full[index[name]] = coef
+            rows.append(full)
+            texts.append(format_combination(members, c))
+    if not rows:
+        return []
+    obj = np.array(rows)
+    from .lpbound import box_max_up
+
+    plo, phi = lo[ind], hi[ind]
+    upper = np.array([box_max_up(c, c, plo, phi) for c in obj])
+    lower = np.array([-box_max_up(-c, -c, plo, phi) for c in obj])
+    if use_lp:
+        from .linearize import relax
+        from .lpbound import lp_bounds
+
+        rel = relax(prog, lo, hi)
+        if rel is not None:
+            a, b = lp_bounds(rel, obj)
+            lower, upper = np.maximum(lower, a), np.minimum(upper, b)
+    return [(t, float(a), float(b)) for t, a, b in zip(texts, lower, upper, strict=True)]
+
+
+def identifiability_json(info: Identifiability) -> dict:
+    return {
+        "rank": info.rank,
+        "parameters": len(info.names),
+        "identifiable": info.identifiable,
+        "not_identifiable": [
+            {"parameters": members,
+             "identifiable_combinations": [format_combination(members, c) for c in combos]}
+            for members, combos in info.groups],
+        "singular_values": [float(v) for v in info.singular_values],
+        "weakest_directions": [{"singular_value": s, "direction": d} for s, d in info.weakest],
+    }

@@ -183,13 +183,25 @@ def neg(x: Interval) -> Interval:
     return -x[1], -x[0]
 
 
+def _sum_dn(s: Arr) -> Arr:
+    """Lower bound of a rounded sum s: s - |s| 2**-52 (at least an ulp below for normal s).
+    A zero or subnormal sum is exact (gradual underflow), and stays as it is."""
+    m = np.minimum(s, MAX)
+    return m - np.abs(m) * _EPS
+
+
+def _sum_up(s: Arr) -> Arr:
+    m = np.maximum(s, -MAX)
+    return m + np.abs(m) * _EPS
+
+
 def add(x: Interval, y: Interval) -> Interval:
-    # Round to nearest, then one ulp outward (the exact sum is within half an ulp).
-    return dn1(x[0] + y[0]), up1(x[1] + y[1])
+    # Round to nearest, then outward by at least the half ulp the exact sum may differ.
+    return _sum_dn(x[0] + y[0]), _sum_up(x[1] + y[1])
 
 
 def sub(x: Interval, y: Interval) -> Interval:
-    return dn1(x[0] - y[1]), up1(x[1] - y[0])
+    return _sum_dn(x[0] - y[1]), _sum_up(x[1] - y[0])
 
 
 def mul(x: Interval, y: Interval) -> Interval:

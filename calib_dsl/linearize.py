@@ -106,7 +106,8 @@ class _Evaluation:
         cols = s.cell_col if s.cell_col is not None else np.full(n, -1)
         cell = (rows >= 0) & self.const & (hi > lo) & np.isfinite(lo) & np.isfinite(hi)
         ncol = int(cols.max()) + 1 if np.any(cell) else 0
-        mid = 0.5 * (lo + hi)
+        with np.errstate(invalid="ignore", over="ignore"):
+            mid = np.where(cell, 0.5 * (lo + hi), 0.0)
         err = np.where(cell, np.maximum(hi - mid, mid - lo), 0.0)
         self.e = np.zeros(ncol)  # per column: a bound on |q - q^| (rounded up)
         if ncol:

@@ -24,6 +24,7 @@ from scipy import sparse
 _REL = 1e-9
 _ABS = 1e-300
 _LP_PAD = 0.0
+LP_SECONDS = 0.2  # per objective: a degenerate LP near the fixed point can crawl
 
 
 @dataclass
@@ -87,9 +88,13 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
                 bound = box
             else:
                 h.changeColsCost(n, cols, (-sign * c).astype(float))
+                # HiGHS's time limit counts all runs of the object: extend it per solve.
+                h.setOptionValue("time_limit", h.getRunTime() + LP_SECONDS)
                 h.run()
-                ok = h.getModelStatus() == highspy.HighsModelStatus.kOptimal
-                y = -np.asarray(h.getSolution().row_dual) if ok else None
+                # Any y >= 0 certifies a bound, so even a solve stopped by its time limit
+                # gives a valid (if weaker) one: only a missing solution is skipped.
+                sol = h.getSolution()
+                y = -np.asarray(sol.row_dual) if sol.dual_valid else None
                 bound = box if y is None else min(box, certified_max(rel, sign * c, y))
             if sign > 0:
                 upper[i] = bound

@@ -48,7 +48,9 @@ def backward(op: str, out: Interval, args: list[Interval],
         for r in res:  # no solution for one argument means no solution at all
             re = iv.empty_mask(r)
             e = re if e is None else e | re
-        return [finish_box(r, e) for r in res]
+        if e is not None and e.any():
+            return [(np.where(e, INF, r[0]), np.where(e, -INF, r[1])) for r in res]
+        return res
 
 
 def prepare_boxes(args: list[Interval]) -> tuple[list[Interval], Bool | None]:

@@ -10,6 +10,52 @@ from .program import Program
 from .propagate import Result
 
 
+class Extras:
+    """Optional sections of the report: identifiability, and a least-squares estimate."""
+
+    def __init__(self) -> None:
+        self.info: Any = None  # identify.Identifiability
+        self.combinations: list[tuple[str, float, float]] = []
+        self.estimate: Any = None  # lsq.Estimate
+        self.seconds = 0.0
+
+    def identify(self, prog: Program, res: Result, use_lp: bool) -> None:
+        import time
+
+        from .errors import CalError
+        from .identify import analyse, combination_enclosures
+
+        start = time.perf_counter()
+        try:
+            self.info = analyse(prog)
+        except CalError:  # no nominal values to linearize at: say nothing rather than guess
+            return
+        self.combinations = combination_enclosures(prog, self.info, res.lo, res.hi, use_lp)
+        self.seconds += time.perf_counter() - start
+
+    def least_squares(self, prog: Program, res: Result) -> None:
+        import time
+
+        from .linearize import independents
+        from .lsq import estimate
+
+        start = time.perf_counter()
+        ind = independents(prog)
+        mid = 0.5 * (res.lo[ind] + res.hi[ind])
+        self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
+        self.seconds += time.perf_counter() - start
+
+    def not_identifiable(self) -> set[str]:
+        if self.info is None:
+            return set()
+        return {n for members, _ in self.info.groups for n in members}
+
+    def lsq_value(self, name: str) -> float | None:
+        if self.estimate is None or name not in self.estimate.names:
+            return None
+        return float(self.estimate.values[self.estimate.names.index(name)])
+
+
 def parameter_rows(prog: Program, res: Result) -> list[dict[str, Any]]:
     s = prog.slots
     rows = []
@@ -27,10 +73,14 @@ def parameter_rows(prog: Program, res: Result) -> list[dict[str, Any]]:
     return rows
 
 
-def render_table(prog: Program, res: Result) -> str:
+def render_table(prog: Program, res: Result, extra: Extras | None = None) -> str:
+    extra = extra or Extras()
     rows = parameter_rows(prog, res)
+    lsq = extra.estimate is not None
     head = f"{'name':<10} {'search domain':<26} {'result':<36} {'width':>9} {'ratio':>9}"
+    head += f" {'least squares':>14}" if lsq else ""
     lines = [head, "-" * len(head)]
+    unident = extra.not_identifiable()
     for r in rows:
         dom = _iv(r["domain"])
         if r["result"] is None:
@@ -40,13 +90,17 @@ def render_table(prog: Program, res: Result) -> str:
         w = hi - lo
         wd = r["domain"][1] - r["domain"][0]
         ratio = w / wd if wd > 0 and math.isfinite(wd) else float("nan")
-        mark = _truth_mark(r)
+        est = extra.lsq_value(r["name"])
+        col = f" {est:>14.9g}" if est is not None else ""
+        mark = _truth_mark(r) + ("  (not identifiable alone)" if r["name"] in unident else "")
         lines.append(f"{r['name']:<10} {dom:<26} {_iv(r['result'], 10):<36} {w:>9.3g} "
-                     f"{ratio:>9.3g}{mark}")
+                     f"{ratio:>9.3g}{col}{mark}")
     return "\n".join(lines)
 
 
-def render_summary(prog: Program, res: Result, strategy: str) -> str:
+def render_summary(prog: Program, res: Result, strategy: str,
+                   extra: Extras | None = None) -> str:
+    extra = extra or Extras()
     c = prog.counts()
     lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}"
              + (f", LP rounds: {res.rounds}" if strategy == "tight" else ""),
@@ -59,11 +113,36 @@ def render_summary(prog: Program, res: Result, strategy: str) -> str:
         prim = f" (primitive {e.primitive})" if e.primitive else ""
         lines.append(f"{where}the data and the model are inconsistent: the domain of "
                      f"{e.variable} became empty{prim}")
+    if extra.info is not None:
+        from .identify import render
+
+        lines += ["", render(extra.info)]
+        for text, lo, hi in extra.combinations:
+            lines.append(f"guaranteed: {text} in [{lo:.10g}, {hi:.10g}]")
+    if extra.estimate is not None:
+        e = extra.estimate
+        inside = [n for n, r in ((n, _result_of(prog, res, n)) for n in e.names)
+                  if r is not None and not r[0] <= (extra.lsq_value(n) or 0.0) <= r[1]]
+        lines += ["", f"least squares: {'converged' if e.converged else 'NOT converged'}, "
+                  f"residuals rms {e.rms:.3g} and max {e.worst:.3g} (in error bounds)",
+                  "least-squares estimate inside the guaranteed enclosure: "
+                  + ("yes" if not inside else "NO for " + " ".join(inside))]
     return "\n".join(lines)
 
 
-def result_json(prog: Program, res: Result, strategy: str) -> dict[str, Any]:
+def _result_of(prog: Program, res: Result, name: str) -> tuple[float, float] | None:
+    s = prog.slots
+    if name not in s.declared_names:
+        return None
+    slot = s.declared[s.declared_names.index(name)]
+    return float(res.lo[slot]), float(res.hi[slot])
+
+
+def result_json(prog: Program, res: Result, strategy: str,
+                extra: Extras | None = None) -> dict[str, Any]:
+    extra = extra or Extras()
     params = {}
+    unident = extra.not_identifiable()
     for r in parameter_rows(prog, res):
         params[r["name"]] = {
             "kind": r["kind"],
@@ -71,6 +150,10 @@ def result_json(prog: Program, res: Result, strategy: str) -> dict[str, Any]:
             "result": None if r["result"] is None else [_num(x) for x in r["result"]],
             "true": r["true"],
         }
+        if extra.info is not None:
+            params[r["name"]]["identifiable"] = r["name"] not in unident
+        if extra.estimate is not None:
+            params[r["name"]]["least_squares"] = extra.lsq_value(r["name"])
     out: dict[str, Any] = {
         "model": str(Path(prog.source)),
         "status": res.status,
@@ -83,6 +166,15 @@ def result_json(prog: Program, res: Result, strategy: str) -> dict[str, Any]:
         "strategy": strategy,
         "parameters": params,
     }
+    if extra.info is not None:
+        from .identify import identifiability_json
+
+        out["identifiability"] = identifiability_json(extra.info)
+        out["identifiability"]["combinations"] = [
+            {"combination": t, "result": [_num(lo), _num(hi)]} for t, lo, hi in extra.combinations]
+    if extra.estimate is not None:
+        e = extra.estimate
+        out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}
     if res.emptied is not None:
         e = res.emptied
         out["emptied"] = {"variable": e.variable, "location": str(e.loc) if e.loc else None,

@@ -8,8 +8,9 @@ Each sweep applies, all sound (outward rounded):
 2. the *linear* relations: for fixed beta the constraint is linear in (u, v, u2, v2), and each
    variable's projection is attained at a vertex where two of the other three are at a bound.
    So each variable gets the three formulas that eliminate one of the others (for u2:
-   u cos b - v sin b, (u - v2 sin b)/cos b, (v2 cos b - v)/sin b), all evaluated with the
-   interval beta and intersected. For a point beta this is the exact (LP) projection; for an
+   u cos b - v sin b, (u - v2 sin b)/cos b, (v2 cos b - v)/sin b), intersected. The first
+   (the rotation itself) is evaluated exactly over the interval beta by corners, the other two
+   by interval arithmetic. For a point beta this is the exact (LP) projection; for an
    interval beta it is exact up to O(width(beta) * |(u, v)|);
 3. equal norms u**2 + v**2 = u2**2 + v2**2, projected back on each coordinate.
 See docs/soundness.md for what this achieves.
@@ -30,13 +31,15 @@ Rot = tuple[Interval, Interval, Interval, Interval, Interval]
 def rot_contract(beta: Interval, u: Interval, v: Interval, u2: Interval, v2: Interval,
                  sweeps: int = 2) -> Rot:
     """Contract (beta, u, v, u2, v2) under (u2, v2) = rot(beta, (u, v)); elementwise over
-    arrays. Returns the five contracted intervals (all empty where the box has no solution)."""
+    arrays (broadcast to one shape). Returns the five contracted intervals, each a sub-interval
+    of its input (all empty where the box has no solution). One sweep does nearly all the work;
+    the second lets norms, angles and the linear relations feed each other once more."""
     with iv.quiet():
         boxes, e = prepare_boxes([beta, u, v, u2, v2])
         flat = np.broadcast_arrays(*(x for b in boxes for x in b))  # one shape for all
         b0, u0, v0, u20, v20 = ((flat[i], flat[i + 1]) for i in range(0, 10, 2))
         res = rot_contract_raw(b0, u0, v0, u20, v20, sweeps=sweeps)
-        for r in res:
+        for r in res:  # no solution for one coordinate means no solution at all
             re = iv.empty_mask(r)
             e = re if e is None else e | re
         b, uu, vv, uu2, vv2 = (finish_box(r, e) for r in res)
@@ -100,7 +103,10 @@ def _rotations(beta: Interval, u: Interval, v: Interval, u2: Interval,
                    c[0][4:].min(axis=0), -s[1][4:].max(axis=0)])
     hi = np.array([c[1][:4].max(axis=0), s[1][:4].max(axis=0),
                    c[1][4:].max(axis=0), -s[0][4:].min(axis=0)])
-    finite = np.isfinite(xs).all(axis=0) & np.isfinite(ys).all(axis=0)
+    # non-finite corners: no bound from this box (the other box's targets still get one)
+    fin = np.isfinite(xs) & np.isfinite(ys)
+    f1, f2 = fin[:4].all(axis=0), fin[4:].all(axis=0)
+    finite = np.array([f1, f1, f2, f2])
     return np.where(finite, lo, -np.inf), np.where(finite, hi, np.inf)
 
 

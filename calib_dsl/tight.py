@@ -26,9 +26,14 @@ STALLED = 1e-3  # an unknown that gained less than this in a round is not re-opt
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
-                max_rounds: int = 6, min_gain: float = 0.2) -> Result:
+                max_rounds: int = 6, min_gain: float = 0.5) -> Result:
     """Propagate, then alternate certified LP contraction while a round gains >= min_gain
-    (relative width of some unknown), then propagate to the fixed point."""
+    (relative width of some unknown), then propagate to the fixed point.
+
+    Once a round with per-configuration cell columns has run, another round on its box gains
+    little (the first-order model is already accurate there) and its LPs are degenerate (the
+    box's faces are their optima), so the default min_gain is high.
+    """
     start = time.perf_counter()
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
     sweeps, rounds = res.sweeps, 0
