@@ -176,11 +176,14 @@ def _make_slots(dag: Dag, live: np.ndarray, uf: _UnionFind, caps: list):
     slot_of = np.full(len(dag.nodes), -1, dtype=np.int64)
     for i in np.flatnonzero(live):
         slot_of[i] = order[uf.find(int(i))]
+    # a constant stated equal to something: an empty slot is that constraint's fault
+    const_loc = {side: c.loc for c in dag.constraints for side in (c.lhs, c.rhs)
+                 if dag.nodes[side].op == "const"}
     for i in np.flatnonzero(live):  # constants: the slot is that value
         node = dag.nodes[i]
         if node.op == "const":
             s = slot_of[i]
-            _narrow(lo, hi, origin, s, node.data[0], node.data[1], None)
+            _narrow(lo, hi, origin, s, node.data[0], node.data[1], const_loc.get(int(i)))
             if kinds[s] == "temp":
                 kinds[s], names[s] = "const", format_const(*node.data)
     for v in reversed(declared):  # first declared name wins the slot's name

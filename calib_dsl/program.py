@@ -36,6 +36,7 @@ class Program:
     primitives: list[Primitive]
     groups: list[Group]
     true_values: dict[str, float | None]
+    domains: dict[str, tuple[float, float]] | None = None  # as declared (the search domains)
 
     @property
     def op_counts(self) -> dict[str, int]:
@@ -58,7 +59,9 @@ class Program:
 def compile_model(model: Model) -> Program:
     slots, prims = decompose(model)
     truth = {v.name: v.true for v in model.dag.variables.values()}
-    return Program(model.path, model.formulation, slots, prims, make_groups(prims), truth)
+    domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
+    return Program(model.path, model.formulation, slots, prims, make_groups(prims), truth,
+                   domains)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:

@@ -65,7 +65,8 @@ def parameter_rows(prog: Program, res: Result) -> list[dict[str, Any]]:
         rows.append({
             "name": name,
             "kind": s.kinds[slot],
-            "domain": (float(s.lo[slot]), float(s.hi[slot])),
+            "domain": prog.domains[name] if prog.domains and name in prog.domains
+            else (float(s.lo[slot]), float(s.hi[slot])),
             "result": None if res.status == "infeasible"
             else (float(res.lo[slot]), float(res.hi[slot])),
             "true": prog.true_values.get(name),
