@@ -81,3 +81,23 @@ def test_rotation_not_wider_than_matrix() -> None:
 def test_shipped_data_solves_with_truth_inside() -> None:
     prog = compile_model(elaborate(MODELS / "rx90_lengths.cal"))
     _assert_truth_inside(prog, propagate(prog, tol=1e-5))
+
+
+@pytest.mark.parametrize("formulation,seed", [("matrix", 101), ("rotation", 202)])
+def test_tight_within_ten_percent_of_the_hull(tmp_path: Path, formulation: str,
+                                              seed: int) -> None:
+    """Issue 5, Test A: 50 configurations, every width within 1.1x of the (linearized) hull,
+    truth inside, on data that is not in the repository."""
+    from calib_dsl.reference import linearized_hull
+
+    data = _data(tmp_path, 50, seed)
+    prog = compile_model(elaborate(MODELS / "rx90_lengths.cal", formulation=formulation,
+                                   data=data))
+    res = solve_tight(prog, tol=1e-5)
+    _assert_truth_inside(prog, res)
+    got = _results(prog, res)
+    hull = linearized_hull(prog, LENGTHS)
+    for name in LENGTHS:
+        width, best = got[name][1] - got[name][0], hull[name][1] - hull[name][0]
+        assert best <= width * (1 + 1e-3), f"{name}: narrower than the hull?"
+        assert width <= 1.1 * best, f"{name}: {width:.3g} vs hull {best:.3g}"
