@@ -156,8 +156,8 @@ def _congruence_closure(dag: Dag, live: np.ndarray, uf: _UnionFind) -> None:
             if node.op in ("add", "mul"):
                 args = tuple(sorted(args))
             key = (node.op, args, node.data)
-            other = seen.setdefault(key, i)
-            if other != i and uf.union(other, i):
+            other = seen.setdefault(key, int(i))
+            if other != i and uf.union(other, int(i)):
                 changed = True
 
 

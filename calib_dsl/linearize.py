@@ -120,7 +120,7 @@ class _Evaluation:
         self.D[0][idx, cols[idx]] = 1.0
         self.D[1][idx, cols[idx]] = 1.0
 
-    def run(self) -> list[tuple[Iv, Iv]]:
+    def run(self) -> list[tuple[Iv, Iv, Iv, np.ndarray]]:
         for g, mask in zip(self.prog.groups, self.masks.defining, strict=True):
             for j, form in enumerate(self._group(g)):
                 slots, d = g.out[:, j], mask[:, j]

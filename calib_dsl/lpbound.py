@@ -1,8 +1,8 @@
-"""Rigorous bounds from a linear program (Neumaier–Shcherbina).
+"""Rigorous bounds from a linear program (Neumaier-Shcherbina).
 
-The LP solver (HiGHS, through its official Python binding highspy) works in floating point, so its optimum is never trusted.
-Only its dual multipliers are used, as a *certificate*: for any y >= 0 and any p in the box
-with A p <= b,
+The LP solver (HiGHS, through its official Python binding highspy) works in floating point,
+so its optimum is never trusted. Only its dual multipliers are used, as a *certificate*: for
+any y >= 0 and any p in the box with A p <= b,
 
     c.p = y.(A p) + (c - A'y).p  <=  y.b + max over the box of (c - A'y).p,
 
@@ -12,7 +12,6 @@ in exact arithmetic. A poor y gives a poor bound, never a wrong one.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import highspy

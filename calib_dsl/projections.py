@@ -87,6 +87,32 @@ def mul_project(out: Interval, other: Interval, cur: Interval) -> Interval:
     return np.where(free, cur[0], lo), np.where(free, cur[1], hi)
 
 
+def mul_project_raw(out: Interval, other: Interval, cur: Interval) -> Interval:
+    """mul_project for non-empty inputs, element for element the same bounds, with a shortcut
+    for the usual elements: where 0 is in no `other`, there is one piece (the division by the
+    positive part, or by the negative part mirrored); where 0 is in `other` and in `out`, cur
+    is free. Any other element (0 in `other` only) takes the general mul_project."""
+    c, d = other
+    pos = c > 0
+    one = pos | (d < 0)  # 0 is not in other
+    free = None
+    if not one.all():
+        if not (one | ((out[0] <= 0) & (out[1] >= 0))).all():
+            return mul_project(out, other, cur)
+        free = ~one
+    if pos.all():
+        plo, phi = iv.div_pos(out, c, d)
+    else:
+        qlo, qhi = iv.div_pos(out, np.where(pos, c, -d), np.where(pos, d, -c))
+        plo, phi = np.where(pos, qlo, -qhi), np.where(pos, qhi, -qlo)
+    ilo, ihi = np.maximum(cur[0], plo), np.minimum(cur[1], phi)
+    good = ilo <= ihi
+    lo, hi = np.where(good, ilo, INF), np.where(good, ihi, -INF)
+    if free is None:
+        return lo, hi
+    return np.where(free, cur[0], lo), np.where(free, cur[1], hi)
+
+
 def periodic_hull(a: Arr, b: Arr, families: list[tuple[Arr, Arr]],
                   period: float) -> Interval:
     """Hull of [a, b] ∩ S where S = union over k and families of [e + k P, x + k P].
@@ -287,6 +313,10 @@ def _bw_mul(z: Interval, a: list[Interval], p: Arr | None) -> list[Interval]:
     return [mul_project(z, a[1], a[0]), mul_project(z, a[0], a[1])]
 
 
+def _bw_mul_raw(z: Interval, a: list[Interval], p: Arr | None) -> list[Interval]:
+    return [mul_project_raw(z, a[1], a[0]), mul_project_raw(z, a[0], a[1])]
+
+
 def _fw_div(a: list[Interval], p: Arr | None) -> Interval:
     return iv.div(a[0], a[1])
 
@@ -431,4 +461,11 @@ _BACKWARD: dict[str, Callable[[Interval, list[Interval], Arr | None], list[Inter
     "sin": _bw_sin, "cos": _bw_cos, "tan": _bw_tan, "abs": _bw_abs, "pow": _bw_pow,
     "add": _bw_add, "sub": _bw_sub, "mul": _bw_mul, "div": _bw_div, "atan2": _bw_atan2,
     "rotu": _bw_rot("rotu"), "rotv": _bw_rot("rotv"),
+}
+
+# Raw backward projections for `propagate`'s fast sweep (non-empty inputs, inside quiet(), the
+# caller intersects with the arguments): where they differ from _BACKWARD, they are faster and
+# give the same bounds, element for element.
+_FAST_BACKWARD: dict[str, Callable[[Interval, list[Interval], Arr | None], list[Interval]]] = {
+    "mul": _bw_mul_raw,
 }

@@ -17,7 +17,8 @@ from .linearize import _Evaluation, _inequalities, independents
 from .program import Program
 
 
-def linearized_hull(prog: Program, names: list[str] | None = None) -> dict[str, tuple[float, float]]:
+def linearized_hull(prog: Program,
+                    names: list[str] | None = None) -> dict[str, tuple[float, float]]:
     ind = independents(prog)
     all_names = [prog.slots.names[i] for i in ind]
     truth = []

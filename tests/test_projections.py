@@ -16,7 +16,37 @@ from hypothesis import strategies as st
 from calib_dsl import interval as iv
 from calib_dsl.projections import backward, forward
 
-mpmath = pytest.importorskip("mpmath")
+try:  # exact references; without mpmath, libm values stand in (see _float_mpmath)
+    import mpmath
+
+    EXACT_MP = True
+except ImportError:  # pragma: no cover
+    EXACT_MP = False
+
+
+def _float_mpmath():
+    """A float stand-in for the few mpmath calls used here, when mpmath is not installed: the
+    references are then libm values (~1 ulp), so the checks trust libm that far; enclosures are
+    widened accordingly and the tests that need true high precision are skipped."""
+    import contextlib
+    import types
+
+    def f(u):  # numpy's float64 function, returning floats, inf instead of raising
+        def g(*a):
+            with np.errstate(all="ignore"):
+                return float(u(*(float(x) for x in a)))
+        return g
+
+    return types.SimpleNamespace(
+        mpf=float, workprec=lambda _p: contextlib.nullcontext(), pi=math.pi,
+        sin=f(np.sin), cos=f(np.cos), tan=f(np.tan), exp=f(np.exp), log=f(np.log),
+        sqrt=f(np.sqrt), atan=f(np.arctan), asin=f(np.arcsin), acos=f(np.arccos),
+        atan2=f(np.arctan2), floor=math.floor, isinf=math.isinf, isfinite=math.isfinite)
+
+
+if not EXACT_MP:  # pragma: no cover
+    mpmath = _float_mpmath()
+ENCLOSE_ULPS = 1 if EXACT_MP else 4  # libm values: allow its error
 mp = mpmath.mpf
 INF = math.inf
 A = np.asarray
@@ -35,8 +65,9 @@ def one(x) -> tuple[float, float]:
 
 
 def nxt(x: float, n: int = 1, toward: float = INF) -> float:
-    for _ in range(n):
-        x = float(np.nextafter(x, toward))
+    with np.errstate(over="ignore"):
+        for _ in range(n):
+            x = float(np.nextafter(x, toward))
     return x
 
 
@@ -79,7 +110,7 @@ def inside(lo: float, hi: float, v) -> bool:
 def enclose(v) -> tuple[float, float]:
     """A float interval holding the exact value v (one ulp each side of the nearest float)."""
     f = float(v)
-    return nxt(f, 1, -INF), nxt(f, 1, INF)
+    return nxt(f, ENCLOSE_ULPS, -INF), nxt(f, ENCLOSE_ULPS, INF)
 
 
 # -- random solution points and boxes around them -------------------------------------------
@@ -164,6 +195,26 @@ def test_sound(op: str, seed: int) -> None:
                 op, j, (out[0][i], out[1][i]), [(a[0][i], a[1][i]) for a in args], pts,
                 (res[j][0][i], res[j][1][i]))
             assert args[j][0][i] <= res[j][0][i] and res[j][1][i] <= args[j][1][i]
+
+
+@pytest.mark.parametrize("op", ["add", "mul", "div", "sqr", "sin", "cos", "atan2", "pow",
+                                "rotu"])
+@settings(max_examples=3, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_sound_large_arrays(op: str, seed: int) -> None:
+    """As test_sound, with arrays long enough for the arithmetic (not nextafter) rounding."""
+    rng = np.random.default_rng(seed)
+    cases = [solution_case(rng, op) for _ in range(300)]
+    k = len(cases[0][1])
+    out = (A([c[0][0] for c in cases]), A([c[0][1] for c in cases]))
+    args = [(A([c[1][j][0] for c in cases]), A([c[1][j][1] for c in cases])) for j in range(k)]
+    param = A([c[4] for c in cases]) if op == "pow" else None
+    flo, fhi = forward(op, args, param)
+    res = backward(op, out, args, param)
+    for i, (_, _, pts, z, _) in enumerate(cases):
+        assert inside(flo[i], fhi[i], z)
+        for j in range(k):
+            assert res[j][0][i] <= pts[j] <= res[j][1][i], (op, i, j)
 
 
 # -- optimality: the projection's bounds are attained ---------------------------------------
@@ -312,10 +363,10 @@ def contract(op: str, out, args, param=None):
 
 def test_example_1() -> None:
     """x3 = x2 - x1: [a] gives [1,2]x[2,5]x[1,3], [b] gives [4,5]x[5,6]x[1,2] (bounds that
-    come out of an addition may be one ulp wider: round to nearest, then one ulp outward)."""
+    come out of an addition may be an ulp or two wider: round to nearest, then outward)."""
     def close(got, lo, hi):
-        assert got[0] <= lo and got[0] >= nxt(lo, 1, -INF), (got, lo, hi)
-        assert got[1] >= hi and got[1] <= nxt(hi, 1, INF), (got, lo, hi)
+        assert got[0] <= lo and got[0] >= nxt(lo, 2, -INF), (got, lo, hi)
+        assert got[1] >= hi and got[1] <= nxt(hi, 2, INF), (got, lo, hi)
 
     x3, (x2, x1) = contract("sub", I(1, 3), [I(1, 6), I(1, 2)])
     close(one(x1), 1, 2)
