@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import field as _attribute
 from pathlib import Path
 
 
@@ -13,6 +14,8 @@ class Loc:
     file: str
     line: int
     col: int
+    # `col` counts CSV fields, not characters (a data-file location); only the caret uses it
+    field: bool = _attribute(default=False, compare=False)
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.col}"
@@ -34,7 +37,8 @@ class CalError(Exception):
         line = _source_line(self.loc.file, self.loc.line)
         if line is None:
             return head
-        caret = " " * (max(self.loc.col, 1) - 1) + "^"
+        col = _field_start(line, self.loc.col) if self.loc.field else self.loc.col
+        caret = " " * (max(col, 1) - 1) + "^"
         return f"{head}\n    {line}\n    {caret}"
 
 
@@ -46,3 +50,14 @@ def _source_line(file: str, line: int) -> str | None:
     if 1 <= line <= len(lines):
         return lines[line - 1].expandtabs(1)
     return None
+
+
+def _field_start(line: str, field: int) -> int:
+    """The character column where CSV field number `field` (1-based) starts."""
+    import csv
+
+    fields = next(csv.reader([line]), [])
+    col = 1
+    for text in fields[: max(field - 1, 0)]:
+        col += len(text) + 1  # a quoted field is longer on the line; close enough for a caret
+    return col

@@ -59,7 +59,8 @@ def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = No
     for k, (line, row) in enumerate(data, start=1):
         if len(row) != len(header):
             raise CalError(f"data file '{name}', row {k}: {len(row)} fields, but the header "
-                           f"has {len(header)}", Loc(name, line, min(len(row), len(header)) + 1))
+                           f"has {len(header)}",
+                           Loc(name, line, min(len(row), len(header)) + 1, field=True))
         for j, col in enumerate(columns):
             values[:, j, k - 1] = _cell(row[where[col]], name, line, k, col, where[col] + 1)
     out.columns = {col: values[0, j] for j, col in enumerate(columns)}
@@ -124,7 +125,8 @@ def _column_positions(name: str, line: int, header: list[str],
         if h in columns:
             if h in where:
                 raise CalError(f"data file '{name}': column '{h}' appears twice in the header "
-                               f"(fields {where[h] + 1} and {j + 1})", Loc(name, line, j + 1))
+                               f"(fields {where[h] + 1} and {j + 1})",
+                               Loc(name, line, j + 1, field=True))
             where[h] = j
     missing = [c for c in columns if c not in where]
     if missing:
@@ -143,7 +145,7 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
     """(nearest float, lo, hi) of a cell: [lo, hi] holds its exact decimal value."""
     cell = text.strip()
     where = f"data file '{name}', row {row}, column '{col}'"
-    loc = Loc(name, line, field_no)
+    loc = Loc(name, line, field_no, field=True)
     if not cell:
         raise CalError(f"{where}: empty cell", loc)
     if _NON_FINITE.fullmatch(cell):
