@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import mpmath  # exact references (a dev dependency)
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -13,36 +14,7 @@ from hypothesis import strategies as st
 
 from calib_dsl.rotation import rot_contract
 
-try:  # exact references; without mpmath, libm values stand in (see _float_mpmath)
-    import mpmath
-
-    EXACT_MP = True
-except ImportError:  # pragma: no cover
-    EXACT_MP = False
-
-
-def _float_mpmath():
-    """A float stand-in for the few mpmath calls used here, when mpmath is not installed: the
-    references are then libm values (~1 ulp), so the checks trust libm that far; enclosures are
-    widened accordingly and the tests that need true high precision are skipped."""
-    import contextlib
-    import types
-
-    def f(u):  # numpy's float64 function, returning floats, inf instead of raising
-        def g(*a):
-            with np.errstate(all="ignore"):
-                return float(u(*(float(x) for x in a)))
-        return g
-
-    return types.SimpleNamespace(
-        mpf=float, workprec=lambda _p: contextlib.nullcontext(), pi=math.pi,
-        sin=f(np.sin), cos=f(np.cos), tan=f(np.tan), exp=f(np.exp), log=f(np.log),
-        sqrt=f(np.sqrt), atan=f(np.arctan), asin=f(np.arcsin), acos=f(np.arccos),
-        atan2=f(np.arctan2), floor=math.floor, isinf=math.isinf, isfinite=math.isfinite)
-
-
-if not EXACT_MP:  # pragma: no cover
-    mpmath = _float_mpmath()
+EXACT_MP = True
 ENCLOSE_ULPS = 1 if EXACT_MP else 4  # libm values: allow its error
 INF = math.inf
 A = np.asarray
