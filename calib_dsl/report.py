@@ -9,6 +9,10 @@ from typing import Any
 from .program import Program
 from .propagate import Result
 
+# The analysis differentiates the whole program w.r.t. every unknown: on large programs it
+# would cost more than the solve itself, and the rank does not need a thousand configurations.
+IDENTIFY_MAX_PRIMITIVES = 50_000
+
 
 class Extras:
     """Optional sections of the report: identifiability, and a least-squares estimate."""
@@ -18,6 +22,7 @@ class Extras:
         self.combinations: list[tuple[str, float, float]] = []
         self.estimate: Any = None  # lsq.Estimate
         self.seconds = 0.0
+        self.skipped = ""
 
     def identify(self, prog: Program, res: Result, use_lp: bool) -> None:
         import time
@@ -26,6 +31,10 @@ class Extras:
         from .identify import analyse, combination_enclosures
 
         start = time.perf_counter()
+        if len(prog.primitives) > IDENTIFY_MAX_PRIMITIVES:
+            self.skipped = (f"identifiability: not analysed in solve for a program of "
+                            f"{len(prog.primitives)} primitives (run `calibc identify`)")
+            return
         try:
             self.info = analyse(prog)
         except CalError:  # no nominal values to linearize at: say nothing rather than guess
@@ -114,6 +123,8 @@ def render_summary(prog: Program, res: Result, strategy: str,
         prim = f" (primitive {e.primitive})" if e.primitive else ""
         lines.append(f"{where}the data and the model are inconsistent: the domain of "
                      f"{e.variable} became empty{prim}")
+    if extra.skipped:
+        lines += ["", extra.skipped]
     if extra.info is not None:
         from .identify import render
 
