@@ -78,10 +78,12 @@ class _Evaluation:
     """
 
     def __init__(self, prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
-                 center: np.ndarray) -> None:
+                 center: np.ndarray, point: bool = False) -> None:
         n, k = len(lo), len(ind)
         s = prog.slots
         self.prog = prog
+        # point mode (a Jacobian for analysis, no guarantee): gradients in plain floats
+        self.chain = _chain_point if point else _chain
         kinds = np.array(s.kinds)
         self.temp, self.const = kinds == "temp", kinds == "const"
         self.box = (lo, hi)
@@ -150,7 +152,7 @@ class _Evaluation:
             f = forward(g.op, fa, g.param)
             parts = [_partials(g.op, fa, f, g.param)]
             values = [(f, forward(g.op, ca, g.param))]
-        return [(f, c, _chain(p, ga), _chain(p, da), owner)
+        return [(f, c, self.chain(p, ga), self.chain(p, da), owner)
                 for (f, c), p in zip(values, parts, strict=True)]
 
     def _center(self, col: np.ndarray, fold: np.ndarray) -> Iv:
@@ -239,6 +241,14 @@ def _spread(dl: np.ndarray, dh: np.ndarray, e: np.ndarray) -> np.ndarray:
 
 def _widen(lo: np.ndarray, hi: np.ndarray) -> Iv:
     return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+
+
+def _chain_point(partials: list[Iv], grads: list[Iv]) -> Iv:
+    """`_chain` at a point: midpoints in floats (for analysis, not for a guarantee)."""
+    total = sum(0.5 * (d[0] + d[1])[:, None] * gi[0] for d, gi in zip(partials, grads,
+                                                                      strict=True))
+    assert isinstance(total, np.ndarray)
+    return total, total
 
 
 def _chain(partials: list[Iv], grads: list[Iv]) -> Iv:
@@ -392,7 +402,7 @@ def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None 
     blo = prog.slots.lo.copy() if lo is None else lo.copy()
     bhi = prog.slots.hi.copy() if hi is None else hi.copy()
     blo[ind], bhi[ind] = point, point
-    rows = _Evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float)).run()
+    rows = _Evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float), point=True).run()
     if not rows:
         return np.zeros((0, len(ind)))
     return np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])

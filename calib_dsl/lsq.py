@@ -31,7 +31,7 @@ def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = _Evaluation(prog, lo, hi, ind, p).run()
+    rows = _Evaluation(prog, lo, hi, ind, p, point=True).run()
     d = np.concatenate([0.5 * (r[0][0] + r[0][1]) for r in rows])
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
     jac = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])
