@@ -321,13 +321,18 @@ def _partials(op: str, a: list[Iv], out: Iv, param: np.ndarray | None) -> list[I
         return [forward("neg", [forward("sin", a)])]
     if op == "tan":
         return [forward("add", [one, forward("sqr", [out])])]
-    if op == "abs":
-        lo = np.where(a[0][0] >= 0, 1.0, -1.0)
-        hi = np.where(a[0][1] <= 0, -1.0, 1.0)
+    if op == "abs":  # the subdifferential where the box touches 0
+        lo = np.where(a[0][0] > 0, 1.0, -1.0)
+        hi = np.where(a[0][1] < 0, -1.0, 1.0)
         return [(lo, hi)]
     if op == "atan2":  # atan2(y, x): d/dy = x / (x^2 + y^2), d/dx = -y / (x^2 + y^2)
         r2 = forward("add", [forward("sqr", [a[0]]), forward("sqr", [a[1]])])
-        return [forward("div", [a[1], r2]), forward("neg", [forward("div", [a[0], r2])])]
+        dy, dx = forward("div", [a[1], r2]), forward("neg", [forward("div", [a[0], r2])])
+        # Across the branch cut (y = 0, x < 0) atan2 jumps by 2 pi: no mean-value form
+        # holds there, so those rows get infinite coefficients and are dropped.
+        cut = (a[1][0] < 0) & (a[0][0] <= 0) & (a[0][1] >= 0)
+        free = (np.where(cut, -np.inf, dy[0]), np.where(cut, np.inf, dy[1]))
+        return [free, (np.where(cut, -np.inf, dx[0]), np.where(cut, np.inf, dx[1]))]
     raise ValueError(f"no derivative for {op}")
 
 
@@ -348,8 +353,12 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     hlo, hhi = (np.concatenate([r[1][i] for r in rows]) for i in (0, 1))
     qlo, qhi = (np.concatenate([r[2][i] for r in rows]) for i in (0, 1))
     owner = np.concatenate([r[3] for r in rows])
-    h, hrad = _mid_rad(hlo, hhi)
-    q, qrad = _mid_rad(qlo, qhi)
+    with np.errstate(invalid="ignore"):
+        h, hrad = _mid_rad(hlo, hhi)
+        q, qrad = _mid_rad(qlo, qhi)
+    # a row with an unbounded coefficient says nothing: make it drop out (b = +inf)
+    bad = ~(np.all(np.isfinite(h), axis=1) & np.all(np.isfinite(q), axis=1))
+    h[bad], q[bad], hrad[bad] = 0.0, 0.0, np.inf
     w = np.maximum(center - plo, phi - center) * (1 + 4 * _REL)
     slack = hrad @ w + qrad @ e
     folded = np.abs(q) @ e
@@ -361,13 +370,13 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
                   + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
-    extra, xlo, xhi = _cell_columns(q, owner, e)
+    extra, xlo, xhi, cells = _cell_columns(q, owner, e)
     A = sparse.vstack([sparse.hstack([sparse.csr_matrix(h), extra]),
                        -sparse.hstack([sparse.csr_matrix(h), extra])]).tocsr()
     b = np.concatenate([b_up, b_dn])
     keep = np.flatnonzero(np.isfinite(b) & (np.diff(A.indptr) > 0))
     return LinearRelaxation(A[keep], b[keep], np.concatenate([plo, xlo]),
-                            np.concatenate([phi, xhi]), main=len(plo))
+                            np.concatenate([phi, xhi]), main=len(plo), cells=cells)
 
 
 def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -379,16 +388,17 @@ def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
     """One LP column per (configuration, table column) that some row uses: q's midpoints
-    scattered into those columns; bounds +- e."""
+    scattered into those columns; bounds +- e; and which cell each column is (ids as in
+    `Slots.cell_row` / `Slots.cell_col`)."""
     m, k = q.shape
     rows, cols = np.nonzero((q != 0) & (owner[:, None] >= 0))
     if k == 0 or len(rows) == 0:
-        return sparse.csr_matrix((m, 0)), np.zeros(0), np.zeros(0)
+        return sparse.csr_matrix((m, 0)), np.zeros(0), np.zeros(0), np.zeros((0, 2), np.int64)
     key = owner[rows] * k + cols
     uniq, col = np.unique(key, return_inverse=True)
     extra = sparse.csr_matrix((q[rows, cols], (rows, col)), shape=(m, len(uniq)))
     bound = e[uniq % k]
-    return extra, -bound, bound
+    return extra, -bound, bound, np.stack([uniq // k, uniq % k], axis=1)
 
 
 def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None = None,

@@ -22,7 +22,6 @@ from scipy import sparse
 # (gamma_n = n u / (1 - n u) with u = 2^-53, n <= 10^6, is below 1.2e-10): 1e-9 covers it.
 _REL = 1e-9
 _ABS = 1e-300
-_LP_PAD = 0.0
 LP_SECONDS = 0.2  # per objective: a degenerate LP near the fixed point can crawl
 
 
@@ -35,13 +34,18 @@ class LinearRelaxation:
     lo: np.ndarray  # (n,)
     hi: np.ndarray  # (n,)
     main: int = 0  # the first `main` columns are the unknowns; the others nuisance variables
+    # for each nuisance column: (configuration id, table column id) of the measured cell whose
+    # error it is (ids as in decompose.Slots.cell_row / cell_col)
+    cells: np.ndarray | None = None
 
 
 def dot_up(x: np.ndarray, y: np.ndarray) -> float:
     """An upper bound on the exact dot product x.y of float vectors."""
     s = float(np.dot(x, y))
     err = float(np.dot(np.abs(x), np.abs(y)))
-    return s + _REL * err + _ABS if np.isfinite(err) else (s if np.isinf(s) else np.inf)
+    if not (np.isfinite(s) and np.isfinite(err)):  # overflow: no finite bound to give
+        return np.inf
+    return s + _REL * err + _ABS
 
 
 def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
@@ -51,6 +55,8 @@ def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarra
     cand = np.where(np.isnan(cand), 0.0, cand)  # 0 * inf: a zero coefficient contributes 0
     terms = cand.max(axis=0)
     s = float(terms.sum())
+    if not np.isfinite(s):  # +inf: unbounded; -inf can only be an overflow
+        return np.inf
     return s + _REL * float(np.abs(terms).sum()) + _ABS
 
 
@@ -109,12 +115,8 @@ def _load(rel: LinearRelaxation) -> highspy.Highs:
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = n, m
     lp.col_cost_ = np.zeros(n)
-    # The LP sees a slightly larger box: at a fixed point the rows are nearly all active
-    # at the box's faces, and that degeneracy makes the simplex crawl. The certificate
-    # still uses the true box, so this costs no tightness and no rigour.
-    pad = _LP_PAD * (rel.hi - rel.lo)
-    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo - pad, -highspy.kHighsInf)
-    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi + pad, highspy.kHighsInf)
+    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo, -highspy.kHighsInf)
+    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi, highspy.kHighsInf)
     lp.row_lower_ = np.full(m, -highspy.kHighsInf)
     lp.row_upper_ = rel.b.astype(float)
     csc = sparse.csc_matrix(rel.A)

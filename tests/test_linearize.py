@@ -30,7 +30,6 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl import linearize
 from calib_dsl.dag import Dag
 from calib_dsl.elaborate import elaborate
 from calib_dsl.linearize import constraint_jacobian, independents, relax
@@ -49,22 +48,11 @@ MARGIN = 1e-13  # float error of evaluating A x in the test (the relaxation's ow
 
 def cell_columns(prog: Program, lo: np.ndarray, hi: np.ndarray) -> list[tuple[int, int]]:
     """(configuration id, table column id) of each cell-error LP column of
-    relax(prog, lo, hi, cell_variables=True), in LP order: a replay of relax/_cell_columns."""
-    ind = independents(prog)
-    center = 0.5 * (lo[ind] + hi[ind])
-    rows = linearize._Evaluation(prog, lo, hi, ind, center).run()
-    if not rows:
+    relax(prog, lo, hi, cell_variables=True), in LP order."""
+    rel = relax(prog, lo, hi, cell_variables=True)
+    if rel is None or rel.cells is None:
         return []
-    qlo = np.concatenate([r[2][0] for r in rows])
-    qhi = np.concatenate([r[2][1] for r in rows])
-    owner = np.concatenate([r[3] for r in rows])
-    q, _ = linearize._mid_rad(qlo, qhi)
-    k = q.shape[1]
-    if k == 0:
-        return []
-    r, c = np.nonzero((q != 0) & (owner[:, None] >= 0))
-    keys = np.unique(owner[r] * k + c)
-    return [(int(u // k), int(u % k)) for u in keys]
+    return [(int(r), int(c)) for r, c in rel.cells]
 
 
 def check_relaxation(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.ndarray,
@@ -696,10 +684,6 @@ def test_cell_columns_are_per_configuration_and_bounded_by_the_tolerance():
 
 # -- known defect (not ours: calib_dsl/linearize.py) -------------------------------------------
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "linearize._partials('atan2') encloses x/(x^2+y^2), -y/(x^2+y^2) over the box, but atan2 "
-    "jumps by 2pi across its branch cut (y = 0, x < 0): the mean-value form does not hold "
-    "there, and relax cuts off solutions (then solve_tight loses them)"))
 def test_atan2_across_the_branch_cut():
     # a == atan2(y, -1), y in [-0.5, 0.5]: solutions (y, a) = (0.1, 3.04) and (-0.1, -3.04)
     dag = Dag()

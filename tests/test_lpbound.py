@@ -15,7 +15,6 @@ import warnings
 from fractions import Fraction
 
 import numpy as np
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import sparse
@@ -391,10 +390,6 @@ def test_box_max_up_bounds_the_exact_maximum(rows, data):
 
 # -- known defects (not ours: calib_dsl/lpbound.py) --------------------------------------------
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "lpbound.dot_up: when y.b overflows to -inf although every term is finite, dot_up returns "
-    "-inf (the `s if np.isinf(s)` branch), so certified_max/lp_bounds return -inf, below the "
-    "true (finite) maximum of a feasible LP"))
 def test_dot_up_negative_overflow_is_not_minus_infinity():
     # x in [-1.5e308, 0], x <= -1e308, maximize 2x: the maximum is 2 * -1e308 = -2e308 (finite)
     rel = rel_of(np.array([[1.0]]), [-1e308], [-1.5e308], [0.0])
@@ -405,9 +400,6 @@ def test_dot_up_negative_overflow_is_not_minus_infinity():
         assert dot_up(np.array([2.0]), np.array([-1e308])) > -math.inf
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "lpbound.box_max_up: when every corner product of one component overflows to -inf, the "
-    "sum is -inf and -inf + REL * inf is nan: the 'upper bound' is nan, not >= the maximum"))
 def test_box_max_up_all_negative_overflow_is_not_nan():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -436,10 +428,6 @@ assert lower[1] <= 1.8477 and upper[1] >= 1.8496, (lower, upper)
 """
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "lpbound._load: pad = _LP_PAD * (hi - lo) is 0 * inf = nan for a column with one infinite "
-    "bound, so the finite bound is passed to HiGHS as nan; HiGHS then segfaults in run() (or "
-    "solves a wrong LP). Run in a subprocess so the crash cannot take pytest down."))
 def test_lp_bounds_half_infinite_column():
     import subprocess
     import sys

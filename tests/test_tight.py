@@ -184,10 +184,6 @@ def test_random_expression_models_tight_holds_the_truth(seed, n_p, n_cfg, n_con,
 
 # -- known defects of other modules: tight loses solutions (strict xfails) --------------------
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "calib_dsl/linearize.py _partials('atan2'): the mean-value form is used across atan2's "
-    "branch cut (y = 0, x < 0), where atan2 jumps by 2pi; the LP then cuts off every solution "
-    "with y < 0 (here a = atan2(-0.1, -1) = -3.04 and y = -0.1)"))
 def test_tight_atan2_branch_cut_keeps_both_branches():
     dag = Dag()
     a = dag.var("a", -4.0, 4.0)
