@@ -588,7 +588,8 @@ class _Elaborator:
                 raise CalError(f"negative tolerance in '+-': {t}", e.right.loc)
             if t == 0:
                 return c
-            return self.dag.const(_enclose(c - t, e.loc)[0], _enclose(c + t, e.loc)[1])
+            return self.dag.const(_enclose(c - t, e.loc)[0], _enclose(c + t, e.loc)[1],
+                                  unique=True)
         clo, chi = self.constant_interval(c, e.left.loc, "the center of '+-'")
         tlo, thi = self.constant_interval(t, e.right.loc, "the tolerance of '+-'")
         if tlo < 0:
@@ -596,11 +597,11 @@ class _Elaborator:
         if not math.isfinite(thi):
             raise CalError("the tolerance of '+-' must be finite", e.right.loc)
         return self.dag.const(float(np.nextafter(clo - thi, -INF)),
-                              float(np.nextafter(chi + thi, INF)))
+                              float(np.nextafter(chi + thi, INF)), unique=True)
 
     def _interval(self, e: ast.IntervalLit, scope: Scope) -> Scalar:
         lo, hi = self._bounds(e, scope)
-        return self.dag.const(lo, hi)
+        return self.dag.const(lo, hi, unique=True)
 
     def _bounds(self, e: ast.IntervalLit, scope: Scope) -> tuple[float, float]:
         """The floats enclosing [lo, hi] (bounds may be infinite); empty is an error."""
@@ -751,7 +752,7 @@ class _Elaborator:
         node = self.dag.nodes[v]
         if node.op != "const":
             raise CalError(f"{what} must be a constant; this depends on unknowns", loc)
-        return node.data  # type: ignore[no-any-return]
+        return node.data[0], node.data[1]  # type: ignore[no-any-return]
 
     def integer(self, e: ast.Expr, scope: Scope, what: str, hint: str = "") -> int:
         """A constant integer expression (loop bounds, indices, exponents)."""
@@ -759,7 +760,7 @@ class _Elaborator:
         if isinstance(v, Fraction) and v.denominator == 1:
             return int(v)
         if isinstance(v, int) and self.dag.nodes[v].op == "const":
-            lo, hi = self.dag.nodes[v].data
+            lo, hi = self.dag.nodes[v].data[:2]
             if lo == hi and float(lo).is_integer():
                 return int(lo)
         shown = str(v) if isinstance(v, Fraction) else None

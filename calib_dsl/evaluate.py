@@ -49,7 +49,7 @@ class Evaluator:
         keyed: dict[tuple[int, str, object], list[int]] = {}
         for i, n in enumerate(dag.nodes):
             if n.op == "const":
-                lo, hi = n.data
+                lo, hi = n.data[:2]
                 const_ids.append(i)
                 const_vals.append(lo if lo == hi else 0.5 * lo + 0.5 * hi)  # the midpoint
             elif n.op == "var":

@@ -36,7 +36,7 @@ def show(dag: Dag, n: int) -> str:
     if node.op == "var":
         return node.data
     if node.op == "const":
-        lo, hi = node.data
+        lo, hi = node.data[:2]
         return repr(lo) if lo == hi else f"[{lo!r}, {hi!r}]"
     shown = [show(dag, a) for a in node.args]
     args = ", ".join(sorted(shown) if node.op in ("add", "mul") else shown)  # commutative

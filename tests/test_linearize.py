@@ -152,7 +152,7 @@ class RandomModel:
         for these values)."""
         nd = self.dag.nodes[node]
         if nd.op == "const" and node in self.dag.cells:
-            q = self.cells[nd.data]
+            q = self.cells[nd.data[:2]]
             return q, q
         if node in self.memo:
             return self.memo[node]
@@ -517,7 +517,7 @@ def simulate_cal(tmp: Path, source: str, clean_source: str, rows: int, seed: int
         if len(tags) != 1:
             continue  # equal data intervals share a node: not a cell of one configuration
         ((tname, cname, row),) = tags
-        by_interval[model.dag.nodes[node].data] = float(clean[tname][row - 1, col_index[cname]])
+        by_interval[model.dag.nodes[node].data[:2]] = float(clean[tname][row - 1, col_index[cname]])
     s = prog.slots
     cell_true = {slot: by_interval[(float(s.lo[slot]), float(s.hi[slot]))]
                  for slot in range(len(s.names))

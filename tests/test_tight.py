@@ -5,7 +5,8 @@
   result lies in the plain propagation's result at the same tolerance.
 - Random robots and random expression models (from test_linearize): the same two properties.
 - Data inconsistent with the model: no crash, a valid status and a well-formed box.
-- Known defects of other modules that make `tight` lose solutions: strict xfails.
+- Defects found here and fixed since (interval constants shared between unknowns, the
+  atan2 branch cut): regression tests.
 """
 
 from __future__ import annotations
@@ -182,7 +183,7 @@ def test_random_expression_models_tight_holds_the_truth(seed, n_p, n_cfg, n_con,
     assert np.all((hc4.lo[ind] <= p_true) & (p_true <= hc4.hi[ind]))
 
 
-# -- known defects of other modules: tight loses solutions (strict xfails) --------------------
+# -- regressions: defects these tests found (fixed) -----------------------------------------
 
 def test_tight_atan2_branch_cut_keeps_both_branches():
     dag = Dag()
@@ -205,11 +206,6 @@ def _write(tmp_path: Path, name: str, text: str) -> Path:
     return path
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "calib_dsl/dag.py Dag.cell interns a measured value like any constant, so two cells with the "
-    "same reading and tolerance are ONE node; decompose then merges the two predictions "
-    "(p + q[1] and p + q[2] become one slot equal to both x[1] and x[2]) and both strategies "
-    "report consistent data as infeasible (solution set: p in [-0.05, 0.05])"))
 @pytest.mark.parametrize("strategy", ["tight", "hc4"])
 def test_equal_readings_in_two_configurations(tmp_path, strategy):
     _write(tmp_path, "d.csv", "q,x\n0.5,0.55\n0.5,0.45\n")
@@ -225,11 +221,6 @@ def test_equal_readings_in_two_configurations(tmp_path, strategy):
         assert res.lo[i] <= v <= res.hi[i]
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "calib_dsl/dag.py + decompose.py: an interval constant is hash-consed, so `x == 1 +- 0.1; "
-    "y == 1 +- 0.1;` unites x, y and the constant in one slot (the listing shows `1 = x * x`): "
-    "x == y is imposed. The tight strategy then keeps only x = y = 1 and loses e.g. "
-    "(x, y) = (0.95, 1/0.95)"))
 def test_two_unknowns_equal_to_the_same_interval_stay_independent(tmp_path):
     model = _write(tmp_path, "k.cal", (
         "var x in [0, 2];\nvar y in [0, 2];\n"
