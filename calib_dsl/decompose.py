@@ -10,7 +10,9 @@ they are merged too, until nothing changes (congruence closure), so CSE survives
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -21,8 +23,9 @@ from .model import Model
 INF = float("inf")
 
 
-@dataclass
-class Primitive:
+class Primitive(NamedTuple):
+    """out = op(args); a named tuple (the compiler makes hundreds of thousands)."""
+
     op: str  # a DAG op; "rot" joins rotu/rotv: out = (u2, v2), args = (beta, u, v)
     out: tuple[int, ...]
     args: tuple[int, ...]
@@ -70,122 +73,238 @@ class _UnionFind:
 
 
 def decompose(model: Model) -> tuple[Slots, list[Primitive]]:
-    dag = model.dag
-    caps = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
-    _complete_rotations(dag)
-    n = len(dag.nodes)
-    live = _live_nodes(dag, [c.lhs for c in dag.constraints] + [c.rhs for c in dag.constraints]
-                       + [c[0] for c in caps] + [v.node for v in dag.variables.values()])
-    locs = _node_locations(dag, caps)
-    uf = _UnionFind(n)
-    for c in dag.constraints:
-        if c.rel == "==":
-            uf.union(c.lhs, c.rhs)
-    _congruence_closure(dag, live, uf)
-    slot_of, slots = _make_slots(dag, live, uf, caps)
-    prims = _make_primitives(dag, live, slot_of, locs)
-    _name_temporaries(slots, prims)
+    slots, prims, _ = decompose_arrays(model)
     return slots, prims
 
 
+@dataclass
+class PrimitiveArrays:
+    """The primitives as arrays, in the order of the list (program.py groups them from these).
+    `out` has two columns (-1 in the second but for rot), `args` three (-1 past the arity)."""
+
+    op: list[str]
+    out: np.ndarray
+    args: np.ndarray
+    arity: np.ndarray
+    param: list[float | None]
+    level: np.ndarray
+
+
+def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArrays]:
+    """decompose, and the primitives as arrays too. The passes over the DAG are numpy passes
+    over its nodes (one per level where a node needs its arguments done)."""
+    dag = model.dag
+    caps = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
+    _complete_rotations(dag)
+    g = _DagArrays(dag)
+    live = _live_nodes(dag, g, [c.lhs for c in dag.constraints]
+                       + [c.rhs for c in dag.constraints]
+                       + [c[0] for c in caps] + [v.node for v in dag.variables.values()])
+    first_root, root_locs = _node_locations(dag, g, caps)
+    uf = _UnionFind(g.n)
+    for c in dag.constraints:
+        if c.rel == "==" and not (_interval_const(dag, c.lhs) or _interval_const(dag, c.rhs)):
+            uf.union(c.lhs, c.rhs)
+    rep = np.arange(g.n, dtype=np.int64)
+    for c in dag.constraints:
+        for side in (c.lhs, c.rhs):
+            rep[side] = uf.find(side)
+    rep = _congruence_closure(g, live, rep)
+    slot_of, slots = _make_slots(dag, g, live, rep, caps)
+    prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs)
+    _name_temporaries(slots, arrays)
+    return slots, prims, arrays
+
+
+def _interval_const(dag: Dag, node: int) -> bool:
+    """A constant that is an interval, not a point: `x == [0.9, 1.1]` says x lies in it, not
+    that x IS that constant (two unknowns stated equal to it are not equal to each other)."""
+    n = dag.nodes[node]
+    return n.op == "const" and n.data[0] != n.data[1]
+
+
 def _relations_to_caps(dag: Dag) -> list[tuple[int, float, float, Loc | None]]:
-    """Domain caps (node, lo, hi, loc): inequalities on `lhs - rhs`."""
+    """Domain caps (node, lo, hi, loc): inequalities on `lhs - rhs`, and equalities with an
+    interval constant (membership, not identity: no merging of slots through it)."""
     caps = []
     for c in dag.constraints:
-        if c.rel == "<=":
+        if c.rel == "==":
+            for side, other in ((c.lhs, c.rhs), (c.rhs, c.lhs)):
+                if _interval_const(dag, other):
+                    lo, hi = dag.nodes[other].data[:2]
+                    caps.append((side, lo, hi, c.loc))
+                    break
+        elif c.rel == "<=":
             caps.append((dag.op("sub", c.lhs, c.rhs), -INF, 0.0, c.loc))
         elif c.rel == ">=":
             caps.append((dag.op("sub", c.lhs, c.rhs), 0.0, INF, c.loc))
     return caps
 
 
+_ROT = ("rotu", "rotv")
+
+
 def _complete_rotations(dag: Dag) -> None:
     """A rotation is one primitive with two outputs: make sure both output nodes exist."""
-    for node in list(dag.nodes):
-        if node.op in ("rotu", "rotv"):
-            dag.op("rotv" if node.op == "rotu" else "rotu", *node.args)
+    for node in [node for node in dag.nodes if node.op in _ROT]:
+        dag.op("rotv" if node.op == "rotu" else "rotu", *node.args)
 
 
-def _live_nodes(dag: Dag, roots: list[int]) -> np.ndarray:
-    live = np.zeros(len(dag.nodes), dtype=bool)
+class _DagArrays:
+    """The DAG's nodes as arrays: op codes, arguments (n, 3) padded with -1, arity, level,
+    a code for the node's data (0: None), and the other output of a rotation (-1: none);
+    plus the node ids sorted by level."""
+
+    def __init__(self, dag: Dag) -> None:
+        nodes = dag.nodes
+        n = self.n = len(nodes)
+        self.names = [node.op for node in nodes]
+        codes = self.codes = {o: k for k, o in enumerate(dict.fromkeys(self.names))}
+        self.op = np.fromiter(map(codes.__getitem__, self.names), dtype=np.int64, count=n)
+        args = [node.args for node in nodes]
+        self.arity = np.fromiter(map(len, args), dtype=np.int64, count=n)
+        flat = np.fromiter(itertools.chain.from_iterable(args), dtype=np.int64,
+                           count=int(self.arity.sum()))
+        self.args = np.full((n, 3), -1, dtype=np.int64)
+        rows = np.repeat(np.arange(n), self.arity)
+        starts = np.cumsum(self.arity) - self.arity
+        self.args[rows, np.arange(len(flat)) - starts[rows]] = flat
+        datas: dict[Any, int] = {}
+        self.data = np.zeros(n, dtype=np.int64)
+        for i in np.flatnonzero(self.arity > 0).tolist():  # operations: an exponent, or None
+            data = nodes[i].data
+            if data is not None:
+                self.data[i] = datas.setdefault(data, len(datas) + 1)
+        levels = getattr(dag, "_levels", None)
+        if levels is not None and len(levels) == n:
+            self.level = np.array(levels, dtype=np.int64)
+        else:  # a DAG whose levels were not kept: one pass (ids are topological)
+            lv = [0] * n
+            for i, a in enumerate(args):
+                if a:
+                    lv[i] = 1 + max(lv[j] for j in a)
+            self.level = np.array(lv, dtype=np.int64)
+        self.sibling = np.full(n, -1, dtype=np.int64)
+        rot = [codes[o] for o in _ROT if o in codes]
+        for i in np.flatnonzero(np.isin(self.op, rot)).tolist():
+            other = "rotv" if self.names[i] == "rotu" else "rotu"
+            self.sibling[i] = dag._table[Node(other, nodes[i].args)]
+        self.by_level = np.argsort(self.level, kind="stable")
+        self.level_start = np.searchsorted(self.level[self.by_level],
+                                           np.arange(int(self.level.max(initial=0)) + 2))
+
+    def at_level(self, level: int) -> np.ndarray:
+        return self.by_level[self.level_start[level]:self.level_start[level + 1]]
+
+    def top(self) -> int:
+        return len(self.level_start) - 2
+
+
+def _live_nodes(dag: Dag, g: _DagArrays, roots: list[int]) -> np.ndarray:
+    """The nodes the roots reach (a rotation's two outputs live together), level by level
+    from the top: a node's arguments are on lower levels."""
+    live = np.zeros(g.n, dtype=bool)
     live[roots] = True
-    for i in range(len(dag.nodes) - 1, -1, -1):  # ids are topological: one reverse pass
-        if live[i]:
-            node = dag.nodes[i]
-            for a in node.args:
-                live[a] = True
-            if node.op in ("rotu", "rotv"):
-                live[dag._table[Node("rotv" if node.op == "rotu" else "rotu", node.args)]] = True
-    # a sibling found late may reach further nodes: its args are earlier, handled by the pass
+    for level in range(g.top(), 0, -1):
+        idx = g.at_level(level)
+        on = idx[live[idx]]
+        sib = g.sibling[on]
+        live[sib[sib >= 0]] = True  # same arguments, so the same level
+        on = idx[live[idx]]
+        a = g.args[on].ravel()
+        live[a[a >= 0]] = True
     return live
 
 
-def _node_locations(dag: Dag, caps: list) -> list[Loc | None]:
-    """Each node takes the location of the first constraint that reaches it."""
-    locs: list[Loc | None] = [None] * len(dag.nodes)
-    seen = np.zeros(len(dag.nodes), dtype=bool)
+def _node_locations(dag: Dag, g: _DagArrays, caps: list) -> tuple[np.ndarray, list[Loc | None]]:
+    """Each node takes the location of the first constraint that reaches it: per node, the
+    index of that root (len(roots): none), and the roots' locations."""
     roots = [(c.lhs, c.loc) for c in dag.constraints] + [(c.rhs, c.loc) for c in dag.constraints]
     roots += [(c[0], c[3]) for c in caps]
-    for root, loc in roots:
-        stack = [root]
-        while stack:
-            i = stack.pop()
-            if seen[i]:
-                continue
-            seen[i] = True
-            locs[i] = loc
-            stack.extend(dag.nodes[i].args)
-    return locs
+    none = len(roots)
+    first = np.full(g.n, none, dtype=np.int64)
+    if roots:
+        np.minimum.at(first, np.array([r for r, _ in roots], dtype=np.int64),
+                      np.arange(len(roots), dtype=np.int64))
+    for level in range(g.top(), 0, -1):
+        idx = g.at_level(level)
+        idx = idx[first[idx] < none]
+        for j in range(3):
+            a = g.args[idx, j]
+            has = a >= 0
+            np.minimum.at(first, a[has], first[idx[has]])
+    return first, [loc for _, loc in roots] + [None]
 
 
-def _op_key(node: Node) -> tuple:
-    op = "rot" if node.op in ("rotu", "rotv") else node.op
-    return op, node.data
+def _congruence_closure(g: _DagArrays, live: np.ndarray, rep: np.ndarray) -> np.ndarray:
+    """Merge the outputs of primitives that became identical after merging their inputs:
+    `rep` maps each node to the smallest node of its class; repeated to the fixed point."""
+    ops = np.flatnonzero(live & (g.arity > 0))
+    if len(ops) == 0:
+        return rep
+    op, data, args = g.op[ops], g.data[ops], g.args[ops]
+    commutative = np.isin(op, [g.codes[o] for o in ("add", "mul") if o in g.codes])
+    while True:
+        r = np.where(args >= 0, rep[np.maximum(args, 0)], -1)
+        a0 = np.where(commutative, np.minimum(r[:, 0], r[:, 1]), r[:, 0])
+        a1 = np.where(commutative, np.maximum(r[:, 0], r[:, 1]), r[:, 1])
+        order = np.lexsort((r[:, 2], a1, a0, data, op))
+        keys = np.stack([op, data, a0, a1, r[:, 2]])[:, order]
+        new = np.ones(len(order), dtype=bool)
+        new[1:] = (keys[:, 1:] != keys[:, :-1]).any(axis=0)
+        head = np.maximum.accumulate(np.where(new, np.arange(len(order)), 0))
+        u, v = rep[ops[order]], rep[ops[order[head]]]
+        pairs = u != v
+        if not pairs.any():
+            return rep
+        u, v = u[pairs], v[pairs]
+        label = np.arange(len(rep), dtype=np.int64)
+        while True:  # connected components of the classes joined by the pairs: min label
+            m = np.minimum(label[u], label[v])
+            np.minimum.at(label, u, m)
+            np.minimum.at(label, v, m)
+            while True:
+                jumped = label[label]
+                if np.array_equal(jumped, label):
+                    break
+                label = jumped
+            if np.array_equal(label[u], label[v]):
+                break
+        rep = label[rep]
 
 
-def _congruence_closure(dag: Dag, live: np.ndarray, uf: _UnionFind) -> None:
-    """Merge the outputs of primitives that became identical after merging their inputs."""
-    ops = [i for i in np.flatnonzero(live) if dag.nodes[i].op not in ("const", "var")]
-    changed = True
-    while changed:
-        changed = False
-        seen: dict[tuple, int] = {}
-        for i in ops:
-            node = dag.nodes[i]
-            args = tuple(uf.find(a) for a in node.args)
-            if node.op in ("add", "mul"):
-                args = tuple(sorted(args))
-            key = (node.op, args, node.data)
-            other = seen.setdefault(key, int(i))
-            if other != i and uf.union(other, int(i)):
-                changed = True
-
-
-def _make_slots(dag: Dag, live: np.ndarray, uf: _UnionFind, caps: list):
-    order: dict[int, int] = {}
+def _make_slots(dag: Dag, g: _DagArrays, live: np.ndarray, rep: np.ndarray, caps: list):
     declared = [v for v in dag.variables.values()]
+    first: dict[int, int] = {}
     for v in declared:  # declared unknowns first, in declaration order
-        order.setdefault(uf.find(v.node), len(order))
-    for i in np.flatnonzero(live):
-        order.setdefault(uf.find(int(i)), len(order))
-    m = len(order)
+        first.setdefault(int(rep[v.node]), len(first))
+    live_idx = np.flatnonzero(live)
+    reps = rep[live_idx]
+    _, at = np.unique(reps, return_index=True)
+    in_order = reps[np.sort(at)]  # the classes in the order of their first live node
+    known = np.array(list(first), dtype=np.int64)
+    in_order = in_order[~np.isin(in_order, known)]
+    slot_of_rep = np.full(len(rep), -1, dtype=np.int64)
+    slot_of_rep[known] = np.arange(len(known))
+    slot_of_rep[in_order] = len(known) + np.arange(len(in_order))
+    m = len(known) + len(in_order)
     lo, hi = np.full(m, -INF), np.full(m, INF)
     names = [""] * m
     kinds = ["temp"] * m
     origin: list[Loc | None] = [None] * m
-    slot_of = np.full(len(dag.nodes), -1, dtype=np.int64)
-    for i in np.flatnonzero(live):
-        slot_of[i] = order[uf.find(int(i))]
+    slot_of = np.full(g.n, -1, dtype=np.int64)
+    slot_of[live_idx] = slot_of_rep[reps]
     # a constant stated equal to something: an empty slot is that constraint's fault
     const_loc = {side: c.loc for c in dag.constraints for side in (c.lhs, c.rhs)
                  if dag.nodes[side].op == "const"}
-    for i in np.flatnonzero(live):  # constants: the slot is that value
+    const = g.codes.get("const")
+    consts = live_idx[g.op[live_idx] == const] if const is not None else live_idx[:0]
+    for i in consts.tolist():  # constants: the slot is that value
         node = dag.nodes[i]
-        if node.op == "const":
-            s = slot_of[i]
-            _narrow(lo, hi, origin, s, node.data[0], node.data[1], const_loc.get(int(i)))
-            if kinds[s] == "temp":
-                kinds[s], names[s] = "const", format_const(*node.data)
+        s = int(slot_of[i])
+        _narrow(lo, hi, origin, s, node.data[0], node.data[1], const_loc.get(i))
+        if kinds[s] == "temp":
+            kinds[s], names[s] = "const", format_const(node.data[0], node.data[1])
     for v in reversed(declared):  # first declared name wins the slot's name
         s = slot_of[v.node]
         _narrow(lo, hi, origin, s, v.lo, v.hi, v.loc)
@@ -222,40 +341,87 @@ def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:
     lo[s], hi[s] = max(lo[s], a), min(hi[s], b)
 
 
-def _make_primitives(dag: Dag, live: np.ndarray, slot_of: np.ndarray, locs) -> list[Primitive]:
-    level = np.zeros(len(dag.nodes), dtype=np.int64)
-    prims: list[Primitive] = []
-    done: set[tuple] = set()
-    for i in range(len(dag.nodes)):
-        node = dag.nodes[i]
-        if node.args:
-            level[i] = 1 + max(level[a] for a in node.args)
-        if not live[i] or not node.args:
-            continue
-        args = tuple(int(slot_of[a]) for a in node.args)
-        if node.op in ("rotu", "rotv"):
-            u = dag._table[Node("rotu", node.args)]
-            v = dag._table[Node("rotv", node.args)]
-            out: tuple[int, ...] = (int(slot_of[u]), int(slot_of[v]))
-            op = "rot"
+def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndarray,
+                     first_root: np.ndarray, root_locs: list[Loc | None]
+                     ) -> tuple[list[Primitive], PrimitiveArrays]:
+    """One primitive per live operation node, in node order; a rotation's two output nodes
+    make one `rot`. Primitives identical after merging (same op, output and argument slots,
+    data) are kept once, the first."""
+    idx = np.flatnonzero(live & (g.arity > 0))
+    rot = g.sibling[idx] >= 0
+    arity = g.arity[idx]
+    args = np.where(g.args[idx] >= 0, slot_of[np.maximum(g.args[idx], 0)], -1)
+    out = np.full((len(idx), 2), -1, dtype=np.int64)
+    out[:, 0] = slot_of[idx]
+    if rot.any():
+        rotu = g.codes.get("rotu", -1)
+        is_u = g.op[idx] == rotu
+        u = np.where(is_u, idx, g.sibling[idx])
+        v = np.where(is_u, g.sibling[idx], idx)
+        out[rot, 0] = slot_of[u[rot]]
+        out[rot, 1] = slot_of[v[rot]]
+    op = np.where(rot, -1, g.op[idx])  # rotu and rotv are both `rot`
+    keep = _first_of_each(np.column_stack([op, g.data[idx], out, args]))
+    if keep is not None:
+        idx, rot, arity, args, out = idx[keep], rot[keep], arity[keep], args[keep], out[keep]
+    level = g.level[idx]
+    names = g.names
+    ilist = idx.tolist()
+    ops = ["rot" if r else names[i] for i, r in zip(ilist, rot.tolist(), strict=True)]
+    nodes = dag.nodes
+    params = [None if nodes[i].data is None else float(nodes[i].data) for i in ilist]
+    locs = [root_locs[r] for r in first_root[idx].tolist()]
+    out0 = out[:, 0].tolist()
+    out_l: list[tuple[int, ...]] = [(a,) for a in out0]
+    for k in np.flatnonzero(rot).tolist():
+        out_l[k] = (out0[k], int(out[k, 1]))
+    cols = [args[:, j].tolist() for j in range(3)]
+    args_l: list[tuple[int, ...]] = list(zip(cols[0], cols[1], cols[2], strict=True))
+    for k in np.flatnonzero(arity != 3).tolist():
+        args_l[k] = args_l[k][:int(arity[k])]
+    prims = list(map(_new_primitive, zip(ops, out_l, args_l, params, locs, level.tolist(),
+                                         strict=True)))
+    return prims, PrimitiveArrays(ops, out, args, arity, params, level)
+
+
+def _new_primitive(fields: tuple) -> Primitive:
+    """Primitive(*fields), without the named tuple's Python-level constructor."""
+    return tuple.__new__(Primitive, fields)
+
+
+def _first_of_each(keys: np.ndarray) -> np.ndarray | None:
+    """The sorted indices of the first row of each distinct row of keys (None: all distinct).
+    Rows with different outputs (column 2) differ, so only rows sharing one are compared."""
+    _, inverse, counts = np.unique(keys[:, 2], return_inverse=True, return_counts=True)
+    shared = np.flatnonzero(counts[inverse] > 1)
+    if len(shared) == 0:
+        return None
+    seen: set[tuple[int, ...]] = set()
+    drop = []
+    for k, row in zip(shared.tolist(), map(tuple, keys[shared].tolist()), strict=True):
+        if row in seen:
+            drop.append(k)
         else:
-            out, op = (int(slot_of[i]),), node.op
-        key = (op, out, args, node.data)
-        if key in done:  # identical after merging (congruence closure)
-            continue
-        done.add(key)
-        param = None if node.data is None else float(node.data)
-        prims.append(Primitive(op, out, args, param, locs[i], int(level[i])))
-    return prims
+            seen.add(row)
+    if not drop:
+        return None
+    keep = np.ones(len(keys), dtype=bool)
+    keep[drop] = False
+    return np.flatnonzero(keep)
 
 
-def _name_temporaries(slots: Slots, prims: list[Primitive]) -> None:
+def _name_temporaries(slots: Slots, arrays: PrimitiveArrays) -> None:
+    """t1, t2, ... for the temporaries, in the order the primitives first output them."""
+    outs = arrays.out.ravel()
+    outs = outs[outs >= 0]
+    temp = np.array([k == "temp" and not n for k, n in zip(slots.kinds, slots.names,
+                                                           strict=True)], dtype=bool)
+    outs = outs[temp[outs]]
+    _, at = np.unique(outs, return_index=True)
     count = 0
-    for p in prims:
-        for s in p.out:
-            if slots.kinds[s] == "temp" and not slots.names[s]:
-                count += 1
-                slots.names[s] = f"t{count}"
+    for s in outs[np.sort(at)].tolist():
+        count += 1
+        slots.names[s] = f"t{count}"
     for s, name in enumerate(slots.names):  # unused temporaries cannot exist, but be safe
         if not name:
             count += 1

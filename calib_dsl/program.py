@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .decompose import Primitive, Slots, decompose
+from .dag import paused_gc
+from .decompose import Primitive, PrimitiveArrays, Slots, decompose_arrays
 from .model import Model
 
 
@@ -57,10 +58,11 @@ class Program:
 
 
 def compile_model(model: Model) -> Program:
-    slots, prims = decompose(model)
+    with paused_gc():  # hundreds of thousands of primitives: no cycles to look for
+        slots, prims, arrays = decompose_arrays(model)
     truth = {v.name: v.true for v in model.dag.variables.values()}
     domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
-    return Program(model.path, model.formulation, slots, prims, make_groups(prims), truth,
+    return Program(model.path, model.formulation, slots, prims, _groups(arrays), truth,
                    domains)
 
 
@@ -69,6 +71,32 @@ def make_groups(prims: list[Primitive]) -> list[Group]:
     for i, p in enumerate(prims):
         buckets.setdefault((p.level, p.op), []).append(i)
     return [_group(op, level, idx, prims) for (level, op), idx in sorted(buckets.items())]
+
+
+def _groups(a: PrimitiveArrays) -> list[Group]:
+    """make_groups from the primitives' arrays (the same groups, without a pass over the
+    primitive objects)."""
+    if not a.op:
+        return []
+    code = {o: k for k, o in enumerate(sorted(set(a.op)))}  # in the order of the op names
+    op = np.fromiter(map(code.__getitem__, a.op), dtype=np.int64, count=len(a.op))
+    order = np.lexsort((op, a.level))  # by (level, op name), stable: primitive order within
+    key = a.level[order] * len(code) + op[order]
+    cut = np.flatnonzero(np.diff(key)) + 1
+    groups = []
+    for idx in np.split(order, cut):
+        i0 = int(idx[0])
+        name = a.op[i0]
+        k = int(a.arity[i0])
+        out = a.out[idx, :2 if name == "rot" else 1]
+        args = a.args[idx, :k]
+        param = None
+        if a.param[i0] is not None:
+            param = np.array([a.param[i] for i in idx.tolist()], dtype=float)
+        groups.append(Group(name, int(a.level[i0]), np.ascontiguousarray(out),
+                            np.ascontiguousarray(args), param, idx.astype(np.int64),
+                            tuple(_unique(c) for c in out.T), tuple(_unique(c) for c in args.T)))
+    return groups
 
 
 def _group(op: str, level: int, idx: list[int], prims: list[Primitive]) -> Group:
@@ -81,4 +109,6 @@ def _group(op: str, level: int, idx: list[int], prims: list[Primitive]) -> Group
 
 
 def _unique(column: np.ndarray) -> bool:
-    return len(np.unique(column)) == len(column)
+    """No slot twice in the column (a sort: np.unique hashes, many times slower here)."""
+    s = np.sort(column)
+    return bool((s[1:] != s[:-1]).all())

@@ -89,9 +89,11 @@ def mul_project(out: Interval, other: Interval, cur: Interval) -> Interval:
 
 def mul_project_raw(out: Interval, other: Interval, cur: Interval) -> Interval:
     """mul_project for non-empty inputs, element for element the same bounds, with a shortcut
-    for the usual elements: where 0 is in no `other`, there is one piece (the division by the
-    positive part, or by the negative part mirrored); where 0 is in `other` and in `out`, cur
-    is free. Any other element (0 in `other` only) takes the general mul_project."""
+    for the usual elements: where 0 is in no `other`, there is one piece, out / other (for a
+    negative `other`, mul_project's mirrored piece -(out / -other) is the same quotients with
+    the roles of out's bounds swapped: negation is exact, and dn1(-x) = -up1(x)); where 0 is
+    in `other` and in `out`, cur is free. Any other element (0 in `other` only) takes the
+    general mul_project."""
     c, d = other
     pos = c > 0
     one = pos | (d < 0)  # 0 is not in other
@@ -101,11 +103,11 @@ def mul_project_raw(out: Interval, other: Interval, cur: Interval) -> Interval:
             return mul_project(out, other, cur)
         free = ~one
     if pos.all():
-        plo, phi = iv.div_pos(out, c, d)
+        a, b = out
     else:
-        qlo, qhi = iv.div_pos(out, np.where(pos, c, -d), np.where(pos, d, -c))
-        plo, phi = np.where(pos, qlo, -qhi), np.where(pos, qhi, -qlo)
-    ilo, ihi = np.maximum(cur[0], plo), np.minimum(cur[1], phi)
+        a, b = np.where(pos, out[0], out[1]), np.where(pos, out[1], out[0])
+    ilo = np.maximum(cur[0], iv.dn1(np.fmin(a / c, a / d)))
+    ihi = np.minimum(cur[1], iv.up1(np.fmax(b / c, b / d)))
     good = ilo <= ihi
     lo, hi = np.where(good, ilo, INF), np.where(good, ihi, -INF)
     if free is None:

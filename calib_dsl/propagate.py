@@ -9,15 +9,17 @@ could only ever mean "no contraction", never a lost solution.
 
 from __future__ import annotations
 
+import inspect
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import Loc
 from .program import Group, Program
-from .projections import backward, forward
-from .rotation import rot_contract
+from .projections import _BACKWARD, _FAST_BACKWARD, _FORWARD, backward, forward
+from .rotation import rot_contract, rot_contract_raw
 
 
 @dataclass
@@ -52,13 +54,21 @@ def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         s = int(np.flatnonzero(box[0] > box[1])[0])
         return _infeasible(box, 0, start, Emptied(prog.slots.names[s], prog.slots.origin[s], None))
     sweeps, stop = 0, "max sweeps"
+    steps = _kernels(prog)
+    stamp = np.zeros(len(box[0]), dtype=np.int64)  # the last sweep that moved each slot
     while sweeps < max_sweeps:
         before = (box[0][watch].copy(), box[1][watch].copy())
         saved = (box[0].copy(), box[1].copy())
-        sweep(prog.groups, box[0], box[1])
         sweeps += 1
+        _fast_sweep(steps, box[0], box[1], stamp, sweeps)
         if np.any(box[0] > box[1]):
-            return _infeasible(box, sweeps, start, _diagnose(prog, *saved))
+            # The fast sweep equals the general one until a domain first becomes empty; from
+            # there only the general one spreads emptiness exactly: replay the sweep with it.
+            box[0][:], box[1][:] = saved
+            sweep(prog.groups, box[0], box[1])
+            if np.any(box[0] > box[1]):
+                return _infeasible(box, sweeps, start, _diagnose(prog, *saved))
+            stamp[:] = sweeps  # (cannot happen) as if everything moved
         gain = _contraction(before, (box[0][watch], box[1][watch]))
         if gain == 0.0:
             stop = "fixed point"
@@ -96,10 +106,109 @@ def _backward(g: Group, lo: np.ndarray, hi: np.ndarray) -> None:
         _tighten(lo, hi, c, alo, ahi, unique)
 
 
+# -- the fast sweep -----------------------------------------------------------------------
+# The general steps above go through projections.forward/backward, which accept empty
+# intervals: they check every input for emptiness, intersect each projection with its
+# argument and spread an empty projection to all arguments of the primitive. Inside a sweep
+# none of that is needed until a domain becomes empty (the box only shrinks, and the writes
+# intersect anyway): the fast steps call the raw operations (which never return NaN for
+# non-empty inputs) under one errstate. For non-empty inputs they compute the same bounds as
+# the general steps, element for element; the first empty domain makes `propagate` replay the
+# sweep with the general steps.
+#
+# A fast step is also skipped when it cannot change anything: when no slot of its group
+# (outputs and arguments) moved since the start of the previous sweep. The step then ran in
+# the previous sweep on these very values and moved none of them, and it is a deterministic
+# function of them: it would move nothing now either. `stamp` holds, per slot, the last sweep
+# in which a write moved it.
+
+Step = Callable[[np.ndarray, np.ndarray, np.ndarray, int], None]
+Steps = list[tuple[np.ndarray, Step]]
+# the general step's rot_contract runs its default number of inner sweeps: so does the fast one
+_ROT_SWEEPS = inspect.signature(rot_contract).parameters["sweeps"].default
+
+
+def _fast_sweep(steps: tuple[Steps, Steps], lo: np.ndarray, hi: np.ndarray,
+                stamp: np.ndarray, k: int) -> None:
+    """Sweep number k (1, 2, ...)."""
+    with np.errstate(all="ignore"):
+        for part in steps:
+            for slots, step in part:
+                if k > 1 and stamp[slots].max() < k - 1:
+                    continue
+                step(lo, hi, stamp, k)
+
+
+def _kernels(prog: Program) -> tuple[Steps, Steps]:
+    """The fast steps of a program (made once, kept on the program)."""
+    cached = getattr(prog, "_fast_steps", None)
+    if cached is not None and cached[0] is prog.groups:
+        return cached[1]
+    fw: Steps = []
+    bw: Steps = []
+    for g in prog.groups:
+        slots = np.sort(np.concatenate([g.out.ravel(), g.args.ravel()]))
+        slots = slots[np.concatenate([[True], slots[1:] != slots[:-1]])]
+        f, b = _group_kernels(g)
+        fw.append((slots, f))
+        bw.append((slots, b))
+    steps = (fw, bw[::-1])
+    prog._fast_steps = (prog.groups, steps)  # type: ignore[attr-defined]
+    return steps
+
+
+def _group_kernels(g: Group) -> tuple[Step, Step]:
+    if g.op == "rot":
+        cols = [np.ascontiguousarray(c) for c in (*g.args.T, *g.out.T)]
+        uniq = (*g.args_unique, *g.out_unique)
+
+        def rot(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int) -> None:
+            beta, u, v, u2, v2 = [(lo[c], hi[c]) for c in cols]
+            new = rot_contract_raw(beta, u, v, u2, v2, sweeps=_ROT_SWEEPS)
+            for c, (nlo, nhi), one in zip(cols, new, uniq, strict=True):
+                _write(lo, hi, c, nlo, nhi, one, stamp, k)
+        return rot, rot
+
+    out = np.ascontiguousarray(g.out[:, 0])
+    out_u = g.out_unique[0]
+    acols = [np.ascontiguousarray(c) for c in g.args.T]
+    aunique = g.args_unique
+    param = g.param
+    fw_fn = _FORWARD[g.op]
+    bw_fn = _FAST_BACKWARD.get(g.op, _BACKWARD[g.op])
+
+    def fw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int) -> None:
+        zlo, zhi = fw_fn([(lo[c], hi[c]) for c in acols], param)
+        _write(lo, hi, out, zlo, zhi, out_u, stamp, k)
+
+    def bw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int) -> None:
+        new = bw_fn((lo[out], hi[out]), [(lo[c], hi[c]) for c in acols], param)
+        for c, (nlo, nhi), u in zip(acols, new, aunique, strict=True):
+            _write(lo, hi, c, nlo, nhi, u, stamp, k)
+    return fw, bw
+
+
+def _write(lo: np.ndarray, hi: np.ndarray, idx: np.ndarray, nlo: np.ndarray, nhi: np.ndarray,
+           unique: bool, stamp: np.ndarray, k: int) -> None:
+    """_tighten, and stamp the slots it moved with sweep k."""
+    olo, ohi = lo[idx], hi[idx]
+    if unique:
+        wlo, whi = np.fmax(olo, nlo), np.fmin(ohi, nhi)
+        lo[idx] = wlo
+        hi[idx] = whi
+    else:
+        np.fmax.at(lo, idx, nlo)
+        np.fmin.at(hi, idx, nhi)
+        wlo, whi = lo[idx], hi[idx]
+    moved = (wlo != olo) | (whi != ohi)
+    stamp[idx[moved]] = k
+
+
 def _rotation(g: Group, lo: np.ndarray, hi: np.ndarray) -> None:
     cols = [g.args[:, 0], g.args[:, 1], g.args[:, 2], g.out[:, 0], g.out[:, 1]]
     uniq = [*g.args_unique, *g.out_unique]
-    new = rot_contract(*[(lo[c], hi[c]) for c in cols])
+    b, u, v, u2, v2 = [(lo[c], hi[c]) for c in cols]
+    new = rot_contract(b, u, v, u2, v2)
     for c, (alo, ahi), unique in zip(cols, new, uniq, strict=True):
         _tighten(lo, hi, c, alo, ahi, unique)
 

@@ -100,13 +100,19 @@ def frame_matrix(dag: Dag, f: Frame) -> Mat34:
 
 def _matmul(dag: Dag, a: Mat34, b: Mat34) -> Mat34:
     """a . b for homogeneous transforms (implicit last rows 0 0 0 1)."""
+    zero = _zeros(dag, a, b)
+    op = dag.op
     out: Mat34 = []
     for i in range(3):
+        ai = a[i]
         row = []
         for k in range(4):
-            terms = [dag.op("mul", a[i][j], b[j][k]) for j in range(3)]
+            # a product with a structural zero is the zero constant, and adding it makes no
+            # node: leaving it out of the sum makes the same nodes, in the same order
+            terms = [op("mul", ai[j], b[j][k]) for j in range(3)
+                     if not (zero[ai[j]] or zero[b[j][k]])]
             if k == 3:
-                terms.append(a[i][3])
+                terms.append(ai[3])
             row.append(_sum(dag, terms))
         out.append(row)
     return out
@@ -117,6 +123,11 @@ def _apply(dag: Dag, m: Mat34, p: Vec3) -> Vec3:
     x = [_sum(dag, [dag.op("mul", m[i][j], p[j]) for j in range(3)] + [m[i][3]])
          for i in range(3)]
     return x[0], x[1], x[2]
+
+
+def _zeros(dag: Dag, a: Mat34, b: Mat34) -> dict[int, bool]:
+    """Which entries of a and b are the constant 0 (the point [0, 0]); by node id."""
+    return {e: dag.point(e) == 0.0 for row in (*a, *b) for e in row}
 
 
 def _identity(dag: Dag) -> Mat34:
@@ -156,8 +167,11 @@ def _neg(dag: Dag, x: int) -> int:
 
 
 def _sum(dag: Dag, terms: list[int]) -> int:
-    """Left fold of `add`; `dag.op` drops the structural zeros."""
+    """Left fold of `add`; `dag.op` drops the structural zeros (no terms: the zero)."""
+    if not terms:
+        return dag.const(0.0)
     total = terms[0]
+    op = dag.op
     for t in terms[1:]:
-        total = dag.op("add", total, t)
+        total = op("add", total, t)
     return total
