@@ -20,8 +20,16 @@ lint: install
 	$(BIN)/ruff check calib_dsl tests bench
 	$(BIN)/mypy calib_dsl
 
-bench: install
-	$(BIN)/python bench/run.py
+# bench: the venv's python once `make install` made it; else $(PY) when calibc already runs
+# there (no install needed); else install first.
+ifneq ($(filter bench,$(MAKECMDGOALS)),)
+BENCH_PY := $(shell if [ -x $(BIN)/python ]; then echo $(BIN)/python; \
+	elif $(PY) -c "import calib_dsl, lark, numpy, click, scipy, highspy" 2>/dev/null; \
+	then echo $(PY); fi)
+endif
+
+bench: $(if $(BENCH_PY),,install)
+	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info .pytest_cache .mypy_cache .ruff_cache

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -139,9 +140,13 @@ def _fast_sweep(steps: tuple[Steps, Steps], lo: np.ndarray, hi: np.ndarray,
                 step(lo, hi, stamp, k)
 
 
+_STEPS: dict[int, tuple[list[Group], tuple[Steps, Steps]]] = {}  # by id(program)
+
+
 def _kernels(prog: Program) -> tuple[Steps, Steps]:
-    """The fast steps of a program (made once, kept on the program)."""
-    cached = getattr(prog, "_fast_steps", None)
+    """The fast steps of a program (made once per program: the tight strategy propagates the
+    same program several times)."""
+    cached = _STEPS.get(id(prog))
     if cached is not None and cached[0] is prog.groups:
         return cached[1]
     fw: Steps = []
@@ -153,7 +158,9 @@ def _kernels(prog: Program) -> tuple[Steps, Steps]:
         fw.append((slots, f))
         bw.append((slots, b))
     steps = (fw, bw[::-1])
-    prog._fast_steps = (prog.groups, steps)  # type: ignore[attr-defined]
+    if id(prog) not in _STEPS:
+        weakref.finalize(prog, _STEPS.pop, id(prog), None)
+    _STEPS[id(prog)] = (prog.groups, steps)
     return steps
 
 

@@ -1,0 +1,53 @@
+"""Shared fixtures for the compiler back-half, propagator and CLI tests: write a small `.cal`
+model into a temporary directory, compile it, find the installed `calibc` command."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from calib_dsl.elaborate import elaborate
+from calib_dsl.program import Program, compile_model
+
+
+@pytest.fixture
+def write_model(tmp_path: Path) -> Callable[..., Path]:
+    """write_model(source, name="m.cal", files={"d.csv": text}) -> the model's path; `files`
+    are written beside it."""
+
+    def write(source: str, name: str = "m.cal", files: dict[str, str] | None = None) -> Path:
+        for fname, text in (files or {}).items():
+            (tmp_path / fname).write_text(text, encoding="utf-8")
+        path = tmp_path / name
+        path.write_text(source, encoding="utf-8")
+        return path
+
+    return write
+
+
+@pytest.fixture
+def compile_src(write_model: Callable[..., Path]) -> Callable[..., Program]:
+    """compile_src(source, formulation="matrix", files=None) -> the flat program."""
+
+    def run(source: str, formulation: str = "matrix",
+            files: dict[str, str] | None = None) -> Program:
+        return compile_model(elaborate(write_model(source, files=files), formulation=formulation))
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def calibc() -> list[str]:
+    """The installed `calibc` console script: the one beside this interpreter (a venv's),
+    else the one on PATH."""
+    here = Path(sys.executable).parent / "calibc"
+    if here.exists():
+        return [str(here)]
+    found = shutil.which("calibc")
+    if found is None:
+        pytest.fail("the `calibc` command is not installed (pip install -e .)")
+    return [found]
