@@ -57,6 +57,13 @@ def _load(model: str, formulation: str, data: str | None):
     return compile_model(elaborate(model, formulation=formulation, data=data))
 
 
+def _write(path: str, text: str) -> None:
+    try:
+        Path(path).write_text(text, encoding="utf-8")
+    except OSError as err:
+        raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
+
+
 @click.group()
 @click.version_option(package_name="calibc")
 def main() -> None:
@@ -78,7 +85,7 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
     prog = _load(model, formulation, data)
     text = render_listing(prog)
     if output:
-        Path(output).write_text(text, encoding="utf-8")
+        _write(output, text)
     if as_json:
         click.echo(listing_json(prog))
     elif not output:
@@ -131,7 +138,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         if json_path == "-":
             click.echo(text)
         else:
-            Path(json_path).write_text(text + "\n", encoding="utf-8")
+            _write(json_path, text + "\n")
     if res.status == "infeasible":
         sys.exit(1)
 

@@ -299,16 +299,16 @@ def _make_slots(dag: Dag, g: _DagArrays, live: np.ndarray, rep: np.ndarray, caps
                  if dag.nodes[side].op == "const"}
     const = g.codes.get("const")
     consts = live_idx[g.op[live_idx] == const] if const is not None else live_idx[:0]
+    for v in reversed(declared):  # first declared name wins the slot's name
+        s = slot_of[v.node]
+        _narrow(lo, hi, origin, s, v.lo, v.hi, v.loc)
+        names[s], kinds[s] = v.name, v.kind
     for i in consts.tolist():  # constants: the slot is that value
         node = dag.nodes[i]
         s = int(slot_of[i])
         _narrow(lo, hi, origin, s, node.data[0], node.data[1], const_loc.get(i))
         if kinds[s] == "temp":
             kinds[s], names[s] = "const", format_const(node.data[0], node.data[1])
-    for v in reversed(declared):  # first declared name wins the slot's name
-        s = slot_of[v.node]
-        _narrow(lo, hi, origin, s, v.lo, v.hi, v.loc)
-        names[s], kinds[s] = v.name, v.kind
     for node, clo, chi, loc in caps:
         _narrow(lo, hi, origin, slot_of[node], clo, chi, loc)
     decl_slots = [int(slot_of[v.node]) for v in declared]

@@ -544,7 +544,9 @@ class _Elaborator:
             if op == "-":
                 return a - b
             return a * b if op == "*" else a / b
-        if op == "*" and isinstance(a, int) and a == b:  # x*x is sqr(x): a tighter contractor
+        # x*x is sqr(x), a tighter contractor; both must be DAG nodes (ints), not an exact
+        # constant that happens to equal a node id (Fraction(1) == 1)
+        if op == "*" and type(a) is int and type(b) is int and a == b:
             return self._op("sqr", (a,), loc)
         return self._op(_ARITH[op], (self.node(a, loc), self.node(b, loc)), loc)
 

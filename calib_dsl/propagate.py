@@ -248,8 +248,10 @@ def _contraction(before: tuple, after: tuple) -> float:
     if not np.any(moved):
         return 0.0
     wb, wa = bhi - blo, ahi - alo
+    left_infinity = (np.isinf(blo) & np.isfinite(alo)) | (np.isinf(bhi) & np.isfinite(ahi))
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.where(np.isfinite(wb) & (wb > 0), (wb - wa) / wb, np.where(moved, 1.0, 0.0))
+        rel = np.where(np.isfinite(wb) & (wb > 0), (wb - wa) / wb,
+                       np.where(left_infinity, 1.0, 0.0))
     return float(np.nanmax(rel))
 
 
@@ -263,7 +265,10 @@ def _diagnose(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Emptied:
         cols = np.concatenate([g.out, g.args], axis=1)
         bad = lo[cols] > hi[cols]
         if np.any(bad):
-            row, col = (int(x[0]) for x in np.nonzero(bad))
+            # name an unknown rather than a constant when the primitive empties both
+            unknown = np.array([k != "const" for k in prog.slots.kinds])[cols]
+            pick = bad & unknown if np.any(bad & unknown) else bad
+            row, col = (int(x[0]) for x in np.nonzero(pick))
             p = prog.primitives[int(g.prim[row])]
             slot = int(cols[row, col])
             return Emptied(prog.slots.names[slot], p.loc, render_primitive(p, prog.slots.names))

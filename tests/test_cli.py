@@ -309,10 +309,6 @@ def test_missing_model_file(tmp_path):
     assert "Traceback" not in res.output
 
 
-@pytest.mark.xfail(strict=True, reason="calib_dsl/cli.py:81 and :134 write `-o` / `--json` "
-                   "files unguarded: an unwritable path is an OSError reported as 'calibc: "
-                   "internal error: FileNotFoundError' with exit 3, not a user error (exit 2; "
-                   "`simulate -o` does it right)")
 @pytest.mark.parametrize("args", [["compile", str(PAPER_CSE), "-o"],
                                   ["solve", str(PAPER_PROP), "--strategy", "hc4", "--json"]])
 def test_unwritable_output_is_a_user_error(tmp_path, args):

@@ -204,12 +204,8 @@ def test_congruence_closure_merges_commuted_duplicates(compile_src, op):
     assert len(prog.primitives) == 1, texts(prog)
 
 
-ELAB_SQR = ("calib_dsl/elaborate.py:547 `isinstance(a, int) and a == b` compares a DAG node id "
-            "with an exact constant: `y * k` where k equals y's node id becomes sqr(y) "
-            "(Fraction(1) == 1 is True)")
 
 
-@pytest.mark.xfail(strict=True, reason=ELAB_SQR)
 def test_variable_times_a_constant_equal_to_its_node_id_is_not_a_square(compile_src):
     # y is DAG node 1, so `y * 1` (and `y * (3 - 2)`, `y * 1.0`) compile to x = sqr(y)
     prog = compile_src("var x in [-10, 10];\nvar y in [2, 3];\nx == y * 1;\n")
@@ -228,7 +224,7 @@ def test_exact_constants_fold_before_decomposition(compile_src):
 
 
 @pytest.mark.parametrize("expr", [
-    pytest.param("y * 1", marks=pytest.mark.xfail(strict=True, reason=ELAB_SQR)),
+    "y * 1",
     "y + 0", "1 * y", "--y", "y^1", "y - 0", "y / 1", "0 + y"])
 def test_identities_leave_no_primitive(compile_src, expr):
     prog = compile_src(f"var x, y;\nx == {expr};\n")

@@ -129,11 +129,6 @@ def test_tolerance_is_relative_to_each_unknown():
         assert c[0] <= f[0] and f[1] <= c[1]
 
 
-@pytest.mark.xfail(strict=True, reason="propagate._contraction (propagate.py:245) counts ANY "
-                   "move of a bound of an unknown of infinite width as a 100% contraction (not "
-                   "only a bound leaving infinity, as its docstring says): one unbounded "
-                   "auxiliary w >= x2 keeps the tolerance test from ever firing (27 sweeps to "
-                   "the exact fixed point, or --max-sweeps, instead of 9)")
 def test_half_unbounded_unknown_does_not_defeat_the_tolerance(compile_src):
     prog = compile_src("var x1, x2 in [-oo, oo];\nvar w;\nx1 == sin(x2);\nx1 == x2^3;\n"
                        "w >= x2;\n")
@@ -257,10 +252,6 @@ def test_empty_at_compile_time_is_infeasible_without_a_sweep(compile_src):
     assert res.emptied.loc is not None
 
 
-@pytest.mark.xfail(strict=True, reason="decompose._make_slots narrows by the declaration after "
-                   "the constant (decompose.py:305 then :310), and the declaration's location "
-                   "overwrites the origin: an `x == 3` that empties x in [0, 1] is reported at "
-                   "x's declaration (line 1), not at the constraint (line 4)")
 def test_empty_at_compile_time_names_the_constraint_line(compile_src):
     prog = compile_src("var x in [0, 1];\nvar y;\n\nx == 3;\n")
     assert propagate(prog).emptied.loc.line == 4
