@@ -379,10 +379,6 @@ def to_text(tree: tuple) -> str:
     args = [to_text(t) for t in tree[1:]]
     if kind in ("add", "sub", "mul", "div"):
         a, b = args
-        if kind == "mul" and has_var(tree[1]) and not has_var(tree[2]):
-            # `unknown * exact integer` trips an elaborator bug (the integer compared with the
-            # unknown's node id: test_decompose's xfail); the product commutes
-            a, b = b, a
         return f"({a} {dict(add='+', sub='-', mul='*', div='/')[kind]} {b})"
     if kind == "neg":
         return f"(-{args[0]})"
