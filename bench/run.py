@@ -276,7 +276,8 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
     lines += [
         "",
         f"The `calibc` console script itself (`{' '.join(headline['cmd'])}`), matrix, "
-        f"50 configurations, hc4 (median of {max(runs, 5)} runs): wall {fmt(headline['with']['wall'])} s, CPU "
+        f"50 configurations, hc4 (median of {max(runs, 5)} runs): wall "
+        f"{fmt(headline['with']['wall'])} s, CPU "
         f"{fmt(headline['with']['cpu'])} s, peak {headline['with']['rss']:.0f} MB; with "
         f"`--no-identify`: wall {fmt(headline['without']['wall'])} s, CPU "
         f"{fmt(headline['without']['cpu'])} s, peak {headline['without']['rss']:.0f} MB.",

@@ -43,7 +43,8 @@ def analyse(prog: Program) -> Identifiability:
     scale = prog.slots.hi[ind] - prog.slots.lo[ind]
     scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
     Js = J * scale
-    _, s, vt = np.linalg.svd(Js, full_matrices=True)
+    # only V is needed (n x n either way); a full U would be rows x rows
+    _, s, vt = np.linalg.svd(Js, full_matrices=Js.shape[0] < Js.shape[1])
     s_full = np.zeros(len(names))
     s_full[: len(s)] = s
     top = s_full.max() if len(s_full) else 0.0

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
 from .lpbound import LinearRelaxation
 from .program import Group, Program
@@ -370,6 +369,8 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
                   + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
+    from scipy import sparse  # only the tight strategy needs it: keep `solve --strategy hc4` light
+
     extra, xlo, xhi, cells = _cell_columns(q, owner, e)
     A = sparse.vstack([sparse.hstack([sparse.csr_matrix(h), extra]),
                        -sparse.hstack([sparse.csr_matrix(h), extra])]).tocsr()
@@ -390,6 +391,8 @@ def _cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
     """One LP column per (configuration, table column) that some row uses: q's midpoints
     scattered into those columns; bounds +- e; and which cell each column is (ids as in
     `Slots.cell_row` / `Slots.cell_col`)."""
+    from scipy import sparse
+
     m, k = q.shape
     rows, cols = np.nonzero((q != 0) & (owner[:, None] >= 0))
     if k == 0 or len(rows) == 0:

@@ -42,7 +42,8 @@ def render_listing(prog: Program) -> str:
     width = max((len(n) for n, k in zip(s.names, s.kinds, strict=True) if k != "const"),
                 default=1)
     for i, (name, kind) in enumerate(zip(s.names, s.kinds, strict=True)):
-        if kind != "const" and kind != "temp":
+        capped = kind == "temp" and (s.lo[i] > -float("inf") or s.hi[i] < float("inf"))
+        if (kind != "const" and kind != "temp") or capped:
             dom = format_const(s.lo[i], s.hi[i]) if s.lo[i] == s.hi[i] else \
                 f"[{_b(s.lo[i])}, {_b(s.hi[i])}]"
             lines.append(f"  {name:<{width}}  in {dom}  ({kind})")

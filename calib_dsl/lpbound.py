@@ -13,10 +13,12 @@ in exact arithmetic. A poor y gives a poor bound, never a wrong one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-import highspy
 import numpy as np
-from scipy import sparse
+
+if TYPE_CHECKING:
+    from scipy import sparse
 
 # Relative rounding-error budget of a float dot product of length <= 10^6 in round-to-nearest
 # (gamma_n = n u / (1 - n u) with u = 2^-53, n <= 10^6, is below 1.2e-10): 1e-9 covers it.
@@ -79,6 +81,7 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     certify), the bound falls back to the box's own bound on c.p: never wrong, just not
     tighter. Objectives flagged in `skip` get the box bound without an LP.
     """
+
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
     h = _load(rel)
@@ -108,7 +111,10 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     return lower, upper
 
 
-def _load(rel: LinearRelaxation) -> highspy.Highs:
+def _load(rel: LinearRelaxation) -> Any:
+    import highspy
+    from scipy import sparse
+
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
     m, n = rel.A.shape
