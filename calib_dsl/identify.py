@@ -31,9 +31,6 @@ class Identifiability:
     groups: list[tuple[list[str], list[np.ndarray]]] = field(default_factory=list)
     weakest: list[tuple[float, dict[str, float]]] = field(default_factory=list)
 
-    def combination_text(self, names: list[str], coef: np.ndarray) -> str:
-        return format_combination(names, coef)
-
 
 def analyse(prog: Program) -> Identifiability:
     ind = independents(prog)
