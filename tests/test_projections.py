@@ -17,8 +17,7 @@ from hypothesis import strategies as st
 from calib_dsl import interval as iv
 from calib_dsl.projections import backward, forward
 
-EXACT_MP = True
-ENCLOSE_ULPS = 1 if EXACT_MP else 4  # libm values: allow its error
+ENCLOSE_ULPS = 1  # references are exact (mpmath): one float outward
 mp = mpmath.mpf
 INF = math.inf
 A = np.asarray

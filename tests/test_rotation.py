@@ -14,8 +14,7 @@ from hypothesis import strategies as st
 
 from calib_dsl.rotation import rot_contract
 
-EXACT_MP = True
-ENCLOSE_ULPS = 1 if EXACT_MP else 4  # libm values: allow its error
+ENCLOSE_ULPS = 1  # references are exact (mpmath): one float outward
 INF = math.inf
 A = np.asarray
 
