@@ -44,14 +44,15 @@ def independents(prog: Program) -> np.ndarray:
                     dtype=np.int64)
 
 
-def relax(prog: Program, lo: np.ndarray, hi: np.ndarray,
-          cell_variables: bool = True) -> LinearRelaxation | None:
+def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
+          max_cell_columns: int | None = None) -> LinearRelaxation | None:
     """Valid inequalities A x <= b over the box [lo, hi]; x = (p, dq).
 
     p are the declared unknowns (the first `main` columns). With `cell_variables`, each
     measured value's error dq of one configuration is an LP variable too (bounded by its
     tolerance), so the rows of a configuration share it, as they should; without, each row
-    bounds it alone (folded into the right-hand side: fewer columns, a little looser).
+    bounds it alone (folded into the right-hand side: fewer columns, a little looser). Over
+    `max_cell_columns` such columns, they are folded anyway (the LP would grow too large).
     """
     ind = independents(prog)
     plo, phi = lo[ind], hi[ind]
@@ -62,7 +63,7 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray,
     rows = ev.run()
     if not rows:
         return None
-    return _inequalities(rows, center, plo, phi, ev.e, cell_variables)
+    return _inequalities(rows, center, plo, phi, ev.e, cell_variables, max_cell_columns)
 
 
 class _Evaluation:
@@ -344,7 +345,8 @@ def _flat(op: str, x: Iv, y: Iv) -> Iv:
 
 
 def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,
-                  e: np.ndarray, cell_variables: bool) -> LinearRelaxation:
+                  e: np.ndarray, cell_variables: bool,
+                  max_cell_columns: int | None = None) -> LinearRelaxation:
     """0 in D + H (p - p^) + Q dq  with  |p - p^| <= w, |dq| <= e  gives two inequalities:
     h.p + q.dq <= -D_lo + slack + h.p^  and  -h.p - q.dq <= D_hi + slack - h.p^, where h, q
     are midpoints and the slack bounds the radii times w and e (and every rounding)."""
@@ -361,6 +363,10 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     w = np.maximum(center - plo, phi - center) * (1 + 4 * _REL)
     slack = hrad @ w + qrad @ e
     folded = np.abs(q) @ e
+    if cell_variables and max_cell_columns is not None and q.shape[1]:
+        used = np.unique((owner[:, None] * q.shape[1] + np.arange(q.shape[1]))[
+            (q != 0) & (owner[:, None] >= 0)])
+        cell_variables = len(used) <= max_cell_columns
     if not cell_variables:
         slack = slack + folded  # each row bounds the cell errors alone
         q = q[:, :0]

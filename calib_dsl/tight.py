@@ -41,12 +41,9 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     skip = np.zeros(len(ind), dtype=bool)
     lo, hi = res.lo, res.hi
     while res.status == "contracted" and rounds < max_rounds:
-        rel = relax(prog, lo, hi, cell_variables=rounds > 0)
+        rel = relax(prog, lo, hi, cell_variables=rounds > 0, max_cell_columns=MAX_CELL_COLUMNS)
         if rel is None:
             break
-        if rel.A.shape[1] - rel.main > MAX_CELL_COLUMNS:
-            rel = relax(prog, lo, hi, cell_variables=False)
-            assert rel is not None
         rounds += 1
         nlo, nhi = lp_bounds(rel, np.eye(len(ind)), skip=skip)
         new_lo, new_hi = np.maximum(lo[ind], nlo), np.minimum(hi[ind], nhi)

@@ -697,3 +697,21 @@ def test_atan2_across_the_branch_cut():
         truth = {"a": math.atan2(yv, -1.0), "y": yv}
         p_true = np.array([truth[n] for n in names])
         check_relaxation(prog, prog.slots.lo, prog.slots.hi, p_true, {})
+
+
+def test_too_many_cell_columns_are_folded() -> None:
+    """Over max_cell_columns the measurement errors are folded, not LP columns."""
+    from pathlib import Path
+
+    from calib_dsl.elaborate import elaborate
+    from calib_dsl.program import compile_model
+    from calib_dsl.propagate import propagate
+
+    models = Path(__file__).resolve().parent.parent / "models"
+    prog = compile_model(elaborate(models / "examples" / "planar_arm.cal"))
+    res = propagate(prog, tol=1e-3)
+    full = relax(prog, res.lo, res.hi, cell_variables=True)
+    capped = relax(prog, res.lo, res.hi, cell_variables=True, max_cell_columns=0)
+    assert full is not None and capped is not None
+    assert full.A.shape[1] > full.main
+    assert capped.A.shape[1] == capped.main
