@@ -347,9 +347,9 @@ def _flat(op: str, x: Iv, y: Iv) -> Iv:
 def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,
                   e: np.ndarray, cell_variables: bool,
                   max_cell_columns: int | None = None) -> LinearRelaxation:
-    """0 in D + H (p - p^) + Q dq  with  |p - p^| <= w, |dq| <= e  gives two inequalities:
-    h.p + q.dq <= -D_lo + slack + h.p^  and  -h.p - q.dq <= D_hi + slack - h.p^, where h, q
-    are midpoints and the slack bounds the radii times w and e (and every rounding)."""
+    """0 in D + H (p - p^) + Q dq  with  |p - p^| <= w, |dq| <= e  gives a two-sided row:
+    -D_hi - slack + h.p^ <= h.p + q.dq <= -D_lo + slack + h.p^, where h, q are midpoints and
+    the slack bounds the radii times w and e (and every rounding)."""
     dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
     hlo, hhi = (np.concatenate([r[1][i] for r in rows]) for i in (0, 1))
     qlo, qhi = (np.concatenate([r[2][i] for r in rows]) for i in (0, 1))
@@ -378,12 +378,13 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     from scipy import sparse  # only the tight strategy needs it: keep `solve --strategy hc4` light
 
     extra, xlo, xhi, cells = _cell_columns(q, owner, e)
-    A = sparse.vstack([sparse.hstack([sparse.csr_matrix(h), extra]),
-                       -sparse.hstack([sparse.csr_matrix(h), extra])]).tocsr()
-    b = np.concatenate([b_up, b_dn])
-    keep = np.flatnonzero(np.isfinite(b) & (np.diff(A.indptr) > 0))
-    return LinearRelaxation(A[keep], b[keep], np.concatenate([plo, xlo]),
-                            np.concatenate([phi, xhi]), main=len(plo), cells=cells)
+    A = sparse.hstack([sparse.csr_matrix(h), extra]).tocsr()
+    # one two-sided row per constraint: -b_dn <= h.p + q.dq <= b_up
+    b_lo = -b_dn
+    keep = np.flatnonzero((np.isfinite(b_up) | np.isfinite(b_lo)) & (np.diff(A.indptr) > 0))
+    return LinearRelaxation(A[keep], b_up[keep], np.concatenate([plo, xlo]),
+                            np.concatenate([phi, xhi]), main=len(plo), cells=cells,
+                            b_lo=b_lo[keep])
 
 
 def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -12,6 +12,8 @@ in exact arithmetic. A poor y gives a poor bound, never a wrong one.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -24,12 +26,19 @@ if TYPE_CHECKING:
 # (gamma_n = n u / (1 - n u) with u = 2^-53, n <= 10^6, is below 1.2e-10): 1e-9 covers it.
 _REL = 1e-9
 _ABS = 1e-300
-LP_SECONDS = 0.2  # per objective: a degenerate LP near the fixed point can crawl
+# Per objective: a degenerate LP near the fixed point can crawl. The iteration limit stops it
+# the same way on every machine (results do not depend on load); the time limit is a backstop.
+LP_ITERATIONS = 1000
+LP_SECONDS = 1.0
 
 
 @dataclass
 class LinearRelaxation:
-    """Valid inequalities A p <= b over the box lo <= p <= hi (in exact arithmetic)."""
+    """Valid inequalities b_lo <= A p <= b over the box lo <= p <= hi (in exact arithmetic).
+
+    b_lo is optional (no lower sides); an infinite entry of b or b_lo is no constraint. A row
+    bounded on both sides is one LP row, not two: the simplex then works on half the rows.
+    """
 
     A: sparse.csr_matrix  # (m, n)
     b: np.ndarray  # (m,)
@@ -39,6 +48,18 @@ class LinearRelaxation:
     # for each nuisance column: (configuration id, table column id) of the measured cell whose
     # error it is (ids as in decompose.Slots.cell_row / cell_col)
     cells: np.ndarray | None = None
+    b_lo: np.ndarray | None = None
+
+    def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:
+        """The same inequalities as A' p <= b' only (finite right-hand sides)."""
+        from scipy import sparse
+
+        if self.b_lo is None:
+            keep = np.flatnonzero(np.isfinite(self.b))
+            return self.A[keep], self.b[keep]
+        up, dn = np.flatnonzero(np.isfinite(self.b)), np.flatnonzero(np.isfinite(self.b_lo))
+        A = sparse.vstack([self.A[up], -self.A[dn]]).tocsr()
+        return A, np.concatenate([self.b[up], -self.b_lo[dn]])
 
 
 def dot_up(x: np.ndarray, y: np.ndarray) -> float:
@@ -63,52 +84,87 @@ def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarra
 
 
 def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
-    """A rigorous upper bound on max c.p over the relaxation, from a dual guess y."""
-    y = np.where(np.isfinite(y) & (y > 0), y, 0.0)  # any y >= 0 is a certificate
-    used = np.flatnonzero(y > 0)
-    A, b, y = rel.A[used], rel.b[used], y[used]
+    """A rigorous upper bound on max c.p over the relaxation, from a dual guess y.
+
+    y_i > 0 multiplies the row's upper side A_i p <= b_i, y_i < 0 its lower side
+    A_i p >= b_lo_i (both give y_i A_i p <= y_i rhs_i); any such y is a certificate.
+    """
+    b_lo = rel.b_lo if rel.b_lo is not None else np.full(len(rel.b), -np.inf)
+    ok = np.isfinite(y) & (((y > 0) & np.isfinite(rel.b)) | ((y < 0) & np.isfinite(b_lo)))
+    used = np.flatnonzero(ok)
+    A, y = rel.A[used], y[used]
+    rhs = np.where(y > 0, rel.b[used], b_lo[used])
     r = c - A.T @ y
-    err = _REL * (np.abs(c) + abs(A).T @ y) + _ABS  # rounding error of r, componentwise
-    return dot_up(y, b) + box_max_up(r - err, r + err, rel.lo, rel.hi)
+    err = _REL * (np.abs(c) + abs(A).T @ np.abs(y)) + _ABS  # rounding error of r, componentwise
+    return dot_up(y, rhs) + box_max_up(r - err, r + err, rel.lo, rel.hi)
 
 
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
-    One HiGHS model is loaded, and each objective re-solved from the previous basis (a few
-    pivots each). Where the LP fails (or finds the relaxation infeasible, which we do not
+    Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
+    from the previous basis (a few pivots each); HiGHS releases the GIL, so the workers run on
+    separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
     certify), the bound falls back to the box's own bound on c.p: never wrong, just not
     tighter. Objectives flagged in `skip` get the box bound without an LP.
     """
-
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
+    pad = np.zeros(rel.A.shape[1] - objectives.shape[1])
+    tasks = []  # (objective, sign): maximize sign * c.p
+    for i, c in enumerate(objectives):
+        for sign in (1.0, -1.0):
+            c_full = sign * np.concatenate([c, pad])  # nuisance columns have no cost
+            box = box_max_up(c_full, c_full, rel.lo, rel.hi)
+            _store(lower, upper, i, sign, box)
+            if not (skip is not None and skip[i]):
+                tasks.append((i, sign, c_full))
+    workers = max(1, min(WORKERS, len(tasks)))
+    shares = [tasks[w::workers] for w in range(workers)]
+    if workers == 1:
+        results = [_solve_share(rel, shares[0])]
+    else:
+        with ThreadPoolExecutor(workers) as pool:
+            results = list(pool.map(lambda share: _solve_share(rel, share), shares))
+    for share in results:
+        for i, sign, bound in share:
+            if sign > 0:
+                upper[i] = min(upper[i], bound)
+            else:
+                lower[i] = max(lower[i], -bound)
+    return lower, upper
+
+
+WORKERS = min(2, os.cpu_count() or 1)
+
+
+def _store(lower: np.ndarray, upper: np.ndarray, i: int, sign: float, bound: float) -> None:
+    if sign > 0:
+        upper[i] = bound
+    else:
+        lower[i] = -bound
+
+
+def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, float]]:
+    """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model."""
+    if not share:
+        return []
     h = _load(rel)
     n = rel.A.shape[1]
     cols = np.arange(n, dtype=np.int32)
-    pad = np.zeros(n - objectives.shape[1])
-    for i, c in enumerate(objectives):
-        c = np.concatenate([c, pad])  # nuisance columns have no cost
-        for sign in (1.0, -1.0):  # maximize sign * c.p, as: minimize -sign * c.p
-            box = box_max_up(sign * c, sign * c, rel.lo, rel.hi)
-            if skip is not None and skip[i]:
-                bound = box
-            else:
-                h.changeColsCost(n, cols, (-sign * c).astype(float))
-                # HiGHS's time limit counts all runs of the object: extend it per solve.
-                h.setOptionValue("time_limit", h.getRunTime() + LP_SECONDS)
-                h.run()
-                # Any y >= 0 certifies a bound, so even a solve stopped by its time limit
-                # gives a valid (if weaker) one: only a missing solution is skipped.
-                sol = h.getSolution()
-                y = -np.asarray(sol.row_dual) if sol.dual_valid else None
-                bound = box if y is None else min(box, certified_max(rel, sign * c, y))
-            if sign > 0:
-                upper[i] = bound
-            else:
-                lower[i] = -bound
-    return lower, upper
+    out = []
+    for i, sign, c in share:
+        h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
+        # HiGHS's time limit counts all runs of the object: extend it per solve.
+        h.setOptionValue("time_limit", h.getRunTime() + LP_SECONDS)
+        h.run()
+        # Any multipliers certify a bound, so even a solve stopped by its iteration or time
+        # limit gives a valid (if weaker) one: only a missing solution is skipped.
+        sol = h.getSolution()
+        if sol.dual_valid:
+            out.append((i, sign, certified_max(rel, c, -np.asarray(sol.row_dual))))
+    return out
 
 
 def _load(rel: LinearRelaxation) -> Any:
@@ -117,14 +173,17 @@ def _load(rel: LinearRelaxation) -> Any:
 
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
+    h.setOptionValue("simplex_iteration_limit", LP_ITERATIONS)  # counted per run
     m, n = rel.A.shape
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = n, m
     lp.col_cost_ = np.zeros(n)
     lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo, -highspy.kHighsInf)
     lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi, highspy.kHighsInf)
-    lp.row_lower_ = np.full(m, -highspy.kHighsInf)
-    lp.row_upper_ = rel.b.astype(float)
+    inf = highspy.kHighsInf
+    lp.row_lower_ = (np.full(m, -inf) if rel.b_lo is None
+                     else np.where(np.isfinite(rel.b_lo), rel.b_lo, -inf).astype(float))
+    lp.row_upper_ = np.where(np.isfinite(rel.b), rel.b, inf).astype(float)
     csc = sparse.csc_matrix(rel.A)
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     lp.a_matrix_.start_ = csc.indptr.astype(np.int32)

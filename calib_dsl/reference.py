@@ -36,14 +36,15 @@ def linearized_hull(prog: Program,
     box = [domains.get(n, (-np.inf, np.inf)) for n in all_names]
     bounds = [(a if np.isfinite(a) else None, b if np.isfinite(b) else None) for a, b in box]
     bounds += list(zip(rel.lo[rel.main:], rel.hi[rel.main:], strict=True))
+    A_ub, b_ub = rel.one_sided()
     out = {}
     for k, n in enumerate(all_names):
         if names is not None and n not in names:
             continue
         c = np.zeros(rel.A.shape[1])
         c[k] = 1.0
-        low = linprog(c, A_ub=rel.A, b_ub=rel.b, bounds=bounds, method="highs")
-        high = linprog(-c, A_ub=rel.A, b_ub=rel.b, bounds=bounds, method="highs")
+        low = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+        high = linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
         if low.status != 0 or high.status != 0:
             raise CalError(f"the reference hull LP failed for '{n}'")
         out[n] = (float(low.fun), float(-high.fun))

@@ -93,13 +93,13 @@ def check_relaxation(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.n
                 assert rel.A.shape[1] == rel.main
             x = np.array(x, dtype=float)
             assert np.all(rel.lo <= x) and np.all(x <= rel.hi), (what, cells, "x not in bounds")
-            absA = abs(rel.A)
-            ax = rel.A @ x
-            tol = MARGIN * (absA @ np.abs(x) + np.abs(rel.b)) + 1e-300
-            bad = np.flatnonzero(ax - rel.b > tol)
+            A, b = rel.one_sided()
+            ax = A @ x
+            tol = MARGIN * (abs(A) @ np.abs(x) + np.abs(b)) + 1e-300
+            bad = np.flatnonzero(ax - b > tol)
             assert len(bad) == 0, (what, f"cell_variables={cells}", "violated rows", bad[:5],
-                                   (ax - rel.b)[bad[:5]], rel.b[bad[:5]])
-            checked += rel.A.shape[0]
+                                   (ax - b)[bad[:5]], b[bad[:5]])
+            checked += A.shape[0]
     return checked
 
 
@@ -629,14 +629,15 @@ def test_linear_model_relaxation_is_the_model_itself():
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     rel = relax(prog, lo, hi, cell_variables=False)
-    assert rel is not None and rel.A.shape == (6, 3)
+    assert rel is not None and rel.A.shape == (3, 3)  # one two-sided row per constraint
     # every row is +-(a.p) <= a.point + pad: the slack of a linear function is only rounding
-    A = rel.A.toarray()
+    A_ub, b_ub = rel.one_sided()
+    A = A_ub.toarray()
     for a in coeffs:
         match = [i for i in range(6) if np.allclose(A[i], a) or np.allclose(A[i], -a)]
         assert len(match) == 2
     assert [prog.slots.names[i] for i in ind] == ["p0", "p1", "p2"]
-    slack = rel.b - A @ point
+    slack = b_ub - A @ point
     assert np.all(slack >= 0) and np.all(slack <= 2e-3 + 1e-6)
     jac = constraint_jacobian(prog, point)
     assert jac.shape == (3, 3)

@@ -435,3 +435,59 @@ def test_lp_bounds_half_infinite_column():
     done = subprocess.run([sys.executable, "-c", _HALF_INFINITE], capture_output=True,
                           timeout=120)
     assert done.returncode == 0, done.stderr.decode()[-500:]
+
+
+# -- two-sided rows (b_lo <= A x <= b): signed multipliers --------------------------------------
+
+def two_sided_lp(rng: np.random.Generator, n: int, m: int):
+    """A random float LP with rows bounded on one side, the other or both, and a point x0
+    feasible by construction (every slack >= 0 before rounding; checked exactly after)."""
+    x0 = rng.uniform(-3, 3, size=n)
+    A = rng.standard_normal((m, n)) * (rng.random((m, n)) < 0.8)
+    ax = A @ x0
+    up = ax + rng.exponential(0.5, size=m) * (rng.random(m) < 0.7) + 1e-9 * np.abs(ax)
+    dn = ax - rng.exponential(0.5, size=m) * (rng.random(m) < 0.7) - 1e-9 * np.abs(ax)
+    side = rng.choice(["both", "upper", "lower"], size=m)
+    b = np.where(side == "lower", np.inf, up)
+    b_lo = np.where(side == "upper", -np.inf, dn)
+    lo, hi = x0 - rng.uniform(0.1, 4, size=n), x0 + rng.uniform(0.1, 4, size=n)
+    rel = LinearRelaxation(sparse.csr_matrix(A), b, lo, hi, n, b_lo=b_lo)
+    return rel, x0
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8))
+def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m):
+    rng = np.random.default_rng(seed)
+    rel, x0 = two_sided_lp(rng, n, m)
+    A1, b1 = rel.one_sided()
+    A1 = A1.toarray()
+    points = feasible_samples(rng, A1, b1, rel.lo, rel.hi, [x0], count=200)
+    assert any(np.array_equal(p, x0) for p in points)
+    c = rng.standard_normal(n)
+    ys = {"zero": np.zeros(m), "signed random": rng.standard_normal(m) * 3,
+          "wrong signs": -np.sign(rng.standard_normal(m)) * rng.exponential(1.0, size=m)}
+    sol = linprog(-c, A_ub=A1, b_ub=b1, bounds=list(zip(rel.lo, rel.hi, strict=True)),
+                  method="highs")
+    if sol.status == 0:
+        # fold the one-sided duals back onto the two-sided rows (upper side +, lower side -)
+        y1 = -sol.ineqlin.marginals
+        up = np.flatnonzero(np.isfinite(rel.b))
+        dn = np.flatnonzero(np.isfinite(rel.b_lo))
+        y = np.zeros(m)
+        np.add.at(y, up, y1[:len(up)])
+        np.add.at(y, dn, -y1[len(up):])
+        ys["exact dual"] = y
+    for name, y in ys.items():
+        bound = certified_max(rel, c, y)
+        assert not math.isnan(bound), name
+        for p in points:
+            assert le_exact(c, p, bound), (name, bound, float(c @ p))
+        if name == "exact dual":
+            assert bound <= -sol.fun + 1e-6 * (1 + abs(sol.fun) + np.abs(c) @ np.abs(x0)) * 10
+    lower, upper = lp_bounds(rel, np.vstack([np.eye(n), c]))
+    for i, obj in enumerate(np.vstack([np.eye(n), c])):
+        for p in points:
+            assert ge_exact(obj, p, lower[i]) and le_exact(obj, p, upper[i]), (i, lower, upper)
+    if sol.status == 0:  # the LP's bound is near the optimum, not only sound
+        assert upper[-1] <= -sol.fun + 1e-5 * (1 + abs(sol.fun) + np.abs(c) @ np.abs(x0))
