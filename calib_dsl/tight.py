@@ -22,26 +22,31 @@ from .propagate import Emptied, Result, propagate
 
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
-STALLED = 1e-3  # an unknown that gained less than this in a round is not re-optimized
+STALLED = 1e-3  # an unknown that gained less than this in a round sits out the next one
+FOLDED_UNTIL = 0.2  # rounds fold the measurement errors while some unknown gains more than this
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
-                max_rounds: int = 6, min_gain: float = 0.5) -> Result:
-    """Propagate, then alternate certified LP contraction while a round gains >= min_gain
-    (relative width of some unknown), then propagate to the fixed point.
+                max_rounds: int = 40, min_gain: float = 0.1) -> Result:
+    """Propagate, then alternate certified LP rounds with propagation until a round gains less
+    than min_gain (relative width of every unknown), then propagate to the fixed point.
 
-    Once a round with per-configuration cell columns has run, another round on its box gains
-    little (the first-order model is already accurate there) and its LPs are degenerate (the
-    box's faces are their optima), so the default min_gain is high.
+    Each round re-linearizes on the box the previous one left: far from the fixed point the
+    first-order model is coarse, and a round gains only part of the way, so rounds repeat as
+    long as they pay. While they gain a lot, rows fold the measurement errors (a small LP);
+    once they gain less than FOLDED_UNTIL, the errors of each configuration get LP columns of
+    their own (the hull of the linearized problem), and the loop stops when such a round gains
+    less than min_gain.
     """
     start = time.perf_counter()
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
     sweeps, rounds = res.sweeps, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
-    lo, hi = res.lo, res.hi
+    cells = False
     while res.status == "contracted" and rounds < max_rounds:
-        rel = relax(prog, lo, hi, cell_variables=rounds > 0, max_cell_columns=MAX_CELL_COLUMNS)
+        lo, hi = res.lo, res.hi
+        rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
         if rel is None:
             break
         rounds += 1
@@ -54,11 +59,17 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         gains = _gains(hi[ind] - lo[ind], new_hi - new_lo)
         lo, hi = lo.copy(), hi.copy()
         lo[ind], hi[ind] = new_lo, new_hi
-        skip = gains < STALLED
-        if gains.max(initial=0.0) < min_gain and rounds > 1:
+        res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=lo, hi=hi)
+        sweeps += res.sweeps
+        best = gains.max(initial=0.0)
+        if cells and best < min_gain:
             break
+        if not cells and best < FOLDED_UNTIL:  # a tighter relaxation: every unknown again
+            cells, skip = True, np.zeros(len(ind), dtype=bool)
+        else:
+            skip = (gains < STALLED) & ~skip  # a stalled unknown is tried again a round later
     if res.status == "contracted":
-        res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=lo, hi=hi)
+        res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=res.lo, hi=res.hi)
         sweeps += res.sweeps
     res.sweeps = sweeps
     res.rounds = rounds
