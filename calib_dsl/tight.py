@@ -23,7 +23,7 @@ from .propagate import Emptied, Result, propagate
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
 STALLED = 1e-3  # an unknown that gained less than this in a round sits out the next one
-FOLDED_UNTIL = 0.2  # rounds fold the measurement errors while some unknown gains more than this
+FOLDED_UNTIL = 0.3  # rounds fold the measurement errors while some unknown gains more than this
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
