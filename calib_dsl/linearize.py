@@ -7,13 +7,16 @@ mean-value theorem on the box [p] gives
 
     f(p) in f(p^) + G (p - p^),   G an interval enclosure of the gradient over the box,
 
-so every solution satisfies two linear inequalities in p. Their coefficients are the
-midpoints of G; the radii of G, the width of f(p^) (it holds the data's uncertainty, folded
-in instead of one LP variable per measured joint angle) and every rounding error go into the
-right-hand sides. Gradients are propagated forward through the flat program with the same
-grouping as the propagator, in interval arithmetic over the *whole* box (not the contracted
-temporaries: the mean-value theorem needs the derivative along segments that leave the
-solution set).
+so every solution satisfies two linear inequalities in p. G is the *mixed* (Hansen) form:
+its column j encloses the derivative in p_j over the box in which the unknowns before j keep
+their ranges and those after j sit at the center (f(p) - f(p^) telescopes one unknown at a
+time, so the form holds as well); each column sees about half the box, and the relaxation's
+slack on the RX90 is about half the plain form's. The coefficients are the midpoints of G;
+the radii of G, the width of f(p^) (it holds the data's uncertainty, folded in instead of one
+LP variable per measured joint angle) and every rounding error go into the right-hand sides.
+Gradients are propagated forward through the flat program with the same grouping as the
+propagator, in interval arithmetic over the *whole* box (not the contracted temporaries: the
+mean-value theorem needs the derivative along segments that leave the solution set).
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = 
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
         return None
     center = 0.5 * (plo + phi)
-    ev = _Evaluation(prog, lo, hi, ind, center)
+    ev = _Evaluation(prog, lo, hi, ind, center, mixed=True)
     rows = ev.run()
     if not rows:
         return None
@@ -78,7 +81,7 @@ class _Evaluation:
     """
 
     def __init__(self, prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
-                 center: np.ndarray, point: bool = False) -> None:
+                 center: np.ndarray, point: bool = False, mixed: bool = False) -> None:
         n, k = len(lo), len(ind)
         s = prog.slots
         self.prog = prog
@@ -97,6 +100,16 @@ class _Evaluation:
         self.G[0][ind, np.arange(k)] = 1.0
         self.G[1][ind, np.arange(k)] = 1.0
         self._init_cells(lo, hi)
+        # mixed form: FM[:, j] holds every slot's range over the box of column j (unknowns
+        # 0..j over their ranges, the later ones at the center; cells over their ranges, so
+        # that G holds for every measured value and C, D stay as they are)
+        self.FM: list[np.ndarray] | None = None
+        if mixed and not point:
+            full = np.arange(k)[:, None] <= np.arange(k)[None, :]  # unknown i, column j
+            fm = [np.repeat(f[:, None], k, axis=1) for f in self.F]
+            fm[0][ind] = np.where(full, lo[ind][:, None], center[:, None])
+            fm[1][ind] = np.where(full, hi[ind][:, None], center[:, None])
+            self.FM = fm
         self.masks = _defining_masks(prog, self.temp)
         # (C_f, G_f, D_f, owner_f, target slots, whether the target is the slot's box domain)
         self.rows: list[tuple] = []
@@ -138,22 +151,22 @@ class _Evaluation:
         return [self._difference(*r) for r in self.rows]
 
     def _group(self, g: Group) -> list[tuple]:
-        """(F, C, G, D, owner) of each output of the group's primitives."""
+        """(F, C, G, D, owner, FM) of each output of the group's primitives."""
         cols = list(g.args.T)
         owner, fold = _owners([self.owner[c] for c in cols])
         fa = [(self.F[0][c], self.F[1][c]) for c in cols]
         ca = [self._center(c, f) for c, f in zip(cols, fold, strict=True)]
         ga = [(self.G[0][c], self.G[1][c]) for c in cols]
         da = [_zero_rows((self.D[0][c], self.D[1][c]), f) for c, f in zip(cols, fold, strict=True)]
-        if g.op == "rot":
-            parts = _rotation_partials(fa)
-            values = [(forward(op, fa), forward(op, ca)) for op in ("rotu", "rotv")]
-        else:
-            f = forward(g.op, fa, g.param)
-            parts = [_partials(g.op, fa, f, g.param)]
-            values = [(f, forward(g.op, ca, g.param))]
-        return [(f, c, self.chain(p, ga), self.chain(p, da), owner)
-                for (f, c), p in zip(values, parts, strict=True)]
+        parts, ranges = _local(g.op, fa, g.param)
+        centers = [forward(op, ca, g.param) for op in _OUTPUTS.get(g.op, (g.op,))]
+        gparts: list[list[Iv]] = parts
+        mixed: list[Iv] | list[None] = [None] * len(ranges)
+        if self.FM is not None:  # the same, over each column's box
+            fm = [(self.FM[0][c], self.FM[1][c]) for c in cols]
+            gparts, mixed = _local_2d(g, fm)
+        return [(f, c, self.chain(gp, ga), self.chain(p, da), owner, m)
+                for f, c, p, gp, m in zip(ranges, centers, parts, gparts, mixed, strict=True)]
 
     def _center(self, col: np.ndarray, fold: np.ndarray) -> Iv:
         """C of the arguments; where configurations mix, with their cell errors folded in."""
@@ -168,7 +181,9 @@ class _Evaluation:
         return _widen(lo, hi)
 
     def _store(self, slots: np.ndarray, form: tuple, d: np.ndarray) -> None:
-        f, c, gr, dd, owner = form
+        f, c, gr, dd, owner, fm = form
+        if fm is not None and self.FM is not None:
+            self.FM[0][slots], self.FM[1][slots] = fm[0][d], fm[1][d]
         self.F[0][slots], self.F[1][slots] = f[0][d], f[1][d]
         self.C[0][slots], self.C[1][slots] = c[0][d], c[1][d]
         self.G[0][slots], self.G[1][slots] = gr[0][d], gr[1][d]
@@ -208,7 +223,7 @@ class _Evaluation:
 
 
 def _take(form: tuple, pick: np.ndarray) -> tuple:
-    f, c, gr, dd, owner = form
+    f, c, gr, dd, owner = form[:5]
     return tuple((x[0][pick], x[1][pick]) for x in (f, c, gr, dd)) + (owner[pick],)
 
 
@@ -252,10 +267,12 @@ def _chain_point(partials: list[Iv], grads: list[Iv]) -> Iv:
 
 
 def _chain(partials: list[Iv], grads: list[Iv]) -> Iv:
-    """Sum over arguments of partial derivative times the argument's gradient."""
+    """Sum over arguments of partial derivative times the argument's gradient (a partial is
+    one interval per row, or one per row and column in the mixed form)."""
     total: Iv | None = None
     for d, gi in zip(partials, grads, strict=True):
-        term = _flat("mul", (d[0][:, None], d[1][:, None]), gi)
+        dd = d if d[0].ndim == 2 else (d[0][:, None], d[1][:, None])
+        term = _flat("mul", dd, gi)
         total = term if total is None else _flat("add", total, term)
     assert total is not None
     return total
@@ -275,6 +292,31 @@ def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
             defined[col[m[:, j]]] = True
         masks.append(m)
     return _Masks(masks)
+
+
+_OUTPUTS = {"rot": ("rotu", "rotv")}  # primitives with more than one output
+
+
+def _local(op: str, fa: list[Iv], param: np.ndarray | None) -> tuple[list[list[Iv]], list[Iv]]:
+    """Per output of a group's primitives: the partial derivatives over the argument
+    ranges fa, and the output's range."""
+    if op == "rot":
+        return _rotation_partials(fa), [forward(o, fa) for o in _OUTPUTS["rot"]]
+    f = forward(op, fa, param)
+    return [_partials(op, fa, f, param)], [f]
+
+
+def _local_2d(g: Group, fa: list[Iv]) -> tuple[list[list[Iv]], list[Iv]]:
+    """`_local` on (rows, columns) ranges: flattened, and shaped back."""
+    shape = fa[0][0].shape
+    flat = [(a[0].ravel(), a[1].ravel()) for a in fa]
+    param = None if g.param is None else np.repeat(g.param, shape[1])
+    parts, values = _local(g.op, flat, param)
+
+    def back(x: Iv) -> Iv:
+        return x[0].reshape(shape), x[1].reshape(shape)
+
+    return [[back(p) for p in ps] for ps in parts], [back(v) for v in values]
 
 
 def _rotation_partials(fa: list[Iv]) -> list[list[Iv]]:

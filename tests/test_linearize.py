@@ -716,3 +716,47 @@ def test_too_many_cell_columns_are_folded() -> None:
     assert full is not None and capped is not None
     assert full.A.shape[1] > full.main
     assert capped.A.shape[1] == capped.main
+
+
+# -- the mixed (Hansen) form ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("model,frac", [("rx90_full.cal", 0.05), ("rx90_full.cal", 1.0),
+                                        ("examples/planar_arm.cal", 1.0)])
+def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> None:
+    """Column j of the mixed form is evaluated over a sub-box of the whole box, so (interval
+    arithmetic being inclusion-monotone) it lies inside the plain form's column, and its
+    slack is never larger; on the RX90 it is about half."""
+    from pathlib import Path
+
+    from calib_dsl.elaborate import elaborate
+    from calib_dsl.linearize import _Evaluation, _mid_rad
+
+    models = Path(__file__).resolve().parent.parent / "models"
+    prog = compile_model(elaborate(models / model))
+    ind = independents(prog)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    rng = np.random.default_rng(7)
+    mid = 0.5 * (lo[ind] + hi[ind])
+    half = 0.5 * (hi[ind] - lo[ind]) * frac
+    lo[ind], hi[ind] = mid - half, mid + half
+    center = mid + rng.uniform(-0.5, 0.5, len(ind)) * half
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        plain = _Evaluation(prog, lo, hi, ind, center).run()
+        mixed = _Evaluation(prog, lo, hi, ind, center, mixed=True).run()
+    gp = [np.concatenate([r[1][i] for r in plain]) for i in (0, 1)]
+    gm = [np.concatenate([r[1][i] for r in mixed]) for i in (0, 1)]
+    # up to rounding: the last column's box is the whole box, evaluated in another order
+    eps = 1e-12 * np.maximum(np.abs(gp[0]), np.abs(gp[1])) + 1e-300
+    assert np.all(gm[0] >= gp[0] - eps) and np.all(gm[1] <= gp[1] + eps)
+    for i in (0, 2):  # C and D do not change
+        for k in (0, 1):
+            np.testing.assert_array_equal(np.concatenate([r[i][k] for r in plain]),
+                                          np.concatenate([r[i][k] for r in mixed]))
+    w = np.maximum(center - lo[ind], hi[ind] - center)
+    finite = np.all(np.isfinite(gp[0]) & np.isfinite(gp[1]), axis=1)
+    plain_slack = _mid_rad(gp[0], gp[1])[1][finite] @ w
+    mixed_slack = _mid_rad(gm[0], gm[1])[1][finite] @ w
+    assert np.all(mixed_slack <= plain_slack * (1 + 1e-12))
+    if model.startswith("rx90"):
+        assert np.median(mixed_slack) < 0.7 * np.median(plain_slack)
