@@ -22,7 +22,7 @@ from .propagate import Emptied, Result, propagate
 
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
-STALLED = 1e-3  # an unknown that gained less than this in a round sits out the next one
+STALLED = 1e-3  # an unknown that gained less than this in a folded round sits out the next one
 FOLDED_UNTIL = 0.3  # rounds fold the measurement errors while some unknown gains more than this
 
 
@@ -36,7 +36,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     long as they pay. While they gain a lot, rows fold the measurement errors (a small LP);
     once they gain less than FOLDED_UNTIL, the errors of each configuration get LP columns of
     their own (the hull of the linearized problem), and the loop stops when such a round gains
-    less than min_gain.
+    less than min_gain; an unknown that gained less than that in such a round sits out the
+    next one (these rounds are the expensive ones, and its bound is already near the hull).
     """
     start = time.perf_counter()
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
@@ -66,8 +67,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
             break
         if not cells and best < FOLDED_UNTIL:  # a tighter relaxation: every unknown again
             cells, skip = True, np.zeros(len(ind), dtype=bool)
-        else:
-            skip = (gains < STALLED) & ~skip  # a stalled unknown is tried again a round later
+        else:  # a stalled unknown is tried again a round later
+            skip = (gains < (min_gain if cells else STALLED)) & ~skip
     if res.status == "contracted":
         res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=res.lo, hi=res.hi)
         sweeps += res.sweeps
