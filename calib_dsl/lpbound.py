@@ -30,6 +30,7 @@ _ABS = 1e-300
 # the same way on every machine (results do not depend on load); the time limit is a backstop.
 LP_ITERATIONS = 1000
 LP_SECONDS = 1.0
+WORKERS = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
 
 
 @dataclass
@@ -117,7 +118,10 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
         for sign in (1.0, -1.0):
             c_full = sign * np.concatenate([c, pad])  # nuisance columns have no cost
             box = box_max_up(c_full, c_full, rel.lo, rel.hi)
-            _store(lower, upper, i, sign, box)
+            if sign > 0:
+                upper[i] = box
+            else:
+                lower[i] = -box
             if not (skip is not None and skip[i]):
                 tasks.append((i, sign, c_full))
     workers = max(1, min(WORKERS, len(tasks)))
@@ -134,16 +138,6 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
             else:
                 lower[i] = max(lower[i], -bound)
     return lower, upper
-
-
-WORKERS = min(2, os.cpu_count() or 1)
-
-
-def _store(lower: np.ndarray, upper: np.ndarray, i: int, sign: float, bound: float) -> None:
-    if sign > 0:
-        upper[i] = bound
-    else:
-        lower[i] = -bound
 
 
 def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, float]]:
