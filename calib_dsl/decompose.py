@@ -94,13 +94,13 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     """decompose, and the primitives as arrays too. The passes over the DAG are numpy passes
     over its nodes (one per level where a node needs its arguments done)."""
     dag = model.dag
-    caps = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
+    caps, cap_owner = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
     _complete_rotations(dag)
     g = _DagArrays(dag)
     live = _live_nodes(dag, g, [c.lhs for c in dag.constraints]
                        + [c.rhs for c in dag.constraints]
                        + [c[0] for c in caps] + [v.node for v in dag.variables.values()])
-    first_root, root_locs = _node_locations(dag, g, caps)
+    first_root, root_locs = _node_locations(dag, g, caps, cap_owner)
     uf = _UnionFind(g.n)
     for c in dag.constraints:
         if c.rel == "==" and not (_interval_const(dag, c.lhs) or _interval_const(dag, c.rhs)):
@@ -111,7 +111,8 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
             rep[side] = uf.find(side)
     rep = _congruence_closure(g, live, rep)
     slot_of, slots = _make_slots(dag, g, live, rep, caps)
-    prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs)
+    temp = np.array([k == "temp" for k in slots.kinds], dtype=bool)
+    prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs, temp)
     _name_temporaries(slots, arrays)
     return slots, prims, arrays
 
@@ -123,22 +124,25 @@ def _interval_const(dag: Dag, node: int) -> bool:
     return n.op == "const" and n.data[0] != n.data[1]
 
 
-def _relations_to_caps(dag: Dag) -> list[tuple[int, float, float, Loc | None]]:
+def _relations_to_caps(dag: Dag) -> tuple[list[tuple[int, float, float, Loc | None]],
+                                            list[int]]:
     """Domain caps (node, lo, hi, loc): inequalities on `lhs - rhs`, and equalities with an
-    interval constant (membership, not identity: no merging of slots through it)."""
-    caps = []
-    for c in dag.constraints:
+    interval constant (membership, not identity: no merging of slots through it); and the
+    index of the constraint each cap comes from."""
+    caps, owner = [], []
+    for ci, c in enumerate(dag.constraints):
         if c.rel == "==":
             for side, other in ((c.lhs, c.rhs), (c.rhs, c.lhs)):
                 if _interval_const(dag, other):
                     lo, hi = dag.nodes[other].data[:2]
                     caps.append((side, lo, hi, c.loc))
+                    owner.append(ci)
                     break
-        elif c.rel == "<=":
-            caps.append((dag.op("sub", c.lhs, c.rhs), -INF, 0.0, c.loc))
-        elif c.rel == ">=":
-            caps.append((dag.op("sub", c.lhs, c.rhs), 0.0, INF, c.loc))
-    return caps
+        elif c.rel in ("<=", ">="):
+            cap = (-INF, 0.0) if c.rel == "<=" else (0.0, INF)
+            caps.append((dag.op("sub", c.lhs, c.rhs), *cap, c.loc))
+            owner.append(ci)
+    return caps, owner
 
 
 _ROT = ("rotu", "rotv")
@@ -216,16 +220,18 @@ def _live_nodes(dag: Dag, g: _DagArrays, roots: list[int]) -> np.ndarray:
     return live
 
 
-def _node_locations(dag: Dag, g: _DagArrays, caps: list) -> tuple[np.ndarray, list[Loc | None]]:
-    """Each node takes the location of the first constraint that reaches it: per node, the
-    index of that root (len(roots): none), and the roots' locations."""
-    roots = [(c.lhs, c.loc) for c in dag.constraints] + [(c.rhs, c.loc) for c in dag.constraints]
-    roots += [(c[0], c[3]) for c in caps]
-    none = len(roots)
+def _node_locations(dag: Dag, g: _DagArrays, caps: list, cap_owner: list[int]
+                    ) -> tuple[np.ndarray, list[Loc | None]]:
+    """Each node takes the location of the first constraint in source order that reaches it
+    (either side, or its cap): per node, the index of that constraint (len: none), and the
+    constraints' locations."""
+    cons = dag.constraints
+    nodes = [c.lhs for c in cons] + [c.rhs for c in cons] + [c[0] for c in caps]
+    rank = list(range(len(cons))) * 2 + list(cap_owner)
+    none = len(cons)
     first = np.full(g.n, none, dtype=np.int64)
-    if roots:
-        np.minimum.at(first, np.array([r for r, _ in roots], dtype=np.int64),
-                      np.arange(len(roots), dtype=np.int64))
+    if nodes:
+        np.minimum.at(first, np.array(nodes, dtype=np.int64), np.array(rank, dtype=np.int64))
     for level in range(g.top(), 0, -1):
         idx = g.at_level(level)
         idx = idx[first[idx] < none]
@@ -233,7 +239,7 @@ def _node_locations(dag: Dag, g: _DagArrays, caps: list) -> tuple[np.ndarray, li
             a = g.args[idx, j]
             has = a >= 0
             np.minimum.at(first, a[has], first[idx[has]])
-    return first, [loc for _, loc in roots] + [None]
+    return first, [c.loc for c in cons] + [None]
 
 
 def _congruence_closure(g: _DagArrays, live: np.ndarray, rep: np.ndarray) -> np.ndarray:
@@ -342,7 +348,7 @@ def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:
 
 
 def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndarray,
-                     first_root: np.ndarray, root_locs: list[Loc | None]
+                     first_root: np.ndarray, root_locs: list[Loc | None], temp: np.ndarray
                      ) -> tuple[list[Primitive], PrimitiveArrays]:
     """One primitive per live operation node, in node order; a rotation's two output nodes
     make one `rot`. Primitives identical after merging (same op, output and argument slots,
@@ -361,10 +367,14 @@ def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndar
         out[rot, 0] = slot_of[u[rot]]
         out[rot, 1] = slot_of[v[rot]]
     op = np.where(rot, -1, g.op[idx])  # rotu and rotv are both `rot`
-    keep = _first_of_each(np.column_stack([op, g.data[idx], out, args]))
+    # a + b and b + a are the same primitive once merging has made them meet
+    commutative = np.isin(op, [g.codes[o] for o in ("add", "mul") if o in g.codes])
+    key_args = args.copy()
+    key_args[commutative, :2] = np.sort(args[commutative, :2], axis=1)
+    keep = _first_of_each(np.column_stack([op, g.data[idx], out, key_args]))
     if keep is not None:
         idx, rot, arity, args, out = idx[keep], rot[keep], arity[keep], args[keep], out[keep]
-    level = g.level[idx]
+    level = _consistent_levels(g.level[idx], out, args, temp)
     names = g.names
     ilist = idx.tolist()
     ops = ["rot" if r else names[i] for i, r in zip(ilist, rot.tolist(), strict=True)]
@@ -382,6 +392,37 @@ def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndar
     prims = list(map(_new_primitive, zip(ops, out_l, args_l, params, locs, level.tolist(),
                                          strict=True)))
     return prims, PrimitiveArrays(ops, out, args, arity, params, level)
+
+
+def _consistent_levels(level: np.ndarray, out: np.ndarray, args: np.ndarray,
+                       temp: np.ndarray) -> np.ndarray:
+    """Levels such that every temporary a primitive reads is produced at a lower level. The
+    DAG's levels are, but merging slots can break them: sin(q) and sin(cos(cos(a))) are one
+    primitive once q == cos(cos(a)), kept at the level of one of the two, and a sweep would
+    read the temporary before the step that narrows it. Raised to the least fixed point of
+    level >= 1 + (lowest level producing each temporary argument); other slots (declared
+    unknowns, data, constants) are inputs at level 0. A cycle of temporaries keeps its levels."""
+    level = level.copy()
+    if len(level) == 0:
+        return level
+    m = len(temp)
+    big = np.iinfo(np.int64).max
+    outs = out.ravel()
+    who = np.repeat(np.arange(len(level)), out.shape[1])
+    who, outs = who[outs >= 0], outs[outs >= 0]
+    safe = np.where(args >= 0, args, m)  # slot m: the padding, an input
+    reads_temp = np.append(temp, False)[safe]
+    for _ in range(len(level)):
+        lowest = np.full(m + 1, big, dtype=np.int64)
+        np.minimum.at(lowest, outs, level[who])
+        at = np.where(reads_temp, lowest[safe], 0)
+        at = np.where(at == big, 0, at)
+        need = 1 + at.max(axis=1)
+        low = level < need
+        if not low.any() or np.any(need[low] > len(level)):  # consistent, or a cycle
+            return level
+        level[low] = need[low]
+    return level
 
 
 def _new_primitive(fields: tuple) -> Primitive:

@@ -67,13 +67,17 @@ def test_each_primitive_keeps_the_first_constraint_reaching_it():
     assert lines[next(t for t in lines if "sqr(" in t)] == 9
 
 
-@pytest.mark.xfail(strict=True, reason="decompose._node_locations (decompose.py:222) walks the "
-                   "left sides of ALL constraints before any right side, so sin(a), written on "
-                   "line 2 as a right side, is located at line 3 where a left side reuses it")
 def test_location_is_the_first_constraint_in_source_order(compile_src):
     prog = compile_src("var a, y, z, b;\ny == sin(a);\ncos(b) + sin(a) == z;\n")
     sin = next(p for p in prog.primitives if p.op == "sin")
     assert sin.loc.line == 2
+
+
+def test_an_inequality_locates_its_difference_before_a_later_use(compile_src):
+    # `a <= b` is the primitive `a - b` (line 2) before line 3 reuses it
+    prog = compile_src("var a, b, z;\na <= b;\nz == a - b;\n")
+    sub = next(p for p in prog.primitives if p.op == "sub")
+    assert sub.loc.line == 2
 
 
 # -- common sub-expressions -------------------------------------------------------------------
@@ -192,10 +196,6 @@ def test_congruence_closure_runs_to_its_fixed_point(compile_src):
     assert slot(prog, "z1") == slot(prog, "z2")
 
 
-@pytest.mark.xfail(strict=True, reason="decompose._make_primitives (decompose.py:364) dedups "
-                   "on the raw argument slot order: a commutative primitive that becomes "
-                   "identical to another only up to operand order (z1 = a + b, z2 = b + a after "
-                   "merging) is kept twice")
 @pytest.mark.parametrize("op", ["+", "*"])
 def test_congruence_closure_merges_commuted_duplicates(compile_src, op):
     prog = compile_src(f"var a, b, c, d, z1, z2;\nz1 == a {op} d;\nz2 == b {op} c;\n"

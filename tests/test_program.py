@@ -154,11 +154,6 @@ def test_level_is_one_more_than_the_deepest_argument(compile_src):
         ("cos", 1), ("sin", 2), ("add", 3), ("exp", 4)]
 
 
-@pytest.mark.xfail(strict=True, reason="decompose._make_primitives (decompose.py:367) keeps "
-                   "the DAG level of the first of two primitives merged by congruence closure: "
-                   "sin(cos(cos(a))) (level 3) absorbs sin(q) (level 1), so `z = t2 * 2` "
-                   "(level 2) reads a temporary produced at level 3 and a sweep uses its stale "
-                   "domain")
 def test_level_order_survives_congruence_closure(compile_src):
     prog = compile_src("var a, q, z, y;\ny == sin(cos(cos(a))) + 1;\nz == sin(q) * 2;\n"
                        "q == cos(cos(a));\n")

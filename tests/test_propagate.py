@@ -217,12 +217,6 @@ def test_infeasible_sum_equal_to_a_constant(compile_src):
     assert "x + y" in res.emptied.primitive
 
 
-@pytest.mark.xfail(strict=True, reason="propagate._diagnose (propagate.py:262-270) replays "
-                   "the failing sweep step by step and stops at the first step that empties "
-                   "a column; for `x + y == 3` that is the FORWARD step, which writes only the "
-                   "output, the constant slot '3' (x and y are not empty yet), so the "
-                   "'prefer an unknown' pick of d2925a4 has no unknown to pick and the report "
-                   "still says 'the domain of 3 became empty'")
 def test_infeasible_report_names_an_unknown_not_a_constant(compile_src):
     prog = compile_src("var x in [0, 1];\nvar y in [0, 1];\nx + y == 3;\n")
     res = propagate(prog)
