@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lpbound import LinearRelaxation
+from .lpbound import LinearRelaxation, Rows
 from .program import Group, Program
 from .projections import forward
 
@@ -417,14 +417,12 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
                   + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
-    from scipy import sparse  # only the tight strategy needs it: keep `solve --strategy hc4` light
-
-    extra, xlo, xhi, cells = _cell_columns(q, owner, e)
-    A = sparse.hstack([sparse.csr_matrix(h), extra]).tocsr()
+    (rows_, cols_, vals), xlo, xhi, cells = _cell_columns(q, owner, e)
+    A = Rows.join(h, rows_, cols_, vals, len(xlo))
     # one two-sided row per constraint: -b_dn <= h.p + q.dq <= b_up
     b_lo = -b_dn
-    keep = np.flatnonzero((np.isfinite(b_up) | np.isfinite(b_lo)) & (np.diff(A.indptr) > 0))
-    return LinearRelaxation(A[keep], b_up[keep], np.concatenate([plo, xlo]),
+    keep = np.flatnonzero((np.isfinite(b_up) | np.isfinite(b_lo)) & (A.row_nonzeros() > 0))
+    return LinearRelaxation(A.take(keep), b_up[keep], np.concatenate([plo, xlo]),
                             np.concatenate([phi, xhi]), main=len(plo), cells=cells,
                             b_lo=b_lo[keep])
 
@@ -438,19 +436,17 @@ def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
     """One LP column per (configuration, table column) that some row uses: q's midpoints
-    scattered into those columns; bounds +- e; and which cell each column is (ids as in
-    `Slots.cell_row` / `Slots.cell_col`)."""
-    from scipy import sparse
-
+    scattered into those columns (as row, column, value triples); bounds +- e; and which cell
+    each column is (ids as in `Slots.cell_row` / `Slots.cell_col`)."""
     m, k = q.shape
     rows, cols = np.nonzero((q != 0) & (owner[:, None] >= 0))
     if k == 0 or len(rows) == 0:
-        return sparse.csr_matrix((m, 0)), np.zeros(0), np.zeros(0), np.zeros((0, 2), np.int64)
+        none = np.zeros(0, dtype=np.int64)
+        return (none, none, np.zeros(0)), np.zeros(0), np.zeros(0), np.zeros((0, 2), np.int64)
     key = owner[rows] * k + cols
     uniq, col = np.unique(key, return_inverse=True)
-    extra = sparse.csr_matrix((q[rows, cols], (rows, col)), shape=(m, len(uniq)))
     bound = e[uniq % k]
-    return extra, -bound, bound, np.stack([uniq // k, uniq % k], axis=1)
+    return (rows, col, q[rows, cols]), -bound, bound, np.stack([uniq // k, uniq % k], axis=1)
 
 
 def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None = None,

@@ -34,6 +34,51 @@ WORKERS = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
 
 
 @dataclass
+class Rows:
+    """A sparse matrix stored by rows (CSR: the same three arrays as scipy's csr_matrix). The
+    tight strategy builds its relaxations as these, so that it never imports scipy.sparse
+    (a fifth of a second of a Test A solve); a scipy CSR matrix is accepted wherever a Rows is.
+    """
+
+    data: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple[int, int]
+
+    @staticmethod
+    def join(dense: np.ndarray, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray,
+             width: int) -> Rows:
+        """[dense | S] where S (m x width) has the entries vals at (rows, cols)."""
+        m, k = dense.shape
+        r, c = np.nonzero(dense)
+        r = np.concatenate([r, rows])
+        c = np.concatenate([c, k + cols])
+        v = np.concatenate([dense[dense != 0], vals])
+        order = np.lexsort((c, r))
+        indptr = np.zeros(m + 1, dtype=np.int64)
+        np.cumsum(np.bincount(r, minlength=m), out=indptr[1:])
+        return Rows(v[order].astype(float), c[order].astype(np.int64), indptr, (m, k + width))
+
+    def take(self, rows: np.ndarray) -> Rows:
+        start, stop = self.indptr[rows], self.indptr[rows + 1]
+        lengths = stop - start
+        at = np.repeat(start - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
+        indptr = np.zeros(len(rows) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=indptr[1:])
+        return Rows(self.data[at], self.indices[at], indptr, (len(rows), self.shape[1]))
+
+    def row_nonzeros(self) -> np.ndarray:
+        return np.diff(self.indptr)
+
+
+def transpose_times(A: Any, y: np.ndarray, absolute: bool = False) -> np.ndarray:
+    """A^T y for a CSR matrix (Rows or scipy's), or |A|^T y."""
+    data = np.abs(A.data) if absolute else A.data
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    return np.bincount(A.indices, weights=data * y[rows], minlength=A.shape[1])
+
+
+@dataclass
 class LinearRelaxation:
     """Valid inequalities b_lo <= A p <= b over the box lo <= p <= hi (in exact arithmetic).
 
@@ -41,7 +86,7 @@ class LinearRelaxation:
     bounded on both sides is one LP row, not two: the simplex then works on half the rows.
     """
 
-    A: sparse.csr_matrix  # (m, n)
+    A: Rows | sparse.csr_matrix  # (m, n)
     b: np.ndarray  # (m,)
     lo: np.ndarray  # (n,)
     hi: np.ndarray  # (n,)
@@ -55,11 +100,12 @@ class LinearRelaxation:
         """The same inequalities as A' p <= b' only (finite right-hand sides)."""
         from scipy import sparse
 
+        A0 = sparse.csr_matrix((self.A.data, self.A.indices, self.A.indptr), shape=self.A.shape)
         if self.b_lo is None:
             keep = np.flatnonzero(np.isfinite(self.b))
-            return self.A[keep], self.b[keep]
+            return A0[keep], self.b[keep]
         up, dn = np.flatnonzero(np.isfinite(self.b)), np.flatnonzero(np.isfinite(self.b_lo))
-        A = sparse.vstack([self.A[up], -self.A[dn]]).tocsr()
+        A = sparse.vstack([A0[up], -A0[dn]]).tocsr()
         return A, np.concatenate([self.b[up], -self.b_lo[dn]])
 
 
@@ -92,11 +138,11 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     """
     b_lo = rel.b_lo if rel.b_lo is not None else np.full(len(rel.b), -np.inf)
     ok = np.isfinite(y) & (((y > 0) & np.isfinite(rel.b)) | ((y < 0) & np.isfinite(b_lo)))
-    used = np.flatnonzero(ok)
-    A, y = rel.A[used], y[used]
-    rhs = np.where(y > 0, rel.b[used], b_lo[used])
-    r = c - A.T @ y
-    err = _REL * (np.abs(c) + abs(A).T @ np.abs(y)) + _ABS  # rounding error of r, componentwise
+    y = np.where(ok, y, 0.0)  # an unusable multiplier is dropped (0: the row is not used)
+    rhs = np.where(y > 0, rel.b, np.where(y < 0, b_lo, 0.0))
+    r = c - transpose_times(rel.A, y)
+    # rounding error of r, componentwise
+    err = _REL * (np.abs(c) + transpose_times(rel.A, np.abs(y), absolute=True)) + _ABS
     return dot_up(y, rhs) + box_max_up(r - err, r + err, rel.lo, rel.hi)
 
 
@@ -163,7 +209,6 @@ def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, f
 
 def _load(rel: LinearRelaxation) -> Any:
     import highspy
-    from scipy import sparse
 
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
@@ -178,11 +223,10 @@ def _load(rel: LinearRelaxation) -> Any:
     lp.row_lower_ = (np.full(m, -inf) if rel.b_lo is None
                      else np.where(np.isfinite(rel.b_lo), rel.b_lo, -inf).astype(float))
     lp.row_upper_ = np.where(np.isfinite(rel.b), rel.b, inf).astype(float)
-    csc = sparse.csc_matrix(rel.A)
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    lp.a_matrix_.start_ = csc.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = csc.indices.astype(np.int32)
-    lp.a_matrix_.value_ = csc.data.astype(float)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.start_ = np.asarray(rel.A.indptr, dtype=np.int32)
+    lp.a_matrix_.index_ = np.asarray(rel.A.indices, dtype=np.int32)
+    lp.a_matrix_.value_ = np.asarray(rel.A.data, dtype=float)
     h.passModel(lp)
     return h
 

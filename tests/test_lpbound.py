@@ -20,7 +20,15 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linprog
 
-from calib_dsl.lpbound import LinearRelaxation, box_max_up, certified_max, dot_up, lp_bounds
+from calib_dsl.lpbound import (
+    LinearRelaxation,
+    Rows,
+    box_max_up,
+    certified_max,
+    dot_up,
+    lp_bounds,
+    transpose_times,
+)
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -65,9 +73,14 @@ def feasible_exact(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     return all(le_exact(A[i], x, b[i]) for i in range(A.shape[0]))
 
 
+def rows_of(A: np.ndarray) -> Rows:
+    none = np.zeros(0, dtype=np.int64)
+    return Rows.join(np.asarray(A, dtype=float), none, none, np.zeros(0), 0)
+
+
 def rel_of(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
            main: int | None = None) -> LinearRelaxation:
-    return LinearRelaxation(sparse.csr_matrix(A), np.asarray(b, dtype=float),
+    return LinearRelaxation(rows_of(A), np.asarray(b, dtype=float),
                             np.asarray(lo, dtype=float), np.asarray(hi, dtype=float),
                             A.shape[1] if main is None else main)
 
@@ -491,3 +504,44 @@ def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m):
             assert ge_exact(obj, p, lower[i]) and le_exact(obj, p, upper[i]), (i, lower, upper)
     if sol.status == 0:  # the LP's bound is near the optimum, not only sound
         assert upper[-1] <= -sol.fun + 1e-5 * (1 + abs(sol.fun) + np.abs(c) @ np.abs(x0))
+
+
+# -- the row-sparse matrix the tight strategy builds (no scipy.sparse on its path) -----------
+
+@SETTINGS
+@given(st.integers(0, 2**32 - 1), st.integers(0, 7), st.integers(0, 5), st.integers(0, 6))
+def test_rows_agree_with_dense_matrices(seed, m, k, width):
+    rng = np.random.default_rng(seed)
+    dense = rng.normal(size=(m, k)) * (rng.random((m, k)) < 0.6)
+    nnz = int(rng.integers(0, 2 * m * width + 1)) if m and width else 0
+    rows, cols = rng.integers(0, max(m, 1), nnz), rng.integers(0, max(width, 1), nnz)
+    vals = rng.normal(size=nnz)
+    full = np.zeros((m, k + width))
+    full[:, :k] = dense
+    np.add.at(full, (rows, k + cols), vals)  # repeated (row, column) pairs add up
+    mags = np.abs(full)  # |A| entry by entry, as stored: a repeated pair's magnitudes add up
+    mags[:, k:] = 0.0
+    np.add.at(mags, (rows, k + cols), np.abs(vals))
+    A = Rows.join(dense, rows, cols, vals, width)
+    assert A.shape == (m, k + width)
+    back = sparse.csr_matrix((A.data, A.indices, A.indptr), shape=A.shape).toarray()
+    assert np.allclose(back, full, rtol=0, atol=1e-12)
+    assert np.array_equal(A.row_nonzeros() > 0, np.any(back != 0, axis=1) | (
+        np.bincount(rows, minlength=m) > 0 if m else np.zeros(0, bool)))
+    y = rng.normal(size=m)
+    assert np.allclose(transpose_times(A, y), full.T @ y, atol=1e-12)
+    assert np.allclose(transpose_times(A, y, absolute=True), mags.T @ y, atol=1e-12)
+    pick = rng.permutation(m)[: int(rng.integers(0, m + 1))] if m else np.zeros(0, np.int64)
+    sub = A.take(pick)
+    got = sparse.csr_matrix((sub.data, sub.indices, sub.indptr), shape=sub.shape).toarray()
+    assert np.array_equal(got, back[pick])
+
+
+def test_a_scipy_matrix_is_accepted_where_rows_are():
+    A = np.array([[1.0, 1.0], [1.0, -1.0]])
+    lo, hi = np.array([-5.0, -5.0]), np.array([5.0, 5.0])
+    ours = lp_bounds(rel_of(A, [1.0, 1.0], lo, hi), np.eye(2))
+    theirs = lp_bounds(LinearRelaxation(sparse.csr_matrix(A), np.array([1.0, 1.0]), lo, hi, 2),
+                       np.eye(2))
+    assert np.array_equal(ours[0], theirs[0]) and np.array_equal(ours[1], theirs[1])
+    assert ours[1][0] >= 1.0 and ours[1][0] < 5.0  # x1 <= 1 is certified, and used
