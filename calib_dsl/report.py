@@ -108,6 +108,25 @@ def render_table(prog: Program, res: Result, extra: Extras | None = None) -> str
     return "\n".join(lines)
 
 
+def narrowed(prog: Program, res: Result) -> list[str]:
+    """The declared unknowns whose result is narrower than their search domain."""
+    if res.status == "infeasible":
+        return []
+    out = []
+    for r in parameter_rows(prog, res):
+        (dlo, dhi), (lo, hi) = r["domain"], r["result"]
+        if r["kind"] in ("param", "var") and (lo > dlo or hi < dhi):
+            out.append(r["name"])
+    return out
+
+
+_NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no solution "
+            "lost), but it says\nnothing the search domains did not: from domains this wide "
+            "the model is too far from linear\nfor propagation and for the linear relaxation "
+            "(docs/tutorial.md, section 6). Narrower domains,\ne.g. around a first "
+            "calibration, do contract.")
+
+
 def render_summary(prog: Program, res: Result, strategy: str,
                    extra: Extras | None = None) -> str:
     extra = extra or Extras()
@@ -117,6 +136,9 @@ def render_summary(prog: Program, res: Result, strategy: str,
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
              f"time: {res.seconds:.3f} s"]
+    unknowns = [i for i in prog.slots.declared if prog.slots.kinds[i] in ("param", "var")]
+    if res.status != "infeasible" and unknowns and not narrowed(prog, res):
+        lines += ["", _NOTHING]
     if res.emptied is not None:
         e = res.emptied
         where = f"{e.loc}: " if e.loc else ""
@@ -177,6 +199,7 @@ def result_json(prog: Program, res: Result, strategy: str,
         "formulation": prog.formulation,
         "strategy": strategy,
         "parameters": params,
+        "narrowed": narrowed(prog, res),  # the unknowns the solve made narrower
     }
     if extra.info is not None:
         from .identify import identifiability_json

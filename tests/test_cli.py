@@ -22,7 +22,7 @@ EXAMPLES = ROOT / "models" / "examples"
 PAPER_CSE = EXAMPLES / "paper_cse.cal"
 PAPER_PROP = EXAMPLES / "paper_propagation.cal"
 TOP_KEYS = {"model", "status", "stop", "sweeps", "lp_rounds", "seconds", "primitives",
-            "formulation", "strategy", "parameters"}
+            "formulation", "strategy", "parameters", "narrowed"}
 OPTIONAL_TOP = {"emptied", "identifiability", "least_squares"}
 PARAM_KEYS = {"kind", "domain", "result", "true"}
 OPTIONAL_PARAM = {"identifiable", "least_squares"}
@@ -162,6 +162,27 @@ def test_solve_json_file(tmp_path):
         lo, hi = p["result"]
         assert lo <= -star and star <= hi and hi - star < 1e-3
         assert p["true"] is None and p["kind"] == "var"
+
+
+def test_solve_says_when_no_parameter_was_narrowed(write_model, tmp_path):
+    # y = x^2 over x in [-1, 1], y in [0, 1]: every x and every y has a partner
+    model = write_model("param x in [-1, 1];\nvar y in [0, 1];\ny == x * x;\n")
+    out = tmp_path / "r.json"
+    res = run("solve", model, "--strategy", "hc4", "--json", out)
+    assert res.exit_code == 0
+    assert "note: no parameter was narrowed" in res.stdout
+    assert json.loads(out.read_text(encoding="utf-8"))["narrowed"] == []
+
+
+@pytest.mark.parametrize("strategy", ["hc4", "tight"])
+def test_solve_lists_the_narrowed_parameters(write_model, tmp_path, strategy):
+    model = write_model("param x in [-1, 1];\nparam u in [0, 1];\nvar y in [0.5, 2];\n"
+                        "y == sin(x);\n")
+    out = tmp_path / "r.json"
+    res = run("solve", model, "--strategy", strategy, "--json", out)
+    assert res.exit_code == 0
+    assert "no parameter was narrowed" not in res.stdout
+    assert json.loads(out.read_text(encoding="utf-8"))["narrowed"] == ["x", "y"]
 
 
 def test_solve_json_stdout_is_only_json():
