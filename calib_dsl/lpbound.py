@@ -95,6 +95,11 @@ class LinearRelaxation:
     # error it is (ids as in decompose.Slots.cell_row / cell_col)
     cells: np.ndarray | None = None
     b_lo: np.ndarray | None = None
+    # How much of the rows' width is the linearization's remainder rather than the data's
+    # errors (90th percentile over rows of remainder / (remainder + data)); near 0, the model
+    # is linear over the box to within a small part of the errors: relaxing again on a
+    # smaller box would give (nearly) the same LP. 1 when unknown.
+    remainder_share: float = 1.0
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:
         """The same inequalities as A' p <= b' only (finite right-hand sides)."""

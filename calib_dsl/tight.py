@@ -24,6 +24,7 @@ PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, 
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
 STALLED = 1e-3  # an unknown that gained less than this in a folded round sits out the next one
 FOLDED_UNTIL = 0.3  # rounds fold the measurement errors while some unknown gains more than this
+SETTLED = 0.01  # a relaxation whose remainder is below this share of its rows' widths is final
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
@@ -38,6 +39,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     their own (the hull of the linearized problem), and the loop stops when such a round gains
     less than min_gain; an unknown that gained less than that in such a round sits out the
     next one (these rounds are the expensive ones, and its bound is already near the hull).
+    A round whose relaxation is settled (its remainder below SETTLED of the rows' widths) ends
+    its phase: the next relaxation would be the same LP.
     An unknown the folded rounds did not move (gain below STALLED the last time it was tried:
     on the RX90's Test A, the 19 parameters known to 1e-5) also sits out the first such round.
     """
@@ -67,10 +70,14 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=lo, hi=hi)
         sweeps += res.sweeps
         best = gains.max(initial=0.0)
-        if cells and best < min_gain:
+        # once the model is linear over the box to within a small part of the data's errors,
+        # relaxing again gives the same LP: only the cell columns can still gain
+        settled = rel.remainder_share < SETTLED
+        if cells and (best < min_gain or settled):
             break
-        if not cells and best < FOLDED_UNTIL:  # a tighter relaxation: every unknown again,
-            # but one that the folded rounds left where it was (a parameter known beforehand)
+        if not cells and (best < FOLDED_UNTIL or settled):
+            # a tighter relaxation: every unknown again, but one that the folded rounds left
+            # where it was (a parameter known beforehand)
             cells, skip = True, last_gain < STALLED
         else:  # a stalled unknown is tried again a round later
             skip = (gains < (min_gain if cells else STALLED)) & ~skip

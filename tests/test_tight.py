@@ -231,3 +231,56 @@ def test_two_unknowns_equal_to_the_same_interval_stay_independent(tmp_path):
     got = {prog.slots.names[i]: (res.lo[i], res.hi[i]) for i in independents(prog)}
     assert set(got) == {"x", "y"}, got  # two unknowns, not one
     assert got["x"][0] <= 0.95 and got["y"][1] >= 1 / 0.95
+
+
+def _plane_model(tmp_path: Path, curve: str) -> Program:
+    """y_k = a u_k + b v_k + c (or a nonlinear surface), u, v known, y measured to 1e-3: each
+    row mixes all three unknowns, so propagation alone gains little and the LP does the work."""
+    rng = np.random.default_rng(7)
+    u, v = rng.uniform(-1, 1, 40), rng.uniform(-1, 1, 40)
+    f = {"plane": lambda a, b, c: a * u + b * v + c,
+         "waves": lambda a, b, c: np.sin(a * u) + np.sin(b * v) + c}[curve]
+    ys = f(0.3, -0.2, 0.1) + rng.uniform(-1e-3, 1e-3, len(u))
+    rows = "".join(f"{float(x)!r},{float(y)!r},{float(z)!r}\n"
+                   for x, y, z in zip(u, v, ys, strict=True))
+    _write(tmp_path, "d.csv", "u,v,y\n" + rows)
+    expr = {"plane": "a * m.u[i] + b * m.v[i] + c",
+            "waves": "sin(a * m.u[i]) + sin(b * m.v[i]) + c"}[curve]
+    model = _write(tmp_path, "m.cal", (
+        "param a in [-1, 1] true 0.3;\nparam b in [-1, 1] true -0.2;\n"
+        "param c in [-1, 1] true 0.1;\n"
+        'table m = "d.csv" { u, v : +- 0; y : +- 1e-3; }\n'
+        f"for i in 1..rows(m) {{ m.y[i] == {expr}; }}\n"))
+    return compile_model(elaborate(model))
+
+
+def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
+    from calib_dsl.linearize import relax
+    from calib_dsl.reference import linearized_hull
+
+    prog = _plane_model(tmp_path, "plane")
+    rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)
+    assert rel is not None and rel.remainder_share < 1e-6  # linear: only rounding is left
+    res = solve_tight(prog)
+    # one folded round, then one cell round, which is final: the model is linear
+    assert res.status == "contracted" and res.rounds == 2
+    hull = linearized_hull(prog)
+    for i in independents(prog):
+        name = prog.slots.names[i]
+        lo, hi = hull[name]
+        assert res.lo[i] <= prog.true_values[name] <= res.hi[i]
+        assert res.hi[i] - res.lo[i] <= (hi - lo) * 1.001 + 1e-12, (name, res.lo[i], res.hi[i])
+
+
+def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
+    from calib_dsl.linearize import relax
+
+    prog = _plane_model(tmp_path, "waves")
+    rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)
+    assert rel is not None and rel.remainder_share > 0.5
+    res = solve_tight(prog)
+    assert res.status == "contracted"
+    assert relax(prog, res.lo, res.hi, cell_variables=False).remainder_share < 0.5  # shrank
+    for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
+        i = prog.slots.names.index(name)
+        assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
