@@ -47,6 +47,17 @@ def independents(prog: Program) -> np.ndarray:
                     dtype=np.int64)
 
 
+def measured_cells(prog: Program) -> int:
+    """How many LP columns `relax` with cell_variables may need: the measured values with an
+    error (one column each at most; fewer when no row uses one)."""
+    s = prog.slots
+    if s.cell_row is None:
+        return 0
+    kinds = np.array(s.kinds)
+    return int(np.sum((s.cell_row >= 0) & (kinds == "const") & (s.hi > s.lo)
+                      & np.isfinite(s.lo) & np.isfinite(s.hi)))
+
+
 def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
           max_cell_columns: int | None = None) -> LinearRelaxation | None:
     """Valid inequalities A x <= b over the box [lo, hi]; x = (p, dq).

@@ -31,6 +31,10 @@ _ABS = 1e-300
 LP_ITERATIONS = 1000
 LP_SECONDS = 1.0
 WORKERS = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
+# Above this many rows the LP starts from a subset and adds the rows its optimum violates
+# (row generation); a tall LP (1000 configurations: 9000 rows, 33 columns) is far faster so.
+ROWS_AT_ONCE = 2000
+ROWS_ADDED = 500  # at most this many violated rows per pass
 
 
 @dataclass
@@ -192,32 +196,99 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
 
 
 def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, float]]:
-    """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model."""
+    """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
+
+    A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
+    rows its optimum violates are added until none is (the optimum is then the full LP's).
+    The certificate is exact either way: rows outside the LP get multiplier 0.
+    """
     if not share:
         return []
-    h = _load(rel)
-    n = rel.A.shape[1]
+    m, n = rel.A.shape
+    rows = np.arange(m) if m <= ROWS_AT_ONCE else _starting_rows(rel)
+    h = _load(rel, rows)
     cols = np.arange(n, dtype=np.int32)
+    check = _RowCheck(rel) if len(rows) < m else None
     out = []
     for i, sign, c in share:
         h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
         # HiGHS's time limit counts all runs of the object: extend it per solve.
         h.setOptionValue("time_limit", h.getRunTime() + LP_SECONDS)
         h.run()
+        while check is not None:
+            sol = h.getSolution()
+            more = check.violated(np.asarray(sol.col_value), rows) if sol.value_valid else None
+            if more is None or len(more) == 0:
+                break
+            _add_rows(h, rel, more)
+            rows = np.concatenate([rows, more])
+            h.run()
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
         if sol.dual_valid:
-            out.append((i, sign, certified_max(rel, c, -np.asarray(sol.row_dual))))
+            y = np.zeros(m)
+            y[rows] = -np.asarray(sol.row_dual)
+            out.append((i, sign, certified_max(rel, c, y)))
     return out
 
 
-def _load(rel: LinearRelaxation) -> Any:
+def _starting_rows(rel: LinearRelaxation) -> np.ndarray:
+    """Evenly spread rows, a few per column: enough to bound the LP well at the start."""
+    m, n = rel.A.shape
+    return np.unique(np.linspace(0, m - 1, min(m, 8 * n)).astype(np.int64))
+
+
+class _RowCheck:
+    """Which rows outside the LP a point violates."""
+
+    def __init__(self, rel: LinearRelaxation) -> None:
+        A = rel.A
+        self.rel = rel
+        self.row_of = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(A.shape[0], -np.inf)
+
+    def violated(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        A, m = self.rel.A, self.rel.A.shape[0]
+        prods = A.data * x[A.indices]
+        ax = np.bincount(self.row_of, weights=prods, minlength=m)
+        scale = np.bincount(self.row_of, weights=np.abs(prods), minlength=m)
+        tol = 1e-9 * scale + 1e-12
+        with np.errstate(invalid="ignore"):
+            excess = np.maximum(ax - self.rel.b, self.b_lo - ax) - tol
+        excess[rows] = 0.0
+        bad = np.flatnonzero(excess > 0)
+        return bad[np.argsort(-excess[bad])[:ROWS_ADDED]]
+
+
+def _add_rows(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> None:
+    import highspy
+
+    inf = highspy.kHighsInf
+    part = rel.A.take(rows) if isinstance(rel.A, Rows) else _rows_of(rel.A).take(rows)
+    lower = (np.full(len(rows), -inf) if rel.b_lo is None
+             else np.where(np.isfinite(rel.b_lo[rows]), rel.b_lo[rows], -inf))
+    upper = np.where(np.isfinite(rel.b[rows]), rel.b[rows], inf)
+    h.addRows(len(rows), lower.astype(float), upper.astype(float), len(part.data),
+              part.indptr[:-1].astype(np.int32), part.indices.astype(np.int32),
+              part.data.astype(float))
+
+
+def _rows_of(A: Any) -> Rows:
+    return Rows(np.asarray(A.data), np.asarray(A.indices), np.asarray(A.indptr), A.shape)
+
+
+def _load(rel: LinearRelaxation, rows: np.ndarray | None = None) -> Any:
+    """A HiGHS model of the relaxation, with only `rows` of its rows if given."""
     import highspy
 
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("simplex_iteration_limit", LP_ITERATIONS)  # counted per run
+    if rows is not None and len(rows) < rel.A.shape[0]:
+        A = rel.A.take(rows) if isinstance(rel.A, Rows) else _rows_of(rel.A).take(rows)
+        rel = LinearRelaxation(A, rel.b[rows], rel.lo, rel.hi, rel.main, rel.cells,
+                               None if rel.b_lo is None else rel.b_lo[rows])
     m, n = rel.A.shape
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = n, m

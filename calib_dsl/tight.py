@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from .linearize import independents, relax
+from .linearize import independents, measured_cells, relax
 from .lpbound import lp_bounds
 from .program import Program
 from .propagate import Emptied, Result, propagate
@@ -51,6 +51,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     skip = np.zeros(len(ind), dtype=bool)
     last_gain = np.ones(len(ind))  # of the last round that tried each unknown
     cells = False
+    # with too many measured values for cell columns, "cell" rounds fold the errors too
+    cellular = measured_cells(prog) <= MAX_CELL_COLUMNS
     while res.status == "contracted" and rounds < max_rounds:
         lo, hi = res.lo, res.hi
         rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
@@ -75,6 +77,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         settled = rel.remainder_share < SETTLED
         if cells and (best < min_gain or settled):
             break
+        if not cells and settled and not cellular:
+            break  # the next round would solve the same LP
         if not cells and (best < FOLDED_UNTIL or settled):
             # a tighter relaxation: every unknown again, but one that the folded rounds left
             # where it was (a parameter known beforehand)

@@ -545,3 +545,40 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
                        np.eye(2))
     assert np.array_equal(ours[0], theirs[0]) and np.array_equal(ours[1], theirs[1])
     assert ours[1][0] >= 1.0 and ours[1][0] < 5.0  # x1 <= 1 is certified, and used
+
+
+# -- row generation: a tall LP solved from a subset of its rows ---------------------------
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 120),
+       two_sided=st.booleans())
+def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided):
+    import calib_dsl.lpbound as lpb
+
+    rng = np.random.default_rng(seed)
+    x_hat = rng.uniform(-1, 1, n)  # a feasible point: every row holds it with some room
+    A = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.7)
+    ax = A @ x_hat
+    b = ax + rng.exponential(0.5, m)
+    b_lo = ax - rng.exponential(0.5, m) if two_sided else None
+    lo, hi = np.full(n, -3.0), np.full(n, 3.0)
+    rel = LinearRelaxation(rows_of(A), b, lo, hi, n, b_lo=b_lo)
+    objectives = np.vstack([np.eye(n), rng.normal(size=(2, n))])
+    saved = lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED
+    try:
+        lpb.ROWS_AT_ONCE = 10**9
+        full = lp_bounds(rel, objectives)
+        lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED = 4, int(rng.integers(1, 6))  # many small passes
+        gen = lp_bounds(rel, objectives)
+    finally:
+        lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED = saved
+    scale = 1e-7 * (1 + np.abs(objectives).sum(axis=1) * 3)
+    assert np.all(np.abs(gen[0] - full[0]) <= scale), (gen[0], full[0])
+    assert np.all(np.abs(gen[1] - full[1]) <= scale), (gen[1], full[1])
+    two = b_lo if b_lo is not None else np.full(m, -np.inf)
+    A_all = np.vstack([A, -A[np.isfinite(two)]])
+    b_all = np.concatenate([b, -two[np.isfinite(two)]])
+    points = feasible_samples(rng, A_all, b_all, lo, hi, [x_hat], count=100)
+    for p in points:  # sound: every feasible point's objective lies within the bounds
+        for i, obj in enumerate(objectives):
+            assert le_exact(obj, p, gen[1][i]) and ge_exact(obj, p, gen[0][i])

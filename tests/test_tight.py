@@ -284,3 +284,15 @@ def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
     for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
         i = prog.slots.names.index(name)
         assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
+
+
+def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path, monkeypatch):
+    import calib_dsl.tight as tight
+
+    prog = _plane_model(tmp_path, "plane")
+    monkeypatch.setattr(tight, "MAX_CELL_COLUMNS", 0)  # as with 1000 configurations
+    res = tight.solve_tight(prog)
+    assert res.status == "contracted" and res.rounds == 1  # a second round: the same LP
+    for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
+        i = prog.slots.names.index(name)
+        assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
