@@ -217,8 +217,11 @@ def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, f
         h.run()
         while check is not None:
             sol = h.getSolution()
-            more = check.violated(np.asarray(sol.col_value), rows) if sol.value_valid else None
-            if more is None or len(more) == 0:
+            if sol.value_valid:
+                more = check.violated(np.asarray(sol.col_value), rows)
+            else:  # unbounded without the rows left out (an infinite box): take them all
+                more, check = np.setdiff1d(np.arange(m), rows), None
+            if len(more) == 0:
                 break
             _add_rows(h, rel, more)
             rows = np.concatenate([rows, more])

@@ -582,3 +582,39 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided):
     for p in points:  # sound: every feasible point's objective lies within the bounds
         for i, obj in enumerate(objectives):
             assert le_exact(obj, p, gen[1][i]) and ge_exact(obj, p, gen[0][i])
+
+
+def _with_row_generation(rel, objectives):
+    import calib_dsl.lpbound as lpb
+
+    saved = lpb.ROWS_AT_ONCE
+    try:
+        lpb.ROWS_AT_ONCE = 4
+        return lp_bounds(rel, objectives)
+    finally:
+        lpb.ROWS_AT_ONCE = saved
+
+
+def test_row_generation_finds_a_bounding_row_left_out_at_the_start():
+    import calib_dsl.lpbound as lpb
+
+    m = 30
+    A = np.full((m, 1), -1.0)  # -x <= 5: bounds x from below only
+    b = np.full(m, 5.0)
+    A[13, 0], b[13] = 1.0, 2.0  # x <= 2, a row the starting subset leaves out
+    rel = rel_of(A, b, np.array([-1e6]), np.array([1e6]))
+    assert 13 not in lpb._starting_rows(rel)
+    lower, upper = _with_row_generation(rel, np.eye(1))
+    # certified, with the rounding pad of a box of +- 1e6
+    assert -5.01 <= lower[0] <= -5.0 and 2.0 <= upper[0] <= 2.01
+
+
+def test_row_generation_on_an_infeasible_tall_lp():
+    m = 30
+    A = np.full((m, 1), 1.0)  # x <= 1 ...
+    b = np.full(m, 1.0)
+    A[13, 0], b[13] = -1.0, -2.0  # ... and x >= 2 in a row left out at the start
+    rel = rel_of(A, b, np.array([-10.0]), np.array([10.0]))
+    lower, upper = _with_row_generation(rel, np.eye(1))
+    # no point to contain: the box back, or bounds that cross (a proof of infeasibility)
+    assert (lower[0] <= -10.0 and upper[0] >= 10.0) or lower[0] > upper[0], (lower, upper)
