@@ -268,7 +268,7 @@ def _add_rows(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> None:
     import highspy
 
     inf = highspy.kHighsInf
-    part = rel.A.take(rows) if isinstance(rel.A, Rows) else _rows_of(rel.A).take(rows)
+    part = _rows_of(rel.A).take(rows)
     lower = (np.full(len(rows), -inf) if rel.b_lo is None
              else np.where(np.isfinite(rel.b_lo[rows]), rel.b_lo[rows], -inf))
     upper = np.where(np.isfinite(rel.b[rows]), rel.b[rows], inf)
@@ -278,6 +278,9 @@ def _add_rows(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> None:
 
 
 def _rows_of(A: Any) -> Rows:
+    """A itself, or a scipy CSR matrix's arrays as Rows."""
+    if isinstance(A, Rows):
+        return A
     return Rows(np.asarray(A.data), np.asarray(A.indices), np.asarray(A.indptr), A.shape)
 
 
@@ -289,7 +292,7 @@ def _load(rel: LinearRelaxation, rows: np.ndarray | None = None) -> Any:
     h.setOptionValue("output_flag", False)
     h.setOptionValue("simplex_iteration_limit", LP_ITERATIONS)  # counted per run
     if rows is not None and len(rows) < rel.A.shape[0]:
-        A = rel.A.take(rows) if isinstance(rel.A, Rows) else _rows_of(rel.A).take(rows)
+        A = _rows_of(rel.A).take(rows)
         rel = LinearRelaxation(A, rel.b[rows], rel.lo, rel.hi, rel.main, rel.cells,
                                None if rel.b_lo is None else rel.b_lo[rows])
     m, n = rel.A.shape
