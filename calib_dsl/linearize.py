@@ -51,11 +51,15 @@ def measured_cells(prog: Program) -> int:
     """How many LP columns `relax` with cell_variables may need: the measured values with an
     error (one column each at most; fewer when no row uses one)."""
     s = prog.slots
-    if s.cell_row is None:
-        return 0
-    kinds = np.array(s.kinds)
-    return int(np.sum((s.cell_row >= 0) & (kinds == "const") & (s.hi > s.lo)
-                      & np.isfinite(s.lo) & np.isfinite(s.hi)))
+    return int(np.sum(_cells(prog, np.array(s.kinds) == "const", s.lo, s.hi)))
+
+
+def _cells(prog: Program, const: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The slots that are measured values with an error (an LP column each, at most)."""
+    rows = prog.slots.cell_row
+    if rows is None:
+        return np.zeros(len(lo), dtype=bool)
+    return (rows >= 0) & const & (hi > lo) & np.isfinite(lo) & np.isfinite(hi)
 
 
 def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
@@ -130,7 +134,7 @@ class _Evaluation:
         n = len(lo)
         rows = s.cell_row if s.cell_row is not None else np.full(n, -1)
         cols = s.cell_col if s.cell_col is not None else np.full(n, -1)
-        cell = (rows >= 0) & self.const & (hi > lo) & np.isfinite(lo) & np.isfinite(hi)
+        cell = _cells(self.prog, self.const, lo, hi)
         ncol = int(cols.max()) + 1 if np.any(cell) else 0
         with np.errstate(invalid="ignore", over="ignore"):
             mid = np.where(cell, 0.5 * (lo + hi), 0.0)

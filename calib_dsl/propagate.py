@@ -262,16 +262,17 @@ def _diagnose(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Emptied:
     order = [(g, _forward) for g in prog.groups] + [(g, _backward) for g in reversed(prog.groups)]
     known = np.array([k == "const" for k in prog.slots.kinds])
     for g, step in order:
-        before = (lo.copy(), hi.copy())
-        step(g, lo, hi)
         cols = np.concatenate([g.out, g.args], axis=1)
+        before = (lo[cols], hi[cols])  # a step writes only its group's slots
+        step(g, lo, hi)
         bad = lo[cols] > hi[cols]
         if np.any(bad):
             unknown = ~known[cols]
             if not np.any(bad & unknown) and step is _forward:
                 # `x + y == 3`: the forward step empties the constant 3, which is not what
                 # is wrong; the same primitive projected backward empties x or y
-                blo, bhi = before
+                blo, bhi = lo.copy(), hi.copy()
+                blo[cols], bhi[cols] = before
                 _backward(g, blo, bhi)
                 back = blo[cols] > bhi[cols]
                 if np.any(back & unknown):
