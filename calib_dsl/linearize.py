@@ -421,6 +421,7 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     slack = hrad @ w + qrad @ e
     folded = np.abs(q) @ e
     share = _remainder_share(slack, folded + 0.5 * (dhi - dlo))
+    curvature = _curvature(hrad @ w, np.abs(h) @ w)
     if cell_variables and max_cell_columns is not None and q.shape[1]:
         used = np.unique((owner[:, None] * q.shape[1] + np.arange(q.shape[1]))[
             (q != 0) & (owner[:, None] >= 0)])
@@ -440,7 +441,7 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     keep = np.flatnonzero((np.isfinite(b_up) | np.isfinite(b_lo)) & (A.row_nonzeros() > 0))
     return LinearRelaxation(A.take(keep), b_up[keep], np.concatenate([plo, xlo]),
                             np.concatenate([phi, xhi]), main=len(plo), cells=cells,
-                            b_lo=b_lo[keep], remainder_share=share)
+                            b_lo=b_lo[keep], remainder_share=share, curvature=curvature)
 
 
 def _remainder_share(remainder: np.ndarray, data: np.ndarray) -> float:
@@ -448,6 +449,13 @@ def _remainder_share(remainder: np.ndarray, data: np.ndarray) -> float:
         r = remainder / (remainder + data)
     r = r[np.isfinite(r)]
     return float(np.percentile(r, 90)) if len(r) else 1.0
+
+
+def _curvature(remainder: np.ndarray, first_order: np.ndarray) -> float:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = remainder / first_order
+    r = r[np.isfinite(r)]
+    return float(np.median(r)) if len(r) else 0.0
 
 
 def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

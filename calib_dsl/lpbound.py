@@ -104,6 +104,9 @@ class LinearRelaxation:
     # is linear over the box to within a small part of the errors: relaxing again on a
     # smaller box would give (nearly) the same LP. 1 when unknown.
     remainder_share: float = 1.0
+    # How curved the model is over the box: the median over rows of the remainder over the
+    # first-order range (linearize); LP rounds stall above about 1/7. 0 when unknown.
+    curvature: float = 0.0
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:
         """The same inequalities as A' p <= b' only (finite right-hand sides)."""
@@ -156,14 +159,16 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
 
 
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
-              skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+              skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
+              seconds: float = LP_SECONDS) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
     from the previous basis (a few pivots each); HiGHS releases the GIL, so the workers run on
     separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
     certify), the bound falls back to the box's own bound on c.p: never wrong, just not
-    tighter. Objectives flagged in `skip` get the box bound without an LP.
+    tighter. Objectives flagged in `skip` get the box bound without an LP. `iterations` and
+    `seconds` limit each solve (a run stopped by them still certifies a bound).
     """
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
@@ -182,10 +187,11 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     workers = max(1, min(WORKERS, len(tasks)))
     shares = [tasks[w::workers] for w in range(workers)]
     if workers == 1:
-        results = [_solve_share(rel, shares[0])]
+        results = [_solve_share(rel, shares[0], iterations, seconds)]
     else:
         with ThreadPoolExecutor(workers) as pool:
-            results = list(pool.map(lambda share: _solve_share(rel, share), shares))
+            results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds),
+                                    shares))
     for share in results:
         for i, sign, bound in share:
             if sign > 0:
@@ -195,7 +201,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     return lower, upper
 
 
-def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, float]]:
+def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERATIONS,
+                 seconds: float = LP_SECONDS) -> list[tuple[int, float, float]]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
     A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
@@ -206,14 +213,17 @@ def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, f
         return []
     m, n = rel.A.shape
     rows = np.arange(m) if m <= ROWS_AT_ONCE else _starting_rows(rel)
-    h = _load(rel, rows)
+    h = _load(rel, rows, iterations)
     cols = np.arange(n, dtype=np.int32)
     check = _RowCheck(rel) if len(rows) < m else None
     out = []
+    points: list[np.ndarray] = []  # LP solutions found so far (feasible up to HiGHS's tolerance)
     for i, sign, c in share:
+        if _reached(c, points, rel):
+            continue  # an LP point already lies on the box's bound: the box bound stays
         h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
         # HiGHS's time limit counts all runs of the object: extend it per solve.
-        h.setOptionValue("time_limit", h.getRunTime() + LP_SECONDS)
+        h.setOptionValue("time_limit", h.getRunTime() + seconds)
         h.run()
         while check is not None:
             sol = h.getSolution()
@@ -229,11 +239,27 @@ def _solve_share(rel: LinearRelaxation, share: list) -> list[tuple[int, float, f
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
+        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
+            points.append(np.asarray(sol.col_value))
         if sol.dual_valid:
             y = np.zeros(m)
             y[rows] = -np.asarray(sol.row_dual)
             out.append((i, sign, certified_max(rel, c, y)))
     return out
+
+
+def _reached(c: np.ndarray, points: list[np.ndarray], rel: LinearRelaxation) -> bool:
+    """Whether some LP point already attains the box's own bound on c.p: then the LP cannot
+    tighten it, and solving it is skipped. (Skipping never narrows anything, so it is sound
+    whatever the points are; it saves most LPs of a round far from the solution, where many
+    unknowns do not move.)"""
+    if not points:
+        return False
+    box = box_max_up(c, c, rel.lo, rel.hi)
+    if not np.isfinite(box):
+        return False
+    best = float(np.max(np.stack(points) @ c))
+    return best >= box - 1e-9 * (1.0 + abs(box))
 
 
 def _starting_rows(rel: LinearRelaxation) -> np.ndarray:
@@ -284,13 +310,14 @@ def _rows_of(A: Any) -> Rows:
     return Rows(np.asarray(A.data), np.asarray(A.indices), np.asarray(A.indptr), A.shape)
 
 
-def _load(rel: LinearRelaxation, rows: np.ndarray | None = None) -> Any:
+def _load(rel: LinearRelaxation, rows: np.ndarray | None = None,
+          iterations: int = LP_ITERATIONS) -> Any:
     """A HiGHS model of the relaxation, with only `rows` of its rows if given."""
     import highspy
 
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
-    h.setOptionValue("simplex_iteration_limit", LP_ITERATIONS)  # counted per run
+    h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
     if rows is not None and len(rows) < rel.A.shape[0]:
         A = _rows_of(rel.A).take(rows)
         rel = LinearRelaxation(A, rel.b[rows], rel.lo, rel.hi, rel.main, rel.cells,

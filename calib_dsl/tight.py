@@ -19,16 +19,26 @@ from .linearize import independents, measured_cells, relax
 from .lpbound import lp_bounds
 from .program import Program
 from .propagate import Emptied, Result, propagate
+from .quadratic import relax_quadratic, to_box
 
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
 STALLED = 1e-3  # an unknown that gained less than this in a folded round sits out the next one
 FOLDED_UNTIL = 0.3  # rounds fold the measurement errors while some unknown gains more than this
 SETTLED = 0.01  # a relaxation whose remainder is below this share of its rows' widths is final
+# Above this curvature (the first-order relaxation's remainder over its first-order range,
+# median over rows) first-order rounds stall (about 1/7 on the RX90): rounds use second-order
+# models instead (quadratic.py), until the box is small enough.
+WIDE = 0.06
+WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the search
+# the second-order LPs are larger and far from their last basis: more pivots per objective
+WIDE_ITERATIONS = 20000
+WIDE_SECONDS = 30.0
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
-                max_rounds: int = 40, min_gain: float = 0.1) -> Result:
+                max_rounds: int = 40, min_gain: float = 0.1,
+                second_order: bool = True) -> Result:
     """Propagate, then alternate certified LP rounds with propagation until a round gains less
     than min_gain (relative width of every unknown), then propagate to the fixed point.
 
@@ -43,6 +53,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     its phase: the next relaxation would be the same LP.
     An unknown the folded rounds did not move (gain below STALLED the last time it was tried:
     on the RX90's Test A, the 19 parameters known to 1e-5) also sits out the first such round.
+    On a box too wide for first order (curvature above WIDE) a round relaxes second-order
+    Taylor models instead (quadratic.py); such rounds repeat while they gain WIDE_MIN_GAIN.
     """
     start = time.perf_counter()
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
@@ -58,8 +70,11 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
         if rel is None:
             break
+        wide = second_order and rel.curvature > WIDE and not cells
+        bounds = _second_order(prog, lo, hi, len(ind), skip) if wide else None
+        wide = bounds is not None  # None: the program has no second-order models
         rounds += 1
-        nlo, nhi = lp_bounds(rel, np.eye(len(ind)), skip=skip)
+        nlo, nhi = bounds if bounds is not None else lp_bounds(rel, np.eye(len(ind)), skip=skip)
         new_lo, new_hi = np.maximum(lo[ind], nlo), np.minimum(hi[ind], nhi)
         if np.any(new_lo > new_hi):  # certified bounds cross: no solution at all
             k = int(np.flatnonzero(new_lo > new_hi)[0])
@@ -72,6 +87,11 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=lo, hi=hi)
         sweeps += res.sweeps
         best = gains.max(initial=0.0)
+        if wide:
+            if best < WIDE_MIN_GAIN:
+                break  # neither order contracts this box: the search domains are too wide
+            skip = (gains < STALLED) & ~skip  # an unknown that did not move sits out a round
+            continue
         # once the model is linear over the box to within a small part of the data's errors,
         # relaxing again gives the same LP: only the cell columns can still gain
         settled = rel.remainder_share < SETTLED
@@ -92,6 +112,19 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     res.rounds = rounds
     res.seconds = time.perf_counter() - start
     return res
+
+
+def _second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, n: int,
+                  skip: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Certified bounds on the unknowns from the second-order relaxation, or None if the
+    program has none (a primitive without a Taylor model)."""
+    out = relax_quadratic(prog, lo, hi)
+    if out is None:
+        return None
+    rel, ex = out
+    tl, th = lp_bounds(rel, np.eye(n), skip=skip, iterations=WIDE_ITERATIONS,
+                       seconds=WIDE_SECONDS)
+    return to_box(ex, tl, th)
 
 
 def _emptied(prog: Program, res: Result, name: str) -> Result:

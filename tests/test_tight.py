@@ -296,3 +296,60 @@ def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path, monke
     for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
         i = prog.slots.names.index(name)
         assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
+
+
+# -- second-order rounds on wide boxes ----------------------------------------------------------
+
+WIDE_ARM = """
+param t1 in 0 +- 0.3 true {t1};
+param t2 in 0 +- 0.3 true {t2};
+param t3 in 0 +- 0.3 true {t3};
+param a2 in pi/2 +- 0.3 true {a2};
+param l1 in 0.5 +- 0.1 true {l1};
+param l2 in 0.4 +- 0.1 true {l2};
+param bz in 0 +- 0.05 true {bz};
+
+robot arm(q1, q2, q3) {{
+  joint theta = t1 + q1;
+  joint alpha = a2, theta = t2 + q2;
+  joint d = l1, theta = t3 + q3;
+}}
+
+table m = "data.csv" {{
+  q1, q2, q3 : +- 1e-6 simulate in [-pi, pi];
+  x, y, z : +- 1e-4;
+}}
+
+for k in 1..rows(m) {{
+  arm(m.q1[k], m.q2[k], m.q3[k]) at (l2, 0, bz) == (m.x[k], m.y[k], m.z[k]);
+}}
+"""
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31 - 1))
+def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory, seed):
+    """A 3-joint arm with joint offsets of +-0.3 rad: first-order rounds stall on the search
+    domains (curvature far above WIDE); second-order rounds bring every parameter below 1 %
+    of its domain, the truth inside. The truth is drawn inside the middle half of each domain."""
+    rng = np.random.default_rng(seed)
+    truth = {"t1": rng.uniform(-0.15, 0.15), "t2": rng.uniform(-0.15, 0.15),
+             "t3": rng.uniform(-0.15, 0.15), "a2": math.pi / 2 + rng.uniform(-0.15, 0.15),
+             "l1": 0.5 + rng.uniform(-0.05, 0.05), "l2": 0.4 + rng.uniform(-0.05, 0.05),
+             "bz": rng.uniform(-0.025, 0.025)}
+    source = WIDE_ARM.format(**{k: repr(float(v)) for k, v in truth.items()})
+    sim = simulate_cal(tmp_path_factory.mktemp("arm"), source, clean_version(source), 12, seed,
+                       "matrix")
+    prog, p_true = sim.prog, sim.p_true
+    ind = independents(prog)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        first = solve_tight(prog, second_order=False)
+        second = solve_tight(prog)
+    for res in (first, second):
+        assert res.status == "contracted"
+        assert np.all(res.lo[ind] <= p_true) and np.all(p_true <= res.hi[ind])
+    domain = prog.slots.hi[ind] - prog.slots.lo[ind]
+    ratio = (second.hi[ind] - second.lo[ind]) / domain
+    assert np.all(ratio < 0.01), ratio
+    assert np.all(second.hi[ind] - second.lo[ind] <= first.hi[ind] - first.lo[ind])
