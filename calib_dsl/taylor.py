@@ -36,6 +36,10 @@ U = 2.0**-53  # unit roundoff
 _SUM = 1.0 + 2.0**-40
 _TINY = 1e-300  # covers underflow of the (few) products in one remainder update
 SUPPORTED = {"neg", "add", "sub", "mul", "sqr", "sin", "cos", "rot"}
+# The models of all slots are held at once (slots x n(n+1)/2 coefficients): above this size
+# (the RX90 with 33 unknowns: about 350 configurations) there are no models, and the
+# strategies keep to first order rather than exhaust the memory.
+MAX_TABLE_BYTES = 600e6
 
 
 @dataclass
@@ -240,7 +244,8 @@ def supported(prog: Program) -> bool:
 def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     """Second-order models of every constraint row over the box [lo, hi] (the unknowns'
     entries; the other slots' entries give the constants' and the targets' ranges). None when
-    a primitive has no model or an unknown is unbounded."""
+    a primitive has no model, an unknown is unbounded, or the models would not fit in
+    MAX_TABLE_BYTES."""
     ind = independents(prog)
     if len(ind) == 0 or not supported(prog):
         return None
@@ -250,6 +255,8 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     n = len(ind)
     pairs = Pairs.of(n)
     p = len(pairs.i)
+    if len(lo) * (1 + n + p) * 8 > MAX_TABLE_BYTES:
+        return None
     center = 0.5 * plo + 0.5 * phi
     half = _up(np.maximum(center - plo, phi - center))
     kinds = np.array(prog.slots.kinds)

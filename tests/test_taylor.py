@@ -229,3 +229,13 @@ def test_rx90_section_4_models_and_relaxation_hold() -> None:
     tool = [k for k, n in enumerate(names) if n.startswith("b")]
     narrowed = (phi - plo)[tool] / (hi[ind] - lo[ind])[tool]
     assert np.all(narrowed < 0.9), narrowed  # 0.72-0.81 measured; first order gives 1.0
+
+
+def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
+    """Too many slots times products: no models (first order goes on), not a MemoryError."""
+    prog = compile_model(elaborate(ROOT / "models" / "examples" / "planar_arm.cal"))
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    assert tm.expand(prog, lo, hi) is not None
+    monkeypatch.setattr(tm, "MAX_TABLE_BYTES", 1000.0)
+    assert tm.expand(prog, lo, hi) is None
+    assert relax_quadratic(prog, lo, hi) is None
