@@ -64,8 +64,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     chi = np.ones(ncols)
     if mccormick:
         rows, b_up, b_lo = _with_mccormick(rows, b_up, b_lo, pairs, keep, n)
-    rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo,
-                           remainder_share=_share(m, slack, tlo, thi))
+    rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo)
     return rel, ex
 
 
@@ -118,26 +117,13 @@ def _with_mccormick(rows: Rows, b_up: np.ndarray, b_lo: np.ndarray, pairs, keep:
                 lo.append(low)
                 hi.append(high)
                 k += 1
-    extra = _csr(np.array(r, np.int64), np.array(c, np.int64), np.array(v), k, rows.shape[1])
+    extra = Rows.join(np.zeros((k, 0)), np.array(r, np.int64), np.array(c, np.int64),
+                      np.array(v), rows.shape[1])
     joined = Rows(np.concatenate([rows.data, extra.data]),
                   np.concatenate([rows.indices, extra.indices]),
                   np.concatenate([rows.indptr, rows.indptr[-1] + extra.indptr[1:]]),
                   (rows.shape[0] + k, rows.shape[1]))
     return joined, np.concatenate([b_up, hi]), np.concatenate([b_lo, lo])
-
-
-def _csr(r: np.ndarray, c: np.ndarray, v: np.ndarray, m: int, n: int) -> Rows:
-    order = np.lexsort((c, r))
-    indptr = np.zeros(m + 1, dtype=np.int64)
-    np.cumsum(np.bincount(r, minlength=m), out=indptr[1:])
-    return Rows(v[order], c[order], indptr, (m, n))
-
-
-def _share(m: Models, slack: np.ndarray, tlo: np.ndarray, thi: np.ndarray) -> float:
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = slack / (slack + 0.5 * (thi - tlo))
-    s = s[np.isfinite(s)]
-    return float(np.percentile(s, 90)) if len(s) else 1.0
 
 
 def to_box(ex: Expansion, tl: np.ndarray, th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

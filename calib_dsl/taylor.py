@@ -87,18 +87,6 @@ def size(a: Models) -> np.ndarray:
     return _up(np.abs(a.c0) + linear_size(a) + quadratic_size(a))
 
 
-def polynomial_range(a: Models, pairs: Pairs) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds on the polynomial part over the t-box (squares lie in [0, 1], products of two
-    unknowns in [-1, 1]); the remainder is not included."""
-    sq = a.c2[:, pairs.diagonal]
-    spread = np.abs(a.c1).sum(axis=1) + np.abs(a.c2[:, ~pairs.diagonal]).sum(axis=1)
-    below = -np.minimum(sq, 0.0).sum(axis=1)
-    above = np.maximum(sq, 0.0).sum(axis=1)
-    # every sum has a relative error below 2^-41; 2^-40 of the magnitudes covers them
-    err = _up(2.0**-40 * (np.abs(a.c0) + spread + below + above))
-    return a.c0 - _up(spread + below) - err, a.c0 + _up(spread + above) + err
-
-
 # -- arithmetic ---------------------------------------------------------------------------
 
 def constant(lo: np.ndarray, hi: np.ndarray, n: int, p: int) -> Models:
@@ -220,7 +208,7 @@ def apply(op: str, args: list[Models], pairs: Pairs) -> list[Models]:
 # -- the program --------------------------------------------------------------------------
 
 @dataclass
-class Rows:
+class Constraints:
     """Each constraint row as `model in [lo, hi]`: the row's model and its target interval."""
 
     models: Models
@@ -233,7 +221,7 @@ class Expansion:
     center: np.ndarray  # c (the unknowns' midpoints)
     half: np.ndarray  # w (half-widths, rounded up): p = c + w t
     pairs: Pairs
-    rows: Rows
+    rows: Constraints
     kept: np.ndarray | None = None  # the products given LP columns (set by quadratic.py)
 
 
@@ -261,7 +249,6 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     half = _up(np.maximum(center - plo, phi - center))
     kinds = np.array(prog.slots.kinds)
     temp = kinds == "temp"
-    m = len(lo)
     table = constant(np.where(temp, 0.0, lo), np.where(temp, 0.0, hi), n, p)
     table.c0[ind], table.r[ind] = center, 0.0
     table.c1[ind, np.arange(n)] = half
@@ -279,9 +266,9 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     capped = np.flatnonzero(temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
     if len(capped):
         found.append((table.take(capped), lo[capped], hi[capped]))
-    if not found or m == 0:
+    if not found:
         return None
-    rows = Rows(_concat([f[0] for f in found]), np.concatenate([f[1] for f in found]),
+    rows = Constraints(_concat([f[0] for f in found]), np.concatenate([f[1] for f in found]),
                 np.concatenate([f[2] for f in found]))
     return Expansion(center, half, pairs, rows)
 
