@@ -137,9 +137,16 @@ def render(info: Identifiability) -> str:
 
 
 def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
-                           hi: np.ndarray, use_lp: bool) -> list[tuple[str, float, float]]:
+                           hi: np.ndarray, use_lp: bool,
+                           pieces: list | None = None) -> list[tuple[str, float, float]]:
     """A guaranteed enclosure of each identifiable combination over the box [lo, hi]:
-    certified LP bounds over the linear relaxation (tight), else interval arithmetic."""
+    certified LP bounds over the linear relaxation (tight), else interval arithmetic. With
+    `pieces` (boxes within [lo, hi] holding every solution: a split solve), the hull of each
+    piece's enclosure: on a piece the relaxation is narrower."""
+    if pieces:
+        parts = [combination_enclosures(prog, info, a, b, use_lp) for a, b in pieces]
+        return [(t, min(p[k][1] for p in parts), max(p[k][2] for p in parts))
+                for k, (t, _, _) in enumerate(parts[0])]
     ind = independents(prog)
     index = {n: k for k, n in enumerate(info.names)}
     rows, texts = [], []

@@ -13,7 +13,7 @@ import inspect
 import time
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,10 @@ class Result:
     stop: str  # why the loop stopped: "fixed point", "tolerance", "max sweeps", "empty"
     emptied: Emptied | None = None
     rounds: int = 0  # LP rounds (tight strategy)
+    # tight strategy: the parameters cut into pieces (not identifiable alone), and each
+    # piece's box that holds solutions; the result is their hull
+    split: list[str] = field(default_factory=list)
+    pieces: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,

@@ -39,7 +39,8 @@ class Extras:
             self.info = analyse(prog)
         except CalError:  # no nominal values to linearize at: say nothing rather than guess
             return
-        self.combinations = combination_enclosures(prog, self.info, res.lo, res.hi, use_lp)
+        self.combinations = combination_enclosures(prog, self.info, res.lo, res.hi, use_lp,
+                                                   pieces=res.pieces)
         self.seconds += time.perf_counter() - start
 
     def least_squares(self, prog: Program, res: Result) -> None:
@@ -136,6 +137,9 @@ def render_summary(prog: Program, res: Result, strategy: str,
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
              f"time: {res.seconds:.3f} s"]
+    if res.split:
+        lines.append(f"split: {' '.join(res.split)} (not identifiable alone) cut into pieces; "
+                     f"the result is the hull of the {len(res.pieces)} that hold solutions")
     unknowns = [i for i in prog.slots.declared if prog.slots.kinds[i] in ("param", "var")]
     if res.status != "infeasible" and unknowns and not narrowed(prog, res):
         lines += ["", _NOTHING]
@@ -200,6 +204,7 @@ def result_json(prog: Program, res: Result, strategy: str,
         "strategy": strategy,
         "parameters": params,
         "narrowed": narrowed(prog, res),  # the unknowns the solve made narrower
+        "split": {"parameters": res.split, "pieces": len(res.pieces)},
     }
     if extra.info is not None:
         from .identify import identifiability_json
