@@ -32,10 +32,13 @@ class Identifiability:
     weakest: list[tuple[float, dict[str, float]]] = field(default_factory=list)
 
 
-def analyse(prog: Program) -> Identifiability:
+def analyse(prog: Program, design: bool = False) -> Identifiability:
+    """The analysis at the nominal values; with `design`, at the middle of each finite search
+    domain instead (the geometry the robot was designed with, e.g. alpha3 = 0, where a true
+    value may break a symmetry by a hair and leave a direction identifiable in name only)."""
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
-    point = _nominal(prog, ind, names)
+    point = _nominal(prog, ind, names, design)
     J = constraint_jacobian(prog, point)
     scale = prog.slots.hi[ind] - prog.slots.lo[ind]
     scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
@@ -55,10 +58,13 @@ def analyse(prog: Program) -> Identifiability:
     return Identifiability(names, rank, s_full, ident, groups, weakest)
 
 
-def _nominal(prog: Program, ind: np.ndarray, names: list[str]) -> np.ndarray:
+def _nominal(prog: Program, ind: np.ndarray, names: list[str],
+             design: bool = False) -> np.ndarray:
     vals = []
     for slot, name in zip(ind, names, strict=True):
         t = prog.true_values.get(name)
+        if design and np.isfinite(prog.slots.lo[slot]) and np.isfinite(prog.slots.hi[slot]):
+            t = None
         if t is None:  # no nominal value: the middle of a finite domain will do
             lo, hi = prog.slots.lo[slot], prog.slots.hi[slot]
             if not (np.isfinite(lo) and np.isfinite(hi)):

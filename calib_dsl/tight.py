@@ -34,8 +34,8 @@ WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the sea
 # the second-order LPs are larger and far from their last basis: more pivots per objective
 WIDE_ITERATIONS = 20000
 WIDE_SECONDS = 30.0
-# At the end, an unknown left wider than LEFT_WIDE of its search domain (not identifiable
-# alone, like the RX90's r2 and r3) is cut into SPLIT_PIECES pieces, each refined by at most
+# At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
+# than LEFT_WIDE of its search domain is cut into SPLIT_PIECES pieces, each refined by at most
 # SPLIT_ROUNDS LP rounds of its own, if a piece's relaxation is narrower than the whole box's
 # by SPLIT_WORTH of the rows' widths; SPLIT_TRIED such unknowns are tried, the widest first.
 LEFT_WIDE = 0.25
@@ -182,13 +182,24 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
 
 
 def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | None:
-    """The unknown to cut, or None: among those the solve left wider than LEFT_WIDE of their
-    search domain (at most SPLIT_TRIED, the widest first), the one whose middle piece has the
-    narrowest relaxation, if that is narrower than the whole box's by SPLIT_WORTH of the
-    rows' widths (the remainder's share of them); else the pieces would cost their rounds for
-    nothing. (RX90 near its solution: 0.027 against 0.023; from section 4: 0.285 against
-    0.213.)"""
-    ind = independents(prog)
+    """The unknown to cut, or None: among those not identifiable alone at the middle of the
+    search domains (identify.py) that the solve left wider than LEFT_WIDE of their domain (at
+    most SPLIT_TRIED, the widest first), the one whose middle piece has the narrowest
+    relaxation, if that is narrower than the whole box's by SPLIT_WORTH of the rows' widths
+    (the remainder's share of them); else the pieces would cost their rounds for nothing.
+    (RX90 near its solution: 0.027 against 0.023; from section 4: 0.285 against 0.213.)"""
+    from .errors import CalError
+    from .identify import analyse
+
+    try:
+        info = analyse(prog, design=True)
+    except CalError:  # no nominal values to analyse at
+        return None
+    alone = {n for members, _ in info.groups for n in members}
+    ind = np.array([s for s in independents(prog) if prog.slots.names[int(s)] in alone],
+                   dtype=np.int64)
+    if len(ind) == 0:
+        return None
     domain = prog.slots.hi[ind] - prog.slots.lo[ind]
     width = hi[ind] - lo[ind]
     with np.errstate(invalid="ignore", divide="ignore"):
