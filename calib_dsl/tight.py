@@ -196,8 +196,13 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
     except CalError:  # no nominal values to analyse at
         return None
     alone = {n for members, _ in info.groups for n in members}
-    ind = np.array([s for s in independents(prog) if prog.slots.names[int(s)] in alone],
-                   dtype=np.int64)
+    every = independents(prog)
+    group = np.array([prog.slots.names[int(s)] in alone for s in every], dtype=bool)
+    # a candidate must be wider than every unknown the data pins down (not one known
+    # beforehand to 1e-5, like 19 of Test A's, which no split would help)
+    pinned = (hi[every] - lo[every])[~group]
+    floor = float(pinned.max(initial=0.0))
+    ind = every[group & (hi[every] - lo[every] > floor)]
     if len(ind) == 0:
         return None
     domain = prog.slots.hi[ind] - prog.slots.lo[ind]
