@@ -193,8 +193,8 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
 
     try:
         info = analyse(prog, design=True)
-    except CalError:  # no nominal values to analyse at
-        return None
+    except (CalError, np.linalg.LinAlgError, ValueError):
+        return None  # no nominal values, or a Jacobian without finite values there
     alone = {n for members, _ in info.groups for n in members}
     every = independents(prog)
     group = np.array([prog.slots.names[int(s)] in alone for s in every], dtype=bool)
