@@ -160,7 +160,8 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
 
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
-              seconds: float = LP_SECONDS) -> tuple[np.ndarray, np.ndarray]:
+              seconds: float = LP_SECONDS,
+              solver: str = "simplex") -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -168,7 +169,10 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
     certify), the bound falls back to the box's own bound on c.p: never wrong, just not
     tighter. Objectives flagged in `skip` get the box bound without an LP. `iterations` and
-    `seconds` limit each solve (a run stopped by them still certifies a bound).
+    `seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
+    HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
+    starts afresh each time but costs the same few dozen iterations on any objective, which
+    pays on a large LP whose objectives are far apart (their multipliers certify all the same).
     """
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
@@ -187,10 +191,11 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     workers = max(1, min(WORKERS, len(tasks)))
     shares = [tasks[w::workers] for w in range(workers)]
     if workers == 1:
-        results = [_solve_share(rel, shares[0], iterations, seconds)]
+        results = [_solve_share(rel, shares[0], iterations, seconds, solver)]
     else:
         with ThreadPoolExecutor(workers) as pool:
-            results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds),
+            results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
+                                                                    solver),
                                     shares))
     for share in results:
         for i, sign, bound in share:
@@ -202,7 +207,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
 
 
 def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERATIONS,
-                 seconds: float = LP_SECONDS) -> list[tuple[int, float, float]]:
+                 seconds: float = LP_SECONDS,
+                 solver: str = "simplex") -> list[tuple[int, float, float]]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
     A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
@@ -214,6 +220,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     m, n = rel.A.shape
     rows = np.arange(m) if m <= ROWS_AT_ONCE else _starting_rows(rel)
     h = _load(rel, rows, iterations)
+    h.setOptionValue("solver", solver)
+    h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
     check = _RowCheck(rel) if len(rows) < m else None
     out = []

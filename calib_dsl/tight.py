@@ -31,8 +31,11 @@ SETTLED = 0.01  # a relaxation whose remainder is below this share of its rows' 
 # models instead (quadratic.py), until the box is small enough.
 WIDE = 0.06
 WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the search
-# the second-order LPs are larger and far from their last basis: more pivots per objective
-WIDE_ITERATIONS = 20000
+# The second-order LPs are dense, and their objectives far apart: the simplex takes hundreds
+# of pivots from the last basis, the interior point method the same 15-20 iterations for any
+# objective (RX90 from section 4: 70 s for the second-order rounds against 95 s).
+WIDE_SOLVER = "ipm"
+WIDE_ITERATIONS = 20000  # simplex pivots per objective, should WIDE_SOLVER be "simplex"
 WIDE_SECONDS = 30.0
 # At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
 # than LEFT_WIDE of its search domain is cut into SPLIT_PIECES pieces, each refined by at most
@@ -192,7 +195,8 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
     from .identify import analyse
 
     try:
-        info = analyse(prog, design=True)
+        with np.errstate(invalid="ignore", over="ignore"):  # a non-finite Jacobian raises below
+            info = analyse(prog, design=True)
     except (CalError, np.linalg.LinAlgError, ValueError):
         return None  # no nominal values, or a Jacobian without finite values there
     alone = {n for members, _ in info.groups for n in members}
@@ -250,7 +254,7 @@ def _second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, n: int,
         return None
     rel, ex = out
     tl, th = lp_bounds(rel, np.eye(n), skip=skip, iterations=WIDE_ITERATIONS,
-                       seconds=WIDE_SECONDS)
+                       seconds=WIDE_SECONDS, solver=WIDE_SOLVER)
     return to_box(ex, tl, th)
 
 

@@ -32,6 +32,9 @@ from calib_dsl.lpbound import (
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
+# HiGHS's simplex (warm, from the last basis) and its interior point method (the tight
+# strategy's wide rounds): the bounds are certified either way
+SOLVERS = st.sampled_from(["simplex", "ipm"])
 GAMMA = 1e-13  # generous float rounding budget of a short dot product (n * 2^-53, n < 100)
 
 
@@ -175,8 +178,9 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
 
 @SETTINGS
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(0, 7),
-       unbounded=st.booleans(), nuisance=st.integers(0, 2))
-def test_lp_bounds_bracket_known_optimum_and_feasible_points(seed, n, m, unbounded, nuisance):
+       unbounded=st.booleans(), nuisance=st.integers(0, 2), solver=SOLVERS)
+def test_lp_bounds_bracket_known_optimum_and_feasible_points(seed, n, m, unbounded, nuisance,
+                                                             solver):
     rng = np.random.default_rng(seed)
     # half-infinite columns crash lp_bounds (see test_lp_bounds_half_infinite_column below)
     A, b, lo, hi, c, x_hat, _, best = kkt_lp(rng, n, m, unbounded, both=True)
@@ -188,7 +192,7 @@ def test_lp_bounds_bracket_known_optimum_and_feasible_points(seed, n, m, unbound
     rel = rel_of(A, b, lo, hi, main)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        lower, upper = lp_bounds(rel, objectives, skip=skip)
+        lower, upper = lp_bounds(rel, objectives, skip=skip, solver=solver)
     points = feasible_samples(rng, A, b, lo, hi, [x_hat], count=150)
     assert any(np.array_equal(p, x_hat) for p in points)
     for i, obj in enumerate(objectives):
@@ -282,13 +286,13 @@ def test_certified_max_random_float_lps(seed, n, m, infinite):
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 7),
-       infinite=st.booleans())
-def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite):
+       infinite=st.booleans(), solver=SOLVERS)
+def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite, solver):
     rng = np.random.default_rng(seed)
     A, b, lo, hi, _, x0 = random_float_lp(rng, n, m, infinite, both=True)
     objectives = np.vstack([np.eye(n), rng.standard_normal((3, n))])
     skip = rng.random(len(objectives)) < 0.2
-    lower, upper = lp_bounds(rel_of(A, b, lo, hi), objectives, skip=skip)
+    lower, upper = lp_bounds(rel_of(A, b, lo, hi), objectives, skip=skip, solver=solver)
     points = feasible_samples(rng, A, b, lo, hi, [x0], count=200)
     for i, c in enumerate(objectives):
         assert not (math.isnan(lower[i]) or math.isnan(upper[i]))
@@ -469,8 +473,9 @@ def two_sided_lp(rng: np.random.Generator, n: int, m: int):
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8))
-def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m):
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8),
+       solver=SOLVERS)
+def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m, solver):
     rng = np.random.default_rng(seed)
     rel, x0 = two_sided_lp(rng, n, m)
     A1, b1 = rel.one_sided()
@@ -498,7 +503,7 @@ def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m):
             assert le_exact(c, p, bound), (name, bound, float(c @ p))
         if name == "exact dual":
             assert bound <= -sol.fun + 1e-6 * (1 + abs(sol.fun) + np.abs(c) @ np.abs(x0)) * 10
-    lower, upper = lp_bounds(rel, np.vstack([np.eye(n), c]))
+    lower, upper = lp_bounds(rel, np.vstack([np.eye(n), c]), solver=solver)
     for i, obj in enumerate(np.vstack([np.eye(n), c])):
         for p in points:
             assert ge_exact(obj, p, lower[i]) and le_exact(obj, p, upper[i]), (i, lower, upper)
