@@ -220,7 +220,9 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     m, n = rel.A.shape
     rows = np.arange(m) if m <= ROWS_AT_ONCE else _starting_rows(rel)
     h = _load(rel, rows, iterations)
-    h.setOptionValue("solver", solver)
+    # row generation re-solves after adding rows: the simplex goes on from its basis, an
+    # interior point method would start over each time
+    h.setOptionValue("solver", solver if len(rows) == m else "simplex")
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
     check = _RowCheck(rel) if len(rows) < m else None
