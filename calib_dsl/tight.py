@@ -35,7 +35,7 @@ WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the sea
 # of pivots from the last basis, the interior point method the same 15-20 iterations for any
 # objective (RX90 from section 4: 70 s for the second-order rounds against 95 s).
 WIDE_SOLVER = "ipm"
-WIDE_ITERATIONS = 20000  # simplex pivots per objective, should WIDE_SOLVER be "simplex"
+WIDE_ITERATIONS = 20000  # simplex pivots per objective (a relaxation generated row by row)
 WIDE_SECONDS = 30.0
 # At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
 # than LEFT_WIDE of its search domain is cut into SPLIT_PIECES pieces, each refined by at most
@@ -159,7 +159,6 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
     if slot is None:
         return res, 0, 0
     rounds, sweeps = 0, 0
-    lo, hi = np.full(len(res.lo), np.inf), np.full(len(res.hi), -np.inf)
     boxes = []
     last = res
     for plo, phi in _pieces(res.lo, res.hi, slot, SPLIT_PIECES):
@@ -175,10 +174,11 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
         last = piece
         if piece.status != "contracted":
             continue  # no solution in this piece
-        lo, hi = np.minimum(lo, piece.lo), np.maximum(hi, piece.hi)
         boxes.append((piece.lo, piece.hi))
     if not boxes:  # no piece holds a solution: neither does the box
         return last, rounds, sweeps
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
     out = Result("contracted", lo, hi, sweeps, 0.0, res.stop,
                  split=[prog.slots.names[slot]], pieces=boxes)
     return out, rounds, sweeps
@@ -194,13 +194,15 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
     from .errors import CalError
     from .identify import analyse
 
+    every = independents(prog)
+    if not np.any(_left(prog, every, lo, hi) > LEFT_WIDE):
+        return None  # nothing left wide: no need for the analysis (an SVD)
     try:
         with np.errstate(invalid="ignore", over="ignore"):  # a non-finite Jacobian raises below
             info = analyse(prog, design=True)
     except (CalError, np.linalg.LinAlgError, ValueError):
         return None  # no nominal values, or a Jacobian without finite values there
     alone = {n for members, _ in info.groups for n in members}
-    every = independents(prog)
     group = np.array([prog.slots.names[int(s)] in alone for s in every], dtype=bool)
     # a candidate must be wider than every unknown the data pins down (not one known
     # beforehand to 1e-5, like 19 of Test A's, which no split would help)
@@ -209,11 +211,7 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
     ind = every[group & (hi[every] - lo[every] > floor)]
     if len(ind) == 0:
         return None
-    domain = prog.slots.hi[ind] - prog.slots.lo[ind]
-    width = hi[ind] - lo[ind]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        left = np.where(np.isfinite(domain) & (domain > 0) & np.isfinite(width),
-                        width / np.where(domain > 0, domain, 1.0), 0.0)
+    left = _left(prog, ind, lo, hi)
     tried = [int(ind[k]) for k in np.argsort(-left, kind="stable")[:SPLIT_TRIED]
              if left[k] > LEFT_WIDE]
     if not tried:
@@ -228,6 +226,15 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | Non
         if piece is not None and whole.remainder_share - piece.remainder_share > best:
             best, slot = whole.remainder_share - piece.remainder_share, s
     return slot
+
+
+def _left(prog: Program, slots: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Each slot's width in the box over its search domain (0 where either is not finite)."""
+    domain = prog.slots.hi[slots] - prog.slots.lo[slots]
+    width = hi[slots] - lo[slots]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(np.isfinite(domain) & (domain > 0) & np.isfinite(width),
+                        width / np.where(domain > 0, domain, 1.0), 0.0)
 
 
 def _pieces(lo: np.ndarray, hi: np.ndarray, slot: int,
