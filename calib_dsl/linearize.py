@@ -441,7 +441,11 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     keep = np.flatnonzero((np.isfinite(b_up) | np.isfinite(b_lo)) & (A.row_nonzeros() > 0))
     return LinearRelaxation(A.take(keep), b_up[keep], np.concatenate([plo, xlo]),
                             np.concatenate([phi, xhi]), main=len(plo), cells=cells,
-                            b_lo=b_lo[keep], remainder_share=share, curvature=curvature)
+                            b_lo=b_lo[keep], remainder_share=share, curvature=curvature,
+                            keys=keep, family="first order",
+                            col_keys=np.concatenate([np.arange(len(plo)),
+                                                     len(plo) + cells[:, 0] * q.shape[1]
+                                                     + cells[:, 1]]))
 
 
 def _remainder_share(remainder: np.ndarray, data: np.ndarray) -> float:

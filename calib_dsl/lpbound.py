@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -107,6 +107,14 @@ class LinearRelaxation:
     # How curved the model is over the box: the median over rows of the remainder over the
     # first-order range (linearize); LP rounds stall above about 1/7. 0 when unknown.
     curvature: float = 0.0
+    # Which constraint each row relaxes (increasing ids, the same in every relaxation of the
+    # same kind, `family`), and how much of its unknown one unit of each main column is (p =
+    # center + scale t): with them, multipliers found on one box certify bounds on another
+    # (Certificates). None: no reuse.
+    keys: np.ndarray | None = None
+    scale: np.ndarray | None = None
+    family: str = ""
+    col_keys: np.ndarray | None = None  # which quantity each column is (increasing), likewise
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:
         """The same inequalities as A' p <= b' only (finite right-hand sides)."""
@@ -158,10 +166,96 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     return dot_up(y, rhs) + box_max_up(r - err, r + err, rel.lo, rel.hi)
 
 
+@dataclass
+class Certificates:
+    """The multipliers of the last LP solved for each objective (index, sign), by row key,
+    for the objective's unknown in its own units (a column of unit `scale` takes the
+    multipliers times 1 / scale). The rows of a relaxation are the same constraints
+    on every box, so the same combination of them still bounds the unknown on a smaller box,
+    and its bound is checked there as any multipliers are (certified_max): a matrix product
+    instead of an LP. It stays near the new LP's optimum as long as the active rows do not
+    change (on the RX90 from section 4, within 1% of the fresh bound a round later)."""
+
+    family: str = ""
+    y: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # the simplex's final basis for each objective (row keys, row statuses, column keys,
+    # column statuses): the next LP of the same objective starts from it
+    basis: dict[tuple[int, float], tuple] = field(default_factory=dict)
+
+    def copy(self) -> Certificates:
+        return Certificates(self.family, dict(self.y), dict(self.basis))
+
+    def usable(self, rel: LinearRelaxation) -> bool:
+        return bool(self.y) and rel.keys is not None and rel.family == self.family
+
+    def record(self, rel: LinearRelaxation, i: int, sign: float, y: np.ndarray,
+               basis: tuple | None = None) -> None:
+        if rel.keys is None:
+            return
+        if rel.family != self.family:
+            self.family, self.y, self.basis = rel.family, {}, {}
+        self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
+        if basis is not None and rel.col_keys is not None:
+            self.basis[(i, sign)] = (rel.keys, basis[0], rel.col_keys, basis[1])
+        else:
+            self.basis.pop((i, sign), None)
+
+    def start(self, rel: LinearRelaxation, i: int, sign: float) -> tuple | None:
+        """The statuses (rows, columns) of the last basis of this objective mapped onto rel's
+        rows and columns (a new row's slack basic, a new column at its lower bound), or None."""
+        if (i, sign) not in self.basis or rel.family != self.family or rel.keys is None \
+                or rel.col_keys is None:
+            return None
+        row_keys, rows, col_keys, cols = self.basis[(i, sign)]
+        return (_mapped(row_keys, rows, rel.keys, _BASIC),
+                _mapped(col_keys, cols, rel.col_keys, _LOWER))
+
+
+_LOWER, _BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
+
+
+def _mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,
+            missing: int) -> np.ndarray:
+    if len(old_keys) == 0:
+        return np.full(len(keys), missing, dtype=values.dtype)
+    at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
+    return np.where(old_keys[at] == keys, values[at], missing)
+
+
+def _unit(rel: LinearRelaxation, j: int) -> float:
+    return 1.0 if rel.scale is None else float(rel.scale[j])
+
+
+def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
+                  certs: Certificates) -> tuple[np.ndarray, np.ndarray]:
+    """Rigorous [min, max] of each unit objective (a row of the identity) over `rel` from the
+    multipliers kept in `certs` (the box's own bound where there are none)."""
+    k = objectives.shape[0]
+    lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
+    pad = np.zeros(rel.A.shape[1] - objectives.shape[1])
+    use = certs.usable(rel)
+    keys = rel.keys if rel.keys is not None else np.zeros(0, np.int64)
+    for i, c in enumerate(objectives):
+        for sign in (1.0, -1.0):
+            c_full = sign * np.concatenate([c, pad])
+            bound = box_max_up(c_full, c_full, rel.lo, rel.hi)
+            if use and (i, sign) in certs.y:
+                old_keys, y_old = certs.y[(i, sign)]
+                at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
+                found = old_keys[at] == keys
+                y = np.where(found, y_old[at], 0.0) * (1.0 / _unit(rel, i))
+                bound = min(bound, certified_max(rel, c_full, y))
+            if sign > 0:
+                upper[i] = bound
+            else:
+                lower[i] = -bound
+    return lower, upper
+
+
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
-              seconds: float = LP_SECONDS,
-              solver: str = "simplex") -> tuple[np.ndarray, np.ndarray]:
+              seconds: float = LP_SECONDS, solver: str = "simplex",
+              certificates: Certificates | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -173,6 +267,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
     starts afresh each time but costs the same few dozen iterations on any objective, which
     pays on a large LP whose objectives are far apart (their multipliers certify all the same).
+    The multipliers of each LP solved are kept in `certificates` if given (for
+    reused_bounds on a later box).
     """
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
@@ -191,14 +287,16 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     workers = max(1, min(WORKERS, len(tasks)))
     shares = [tasks[w::workers] for w in range(workers)]
     if workers == 1:
-        results = [_solve_share(rel, shares[0], iterations, seconds, solver)]
+        results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates)]
     else:
         with ThreadPoolExecutor(workers) as pool:
             results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
-                                                                    solver),
+                                                                    solver, certificates),
                                     shares))
     for share in results:
-        for i, sign, bound in share:
+        for i, sign, bound, y, basis in share:
+            if certificates is not None:
+                certificates.record(rel, i, sign, y, basis)
             if sign > 0:
                 upper[i] = min(upper[i], bound)
             else:
@@ -208,7 +306,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
 
 def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERATIONS,
                  seconds: float = LP_SECONDS,
-                 solver: str = "simplex") -> list[tuple[int, float, float]]:
+                 solver: str = "simplex",
+                 certificates: Certificates | None = None) -> list[tuple]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
     A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
@@ -228,10 +327,15 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     check = _RowCheck(rel) if len(rows) < m else None
     out = []
     points: list[np.ndarray] = []  # LP solutions found so far (feasible up to HiGHS's tolerance)
+    # the simplex on the whole LP can start from this objective's basis on an earlier box
+    keep_basis = certificates is not None and len(rows) == m and solver == "simplex"
     for i, sign, c in share:
         if _reached(c, points, rel):
             continue  # an LP point already lies on the box's bound: the box bound stays
         h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
+        start = certificates.start(rel, i, sign) if keep_basis and certificates else None
+        if start is not None:
+            _set_basis(h, *start)
         # HiGHS's time limit counts all runs of the object: extend it per solve.
         h.setOptionValue("time_limit", h.getRunTime() + seconds)
         h.run()
@@ -254,8 +358,30 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
         if sol.dual_valid:
             y = np.zeros(m)
             y[rows] = -np.asarray(sol.row_dual)
-            out.append((i, sign, certified_max(rel, c, y)))
+            out.append((i, sign, certified_max(rel, c, y), y, _basis(h) if keep_basis else None))
     return out
+
+
+def _basis(h: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    b = h.getBasis()
+    if not b.valid:
+        return None
+    return (np.array([int(v) for v in b.row_status], np.int8),
+            np.array([int(v) for v in b.col_status], np.int8))
+
+
+def _set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
+    """Start the next solve from these statuses. HiGHS takes an "alien" basis (one with too
+    many or too few basic variables, as a mapped one may have) and completes it."""
+    import highspy
+
+    status = highspy.HighsBasisStatus
+    b = highspy.HighsBasis()
+    b.row_status = [status(int(v)) for v in rows]
+    b.col_status = [status(int(v)) for v in cols]
+    b.alien = True
+    b.valid = True
+    h.setBasis(b)
 
 
 def _reached(c: np.ndarray, points: list[np.ndarray], rel: LinearRelaxation) -> bool:

@@ -45,7 +45,8 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     ok &= np.isfinite(m.c0)
     if not np.any(ok):
         return None
-    m = m.take(np.flatnonzero(ok))
+    keys = np.flatnonzero(ok)
+    m = m.take(keys)
     tlo, thi = ex.rows.lo[ok], ex.rows.hi[ok]
     keep, dropped = _kept_products(m, tlo, thi, prune)
     ex.kept = keep
@@ -64,7 +65,11 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     chi = np.ones(ncols)
     if mccormick:
         rows, b_up, b_lo = _with_mccormick(rows, b_up, b_lo, pairs, keep, n)
-    rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo)
+        # a McCormick row is known by its product and its place among the product's 4 rows
+        keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
+    rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
+                           scale=ex.half, family="second order",
+                           col_keys=np.concatenate([np.arange(n), n + keep]))
     return rel, ex
 
 

@@ -12,11 +12,12 @@ Every LP bound is certified (lpbound), so the result stays guaranteed.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
 from .linearize import independents, measured_cells, relax
-from .lpbound import lp_bounds
+from .lpbound import Certificates, LinearRelaxation, lp_bounds, reused_bounds
 from .program import Program
 from .propagate import Emptied, Result, propagate
 from .quadratic import relax_quadratic, to_box
@@ -34,7 +35,13 @@ WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the sea
 # The second-order LPs are dense, and their objectives far apart: the simplex takes hundreds
 # of pivots from the last basis, the interior point method the same 15-20 iterations for any
 # objective (RX90 from section 4: 70 s for the second-order rounds against 95 s).
-WIDE_SOLVER = "ipm"
+WIDE_SOLVER = "simplex"
+# After a round of LPs, the next rounds first reuse its multipliers on the new box (a matrix
+# product each, Certificates): on the RX90 from section 4 they give nearly the LPs' bounds,
+# and the LPs are solved again only when such a round gains less than REUSE_GAIN (3
+# second-order rounds of LPs instead of 10); at most REUSE_ROUNDS of them in a row.
+REUSE_GAIN = 0.05
+REUSE_ROUNDS = 20
 WIDE_ITERATIONS = 20000  # simplex pivots per objective (a relaxation generated row by row)
 WIDE_SECONDS = 30.0
 # At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
@@ -73,14 +80,15 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     start = time.perf_counter()
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
     sweeps = res.sweeps
+    certs = Certificates()  # the multipliers (and bases) of the last LPs of each objective
     res, rounds, more = _lp_rounds(prog, res, tol, max_sweeps, max_rounds, min_gain,
-                                   second_order)
+                                   second_order, certs)
     sweeps += more
     if res.status == "contracted":
         res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=res.lo, hi=res.hi)
         sweeps += res.sweeps
     if split and res.status == "contracted":
-        res, more_rounds, more = _split(prog, res, tol, max_sweeps, min_gain)
+        res, more_rounds, more = _split(prog, res, tol, max_sweeps, min_gain, certs)
         rounds, sweeps = rounds + more_rounds, sweeps + more
     res.sweeps = sweeps
     res.rounds = rounds
@@ -89,38 +97,62 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
 
 
 def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_rounds: int,
-               min_gain: float, second_order: bool,
+               min_gain: float, second_order: bool, certs: Certificates,
                cells: bool = False) -> tuple[Result, int, int]:
     """The LP rounds of solve_tight from the box of `res`: (result, rounds, sweeps). With
-    `cells`, the rounds start with the measurement errors as LP columns (a box near the end)."""
+    `cells`, the rounds start with the measurement errors as LP columns (a box near the end).
+    `certs` holds the multipliers and bases of the LPs solved (updated in place)."""
     sweeps, rounds = 0, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
     last_gain = np.ones(len(ind))  # of the last round that tried each unknown
     # with too many measured values for cell columns, "cell" rounds fold the errors too
     cellular = measured_cells(prog) <= MAX_CELL_COLUMNS
+    reuse, reused = bool(certs.y), 0  # (a piece of a split box: its whole box's multipliers)
     while res.status == "contracted" and rounds < max_rounds:
         lo, hi = res.lo, res.hi
-        rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
-        if rel is None:
+        reuse = reuse and reused < REUSE_ROUNDS
+        if reuse and certs.family == "second order":
+            rel = None  # a second-order round again: no first-order relaxation needed
+        else:
+            rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
+            if rel is None:
+                break
+        wide = second_order and not cells and (rel is None or rel.curvature > WIDE)
+        quad = relax_quadratic(prog, lo, hi) if wide else None
+        if quad is None and rel is None:  # (cannot happen: a first round built them)
             break
-        wide = second_order and rel.curvature > WIDE and not cells
-        bounds = _second_order(prog, lo, hi, len(ind), skip) if wide else None
-        wide = bounds is not None  # None: the program has no second-order models
-        rounds += 1
-        nlo, nhi = bounds if bounds is not None else lp_bounds(rel, np.eye(len(ind)), skip=skip)
+        wide = quad is not None  # None: the program has no second-order models
+        target = quad[0] if quad is not None else rel
+        assert target is not None
+        fresh = not (reuse and certs.usable(target))
+        if quad is not None:
+            tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, iterations=WIDE_ITERATIONS,
+                             seconds=WIDE_SECONDS, solver=WIDE_SOLVER)
+            nlo, nhi = to_box(quad[1], tl, th)
+        else:
+            nlo, nhi = _bounds(target, len(ind), skip, certs, fresh)
         new_lo, new_hi = np.maximum(lo[ind], nlo), np.minimum(hi[ind], nhi)
         if np.any(new_lo > new_hi):  # certified bounds cross: no solution at all
             k = int(np.flatnonzero(new_lo > new_hi)[0])
             res = _emptied(prog, res, prog.slots.names[int(ind[k])])
+            rounds += fresh
             break
         gains = _gains(hi[ind] - lo[ind], new_hi - new_lo)
-        last_gain = np.where(skip, last_gain, gains)
         lo, hi = lo.copy(), hi.copy()
         lo[ind], hi[ind] = new_lo, new_hi
         res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=lo, hi=hi)
         sweeps += res.sweeps
         best = gains.max(initial=0.0)
+        if not fresh:  # reused multipliers: again while they pay, else the LPs again
+            reused += 1
+            reuse = best >= REUSE_GAIN
+            continue
+        rounds += 1
+        # the next round first tries this round's multipliers, unless its LPs are as cheap as
+        # a relaxation (folded first-order rounds: as many columns as unknowns)
+        reuse, reused = wide or cells, 0
+        last_gain = np.where(skip, last_gain, gains)
         if wide:
             if best < WIDE_MIN_GAIN:
                 break  # neither order contracts this box: the search domains are too wide
@@ -128,6 +160,7 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
             continue
         # once the model is linear over the box to within a small part of the data's errors,
         # relaxing again gives the same LP: only the cell columns can still gain
+        assert rel is not None  # built in every first-order round
         settled = rel.remainder_share < SETTLED
         if cells and (best < min_gain or settled):
             break
@@ -142,8 +175,20 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
     return res, rounds, sweeps
 
 
+def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
+            fresh: bool, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Certified bounds on the relaxation's n main columns: from the multipliers kept in
+    `certs` (a matrix product), and unless only those are asked for, from the LPs too (the
+    tighter of each pair is kept, and the LPs' multipliers replace the old ones)."""
+    lo, hi = reused_bounds(rel, np.eye(n), certs)
+    if not fresh:
+        return lo, hi
+    tl, th = lp_bounds(rel, np.eye(n), skip=skip, certificates=certs, **lp_options)
+    return np.maximum(lo, tl), np.minimum(hi, th)
+
+
 def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
-           min_gain: float) -> tuple[Result, int, int]:
+           min_gain: float, certs: Certificates) -> tuple[Result, int, int]:
     """Cut an unknown that the solve left wide into pieces, refine each piece by LP rounds,
     and return the hull of the pieces: (result, rounds, sweeps).
 
@@ -165,8 +210,9 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
         piece = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps,
                           lo=plo, hi=phi)
         sweeps += piece.sweeps
+        # each piece starts from the whole box's last multipliers and bases
         piece, n, s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS, min_gain,
-                                 second_order=False, cells=True)
+                                 False, certs.copy(), cells=True)
         rounds, sweeps = rounds + n, sweeps + s
         if piece.status == "contracted":
             piece = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=piece.lo, hi=piece.hi)
@@ -250,19 +296,6 @@ def _pieces(lo: np.ndarray, hi: np.ndarray, slot: int,
         plo[slot], phi[slot] = edges[k], edges[k + 1]
         out.append((plo, phi))
     return out
-
-
-def _second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, n: int,
-                  skip: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Certified bounds on the unknowns from the second-order relaxation, or None if the
-    program has none (a primitive without a Taylor model)."""
-    out = relax_quadratic(prog, lo, hi)
-    if out is None:
-        return None
-    rel, ex = out
-    tl, th = lp_bounds(rel, np.eye(n), skip=skip, iterations=WIDE_ITERATIONS,
-                       seconds=WIDE_SECONDS, solver=WIDE_SOLVER)
-    return to_box(ex, tl, th)
 
 
 def _emptied(prog: Program, res: Result, name: str) -> Result:

@@ -21,12 +21,14 @@ from scipy import sparse
 from scipy.optimize import linprog
 
 from calib_dsl.lpbound import (
+    Certificates,
     LinearRelaxation,
     Rows,
     box_max_up,
     certified_max,
     dot_up,
     lp_bounds,
+    reused_bounds,
     transpose_times,
 )
 
@@ -509,6 +511,78 @@ def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m, solver):
             assert ge_exact(obj, p, lower[i]) and le_exact(obj, p, upper[i]), (i, lower, upper)
     if sol.status == 0:  # the LP's bound is near the optimum, not only sound
         assert upper[-1] <= -sol.fun + 1e-5 * (1 + abs(sol.fun) + np.abs(c) @ np.abs(x0))
+
+
+# -- multipliers reused on another box (Certificates) -----------------------------------------
+
+def nearby_lp(rng: np.random.Generator, rel: LinearRelaxation, x0: np.ndarray,
+              keys: np.ndarray):
+    """The same rows on another box, as a later round sees them: coefficients perturbed, new
+    sides around a new feasible point, some rows gone; keys name the rows that stay."""
+    n = rel.A.shape[1]
+    A = rel.A.toarray()
+    stay = np.sort(rng.choice(len(keys), size=rng.integers(0, len(keys) + 1), replace=False))
+    A = (A + 0.1 * rng.standard_normal(A.shape) * (A != 0))[stay]
+    x1 = x0 + rng.uniform(-0.5, 0.5, size=n)
+    ax = A @ x1
+    b = np.where(np.isfinite(rel.b[stay]), ax + rng.exponential(0.3, len(stay)), np.inf)
+    b_lo = np.where(np.isfinite(rel.b_lo[stay]), ax - rng.exponential(0.3, len(stay)), -np.inf)
+    b, b_lo = b + 1e-9 * np.abs(ax), b_lo - 1e-9 * np.abs(ax)
+    lo, hi = x1 - rng.uniform(0.05, 2, size=n), x1 + rng.uniform(0.05, 2, size=n)
+    out = LinearRelaxation(sparse.csr_matrix(A.reshape(len(stay), n)), b, lo, hi, n, b_lo=b_lo,
+                           keys=keys[stay], scale=rng.uniform(0.1, 3, size=n), family="f")
+    return out, x1
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 8),
+       solver=SOLVERS)
+def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m, solver):
+    rng = np.random.default_rng(seed)
+    rel, x0 = two_sided_lp(rng, n, m)
+    keys = np.sort(rng.choice(10 * m, size=m, replace=False))
+    rel.keys, rel.scale, rel.family = keys, rng.uniform(0.1, 3, size=n), "f"
+    certs = Certificates()
+    lower, upper = lp_bounds(rel, np.eye(n), solver=solver, certificates=certs)
+    # on the same relaxation the kept multipliers give the LPs' own bounds back
+    rlo, rhi = reused_bounds(rel, np.eye(n), certs)
+    solved = {i for i, _ in certs.y}
+    for i in solved:  # (up to the rounding of y * scale / scale)
+        assert abs(rlo[i] - lower[i]) <= 1e-9 * (1 + abs(lower[i]))
+        assert abs(rhi[i] - upper[i]) <= 1e-9 * (1 + abs(upper[i]))
+    later, x1 = nearby_lp(rng, rel, x0, keys)
+    A1, b1 = later.one_sided()
+    points = feasible_samples(rng, A1.toarray(), b1, later.lo, later.hi, [x1], count=200)
+    assert any(np.array_equal(p, x1) for p in points)
+    rlo, rhi = reused_bounds(later, np.eye(n), certs)
+    for i, obj in enumerate(np.eye(n)):
+        for p in points:
+            assert ge_exact(obj, p, rlo[i]) and le_exact(obj, p, rhi[i]), (i, rlo, rhi)
+    # another family's multipliers are not used: the box's own bounds
+    later.family = "g"
+    rlo, rhi = reused_bounds(later, np.eye(n), certs)
+    assert np.allclose(rlo, later.lo, rtol=1e-8) and np.allclose(rhi, later.hi, rtol=1e-8)
+
+
+def test_reused_multipliers_scale_with_the_columns_unit():
+    # x in [0, 10] with 1 <= x <= 2 (rows key 7): the multiplier of the bound on x per unit of
+    # x; on a box whose column is x / 4 (scale 4), the same row bounds it by 2 / 4
+    rel = LinearRelaxation(rows_of(np.array([[1.0]])), np.array([2.0]), np.array([0.0]),
+                           np.array([10.0]), 1, b_lo=np.array([1.0]), keys=np.array([7]),
+                           scale=np.array([1.0]), family="f")
+    certs = Certificates()
+    lo, hi = lp_bounds(rel, np.eye(1), certificates=certs)
+    assert lo[0] <= 1.0 and hi[0] >= 2.0 and hi[0] - lo[0] < 1.0 + 1e-6
+    quarter = LinearRelaxation(rows_of(np.array([[4.0]])), np.array([2.0]), np.array([0.0]),
+                               np.array([2.5]), 1, b_lo=np.array([1.0]), keys=np.array([7]),
+                               scale=np.array([4.0]), family="f")
+    lo, hi = reused_bounds(quarter, np.eye(1), certs)
+    assert lo[0] <= 0.25 and hi[0] >= 0.5 and hi[0] - lo[0] < 0.25 + 1e-6
+    gone = LinearRelaxation(rows_of(np.array([[4.0]])), np.array([2.0]), np.array([0.0]),
+                            np.array([2.5]), 1, b_lo=np.array([1.0]), keys=np.array([8]),
+                            scale=np.array([4.0]), family="f")
+    lo, hi = reused_bounds(gone, np.eye(1), certs)  # row 7 is not there: the box
+    assert np.allclose([lo[0], hi[0]], [0.0, 2.5], rtol=1e-8, atol=1e-12)
 
 
 # -- the row-sparse matrix the tight strategy builds (no scipy.sparse on its path) -----------
