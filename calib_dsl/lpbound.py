@@ -215,7 +215,8 @@ _LOWER, _BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
 
 
 def _mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,
-            missing: int) -> np.ndarray:
+            missing: float) -> np.ndarray:
+    """The values of the keys in `keys` (sorted ids), `missing` for a key not in old_keys."""
     if len(old_keys) == 0:
         return np.full(len(keys), missing, dtype=values.dtype)
     at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
@@ -241,9 +242,7 @@ def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
             bound = box_max_up(c_full, c_full, rel.lo, rel.hi)
             if use and (i, sign) in certs.y:
                 old_keys, y_old = certs.y[(i, sign)]
-                at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
-                found = old_keys[at] == keys
-                y = np.where(found, y_old[at], 0.0) * (1.0 / _unit(rel, i))
+                y = _mapped(old_keys, y_old, keys, 0.0) * (1.0 / _unit(rel, i))
                 bound = min(bound, certified_max(rel, c_full, y))
             if sign > 0:
                 upper[i] = bound

@@ -42,6 +42,7 @@ class Result:
     stop: str  # why the loop stopped: "fixed point", "tolerance", "max sweeps", "empty"
     emptied: Emptied | None = None
     rounds: int = 0  # LP rounds (tight strategy)
+    reused: int = 0  # rounds that reused earlier LPs' multipliers instead (tight strategy)
     # tight strategy: the parameters cut into pieces (not identifiable alone), and each
     # piece's box that holds solutions; the result is their hull
     split: list[str] = field(default_factory=list)

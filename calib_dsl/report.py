@@ -133,7 +133,8 @@ def render_summary(prog: Program, res: Result, strategy: str,
     extra = extra or Extras()
     c = prog.counts()
     lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}"
-             + (f", LP rounds: {res.rounds}" if strategy == "tight" else ""),
+             + (f", LP rounds: {res.rounds} (and {res.reused} reusing their multipliers)"
+                if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
              f"time: {res.seconds:.3f} s"]
@@ -198,6 +199,7 @@ def result_json(prog: Program, res: Result, strategy: str,
         "stop": res.stop,
         "sweeps": res.sweeps,
         "lp_rounds": res.rounds,
+        "reused_rounds": res.reused,
         "seconds": res.seconds,
         "primitives": len(prog.primitives),
         "formulation": prog.formulation,

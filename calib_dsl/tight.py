@@ -81,34 +81,39 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps)
     sweeps = res.sweeps
     certs = Certificates()  # the multipliers (and bases) of the last LPs of each objective
-    res, rounds, more = _lp_rounds(prog, res, tol, max_sweeps, max_rounds, min_gain,
-                                   second_order, certs)
+    res, (rounds, reused), more = _lp_rounds(prog, res, tol, max_sweeps, max_rounds,
+                                             min_gain, second_order, certs)
     sweeps += more
     if res.status == "contracted":
         res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=res.lo, hi=res.hi)
         sweeps += res.sweeps
     if split and res.status == "contracted":
-        res, more_rounds, more = _split(prog, res, tol, max_sweeps, min_gain, certs)
-        rounds, sweeps = rounds + more_rounds, sweeps + more
+        res, (more_rounds, more_reused), more = _split(prog, res, tol, max_sweeps, min_gain,
+                                                       certs)
+        rounds, reused, sweeps = rounds + more_rounds, reused + more_reused, sweeps + more
     res.sweeps = sweeps
     res.rounds = rounds
+    res.reused = reused
     res.seconds = time.perf_counter() - start
     return res
 
 
 def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_rounds: int,
                min_gain: float, second_order: bool, certs: Certificates,
-               cells: bool = False) -> tuple[Result, int, int]:
-    """The LP rounds of solve_tight from the box of `res`: (result, rounds, sweeps). With
+               cells: bool = False) -> tuple[Result, tuple[int, int], int]:
+    """The LP rounds of solve_tight from the box of `res`: (result, (rounds of LPs, rounds
+    of reused multipliers), sweeps). With
     `cells`, the rounds start with the measurement errors as LP columns (a box near the end).
     `certs` holds the multipliers and bases of the LPs solved (updated in place)."""
     sweeps, rounds = 0, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
-    last_gain = np.ones(len(ind))  # of the last round that tried each unknown
+    moved = np.zeros(len(ind), dtype=bool)  # whether any round narrowed it by STALLED
     # with too many measured values for cell columns, "cell" rounds fold the errors too
     cellular = measured_cells(prog) <= MAX_CELL_COLUMNS
     reuse, reused = bool(certs.y), 0  # (a piece of a split box: its whole box's multipliers)
+    total_reused = 0
+    last = ""  # the kind of the last round
     while res.status == "contracted" and rounds < max_rounds:
         lo, hi = res.lo, res.hi
         reuse = reuse and reused < REUSE_ROUNDS
@@ -118,7 +123,10 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
             rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
             if rel is None:
                 break
-        wide = second_order and not cells and (rel is None or rel.curvature > WIDE)
+        # the second-order phase ends with a round of LPs (reused multipliers may have left
+        # the box just below WIDE while the LPs would still contract it much further)
+        wide = second_order and not cells and (rel is None or rel.curvature > WIDE
+                                               or last == "reused second order")
         quad = relax_quadratic(prog, lo, hi) if wide else None
         if quad is None and rel is None:  # (cannot happen: a first round built them)
             break
@@ -144,15 +152,18 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         res = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=lo, hi=hi)
         sweeps += res.sweeps
         best = gains.max(initial=0.0)
+        moved |= gains >= STALLED
+        last = ("" if fresh else "reused ") + target.family
         if not fresh:  # reused multipliers: again while they pay, else the LPs again
             reused += 1
+            total_reused += 1
             reuse = best >= REUSE_GAIN
             continue
         rounds += 1
         # the next round first tries this round's multipliers, unless its LPs are as cheap as
-        # a relaxation (folded first-order rounds: as many columns as unknowns)
-        reuse, reused = wide or cells, 0
-        last_gain = np.where(skip, last_gain, gains)
+        # a relaxation (folded first-order rounds: as many columns as unknowns), or the
+        # second-order phase is over (the box is no longer too wide for first order)
+        reuse, reused = cells or (wide and rel is not None and rel.curvature > WIDE), 0
         if wide:
             if best < WIDE_MIN_GAIN:
                 break  # neither order contracts this box: the search domains are too wide
@@ -167,12 +178,12 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         if not cells and settled and not cellular:
             break  # the next round would solve the same LP
         if not cells and (best < FOLDED_UNTIL or settled):
-            # a tighter relaxation: every unknown again, but one that the folded rounds left
-            # where it was (a parameter known beforehand)
-            cells, skip = True, last_gain < STALLED
+            # a tighter relaxation: every unknown again, but one that no round has moved (a
+            # parameter known beforehand)
+            cells, skip = True, ~moved
         else:  # a stalled unknown is tried again a round later
             skip = (gains < (min_gain if cells else STALLED)) & ~skip
-    return res, rounds, sweeps
+    return res, (rounds, total_reused), sweeps
 
 
 def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
@@ -188,7 +199,7 @@ def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates
 
 
 def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
-           min_gain: float, certs: Certificates) -> tuple[Result, int, int]:
+           min_gain: float, certs: Certificates) -> tuple[Result, tuple[int, int], int]:
     """Cut an unknown that the solve left wide into pieces, refine each piece by LP rounds,
     and return the hull of the pieces: (result, rounds, sweeps).
 
@@ -202,8 +213,8 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
     """
     slot = _worth_splitting(prog, res.lo, res.hi)
     if slot is None:
-        return res, 0, 0
-    rounds, sweeps = 0, 0
+        return res, (0, 0), 0
+    rounds, reused, sweeps = 0, 0, 0
     boxes = []
     last = res
     for plo, phi in _pieces(res.lo, res.hi, slot, SPLIT_PIECES):
@@ -211,9 +222,9 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
                           lo=plo, hi=phi)
         sweeps += piece.sweeps
         # each piece starts from the whole box's last multipliers and bases
-        piece, n, s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS, min_gain,
-                                 False, certs.copy(), cells=True)
-        rounds, sweeps = rounds + n, sweeps + s
+        piece, (n, k), s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS,
+                                      min_gain, False, certs.copy(), cells=True)
+        rounds, reused, sweeps = rounds + n, reused + k, sweeps + s
         if piece.status == "contracted":
             piece = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=piece.lo, hi=piece.hi)
             sweeps += piece.sweeps
@@ -222,12 +233,12 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
             continue  # no solution in this piece
         boxes.append((piece.lo, piece.hi))
     if not boxes:  # no piece holds a solution: neither does the box
-        return last, rounds, sweeps
+        return last, (rounds, reused), sweeps
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     out = Result("contracted", lo, hi, sweeps, 0.0, res.stop,
                  split=[prog.slots.names[slot]], pieces=boxes)
-    return out, rounds, sweeps
+    return out, (rounds, reused), sweeps
 
 
 def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | None:

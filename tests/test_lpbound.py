@@ -583,6 +583,14 @@ def test_reused_multipliers_scale_with_the_columns_unit():
                             scale=np.array([4.0]), family="f")
     lo, hi = reused_bounds(gone, np.eye(1), certs)  # row 7 is not there: the box
     assert np.allclose([lo[0], hi[0]], [0.0, 2.5], rtol=1e-8, atol=1e-12)
+    # multipliers of a relaxation without rows (the box alone) reused on one with rows
+    empty = LinearRelaxation(rows_of(np.zeros((0, 1))), np.zeros(0), np.array([0.0]),
+                             np.array([10.0]), 1, b_lo=np.zeros(0),
+                             keys=np.zeros(0, np.int64), family="f")
+    certs = Certificates()
+    lp_bounds(empty, np.eye(1), certificates=certs)
+    lo, hi = reused_bounds(quarter, np.eye(1), certs)
+    assert np.allclose([lo[0], hi[0]], [0.0, 2.5], rtol=1e-8, atol=1e-12)
 
 
 # -- the row-sparse matrix the tight strategy builds (no scipy.sparse on its path) -----------

@@ -355,6 +355,38 @@ def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory,
     assert np.all(second.hi[ind] - second.lo[ind] <= first.hi[ind] - first.lo[ind])
 
 
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31 - 1))
+def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, seed):
+    """On the wide arm, rounds that reuse the last LPs' multipliers replace LP rounds: fewer
+    LP rounds, the truth inside, every parameter below 1 % of its domain as without them."""
+    import calib_dsl.tight as tight
+
+    rng = np.random.default_rng(seed)
+    truth = {"t1": rng.uniform(-0.15, 0.15), "t2": rng.uniform(-0.15, 0.15),
+             "t3": rng.uniform(-0.15, 0.15), "a2": math.pi / 2 + rng.uniform(-0.15, 0.15),
+             "l1": 0.5 + rng.uniform(-0.05, 0.05), "l2": 0.4 + rng.uniform(-0.05, 0.05),
+             "bz": rng.uniform(-0.025, 0.025)}
+    source = WIDE_ARM.format(**{k: repr(float(v)) for k, v in truth.items()})
+    sim = simulate_cal(tmp_path_factory.mktemp("arm"), source, clean_version(source), 12, seed,
+                       "matrix")
+    prog, p_true = sim.prog, sim.p_true
+    ind = independents(prog)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        reusing = tight.solve_tight(prog)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(tight, "REUSE_ROUNDS", 0)  # every round solves its LPs
+            plain = tight.solve_tight(prog)
+    assert reusing.reused > 0 and plain.reused == 0
+    assert reusing.rounds < plain.rounds
+    domain = prog.slots.hi[ind] - prog.slots.lo[ind]
+    for res in (reusing, plain):
+        assert res.status == "contracted"
+        assert np.all(res.lo[ind] <= p_true) and np.all(p_true <= res.hi[ind])
+        assert np.all((res.hi[ind] - res.lo[ind]) / domain < 0.01)
+
+
 # -- parameters that are not identifiable alone: split into pieces ------------------------------
 
 PARALLEL_ARM = """
