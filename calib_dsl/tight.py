@@ -6,7 +6,10 @@ relaxation's error terms shrink with the square of the box). The LP sees all con
 once, which propagation cannot: it reaches the hull of the linearized problem. The first LP
 round folds each measurement error into its row (cheap); later rounds give the measured values
 of each configuration LP columns of their own, so the rows of one configuration share them.
-Every LP bound is certified (lpbound), so the result stays guaranteed.
+Every LP bound is certified (lpbound), so the result stays guaranteed. After a round of LPs,
+the next rounds first reuse its multipliers on the new, smaller box (the same combination of
+the same rows, certified again there: a matrix product instead of an LP), and solve LPs again
+only when that stops paying.
 """
 
 from __future__ import annotations
@@ -32,17 +35,19 @@ SETTLED = 0.01  # a relaxation whose remainder is below this share of its rows' 
 # models instead (quadratic.py), until the box is small enough.
 WIDE = 0.06
 WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the search
-# The second-order LPs are dense, and their objectives far apart: the simplex takes hundreds
-# of pivots from the last basis, the interior point method the same 15-20 iterations for any
-# objective (RX90 from section 4: 70 s for the second-order rounds against 95 s).
+# The second-order LPs are dense, and one objective's optimum is far from the next's: from
+# the previous objective's basis the simplex takes hundreds of pivots, the interior point
+# method ("ipm") 15-20 iterations for any objective. From the same objective's own basis in
+# the last round of LPs (Certificates keeps it) the simplex needs far fewer: on the RX90 from
+# section 4, 42 s for the second-order rounds against 53 s with the interior point method.
 WIDE_SOLVER = "simplex"
 # After a round of LPs, the next rounds first reuse its multipliers on the new box (a matrix
 # product each, Certificates): on the RX90 from section 4 they give nearly the LPs' bounds,
-# and the LPs are solved again only when such a round gains less than REUSE_GAIN (3
+# and the LPs are solved again only when such a round gains less than REUSE_GAIN (4
 # second-order rounds of LPs instead of 10); at most REUSE_ROUNDS of them in a row.
 REUSE_GAIN = 0.05
 REUSE_ROUNDS = 20
-WIDE_ITERATIONS = 20000  # simplex pivots per objective (a relaxation generated row by row)
+WIDE_ITERATIONS = 20000  # simplex pivots per objective in a second-order round
 WIDE_SECONDS = 30.0
 # At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
 # than LEFT_WIDE of its search domain is cut into SPLIT_PIECES pieces, each refined by at most
@@ -70,8 +75,12 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     next one (these rounds are the expensive ones, and its bound is already near the hull).
     A round whose relaxation is settled (its remainder below SETTLED of the rows' widths) ends
     its phase: the next relaxation would be the same LP.
-    An unknown the folded rounds did not move (gain below STALLED the last time it was tried:
-    on the RX90's Test A, the 19 parameters known to 1e-5) also sits out the first such round.
+    An unknown no round has moved (gain below STALLED every time: on the RX90's Test A, the
+    19 parameters known to 1e-5) also sits out the first such round.
+    After a second-order or cell round of LPs, the next rounds reuse its multipliers on the
+    new box (lpbound.Certificates; the LPs of a folded first-order round cost no more than
+    its relaxation) while such a round narrows some unknown by REUSE_GAIN; then a round
+    solves its LPs again, the simplex starting each objective from its own last basis.
     On a box too wide for first order (curvature above WIDE) a round relaxes second-order
     Taylor models instead (quadratic.py); such rounds repeat while they gain WIDE_MIN_GAIN.
     With `split`, an unknown left wide (not identifiable alone) is then cut into pieces, each
