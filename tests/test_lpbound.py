@@ -463,15 +463,20 @@ def two_sided_lp(rng: np.random.Generator, n: int, m: int):
     feasible by construction (every slack >= 0 before rounding; checked exactly after)."""
     x0 = rng.uniform(-3, 3, size=n)
     A = rng.standard_normal((m, n)) * (rng.random((m, n)) < 0.8)
-    ax = A @ x0
-    up = ax + rng.exponential(0.5, size=m) * (rng.random(m) < 0.7) + 1e-9 * np.abs(ax)
-    dn = ax - rng.exponential(0.5, size=m) * (rng.random(m) < 0.7) - 1e-9 * np.abs(ax)
     side = rng.choice(["both", "upper", "lower"], size=m)
-    b = np.where(side == "lower", np.inf, up)
-    b_lo = np.where(side == "upper", -np.inf, dn)
+    gap = rng.exponential(0.5, size=(2, m)) * (rng.random((2, m)) < 0.7)
+    b, b_lo = sides_around(A @ x0, side != "lower", side != "upper", gap)
     lo, hi = x0 - rng.uniform(0.1, 4, size=n), x0 + rng.uniform(0.1, 4, size=n)
     rel = LinearRelaxation(sparse.csr_matrix(A), b, lo, hi, n, b_lo=b_lo)
     return rel, x0
+
+
+def sides_around(ax: np.ndarray, upper: np.ndarray, lower: np.ndarray, gap: np.ndarray):
+    """Row sides at gap[0] above and gap[1] below A x (infinite where a side is absent), each
+    widened by 1e-9 |A x| so that x stays feasible after rounding."""
+    b = np.where(upper, ax + gap[0] + 1e-9 * np.abs(ax), np.inf)
+    b_lo = np.where(lower, ax - gap[1] - 1e-9 * np.abs(ax), -np.inf)
+    return b, b_lo
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -524,10 +529,8 @@ def nearby_lp(rng: np.random.Generator, rel: LinearRelaxation, x0: np.ndarray,
     stay = np.sort(rng.choice(len(keys), size=rng.integers(0, len(keys) + 1), replace=False))
     A = (A + 0.1 * rng.standard_normal(A.shape) * (A != 0))[stay]
     x1 = x0 + rng.uniform(-0.5, 0.5, size=n)
-    ax = A @ x1
-    b = np.where(np.isfinite(rel.b[stay]), ax + rng.exponential(0.3, len(stay)), np.inf)
-    b_lo = np.where(np.isfinite(rel.b_lo[stay]), ax - rng.exponential(0.3, len(stay)), -np.inf)
-    b, b_lo = b + 1e-9 * np.abs(ax), b_lo - 1e-9 * np.abs(ax)
+    b, b_lo = sides_around(A @ x1, np.isfinite(rel.b[stay]), np.isfinite(rel.b_lo[stay]),
+                           rng.exponential(0.3, size=(2, len(stay))))
     lo, hi = x1 - rng.uniform(0.05, 2, size=n), x1 + rng.uniform(0.05, 2, size=n)
     out = LinearRelaxation(sparse.csr_matrix(A.reshape(len(stay), n)), b, lo, hi, n, b_lo=b_lo,
                            keys=keys[stay], scale=rng.uniform(0.1, 3, size=n), family="f")

@@ -326,21 +326,26 @@ for k in 1..rows(m) {{
 """
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2**31 - 1))
-def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory, seed):
-    """A 3-joint arm with joint offsets of +-0.3 rad: first-order rounds stall on the search
-    domains (curvature far above WIDE); second-order rounds bring every parameter below 1 %
-    of its domain, the truth inside. The truth is drawn inside the middle half of each domain."""
+def _wide_arm(tmp: Path, seed: int):
+    """The wide arm with a truth drawn inside the middle half of each domain, simulated: the
+    program and the true unknowns."""
     rng = np.random.default_rng(seed)
     truth = {"t1": rng.uniform(-0.15, 0.15), "t2": rng.uniform(-0.15, 0.15),
              "t3": rng.uniform(-0.15, 0.15), "a2": math.pi / 2 + rng.uniform(-0.15, 0.15),
              "l1": 0.5 + rng.uniform(-0.05, 0.05), "l2": 0.4 + rng.uniform(-0.05, 0.05),
              "bz": rng.uniform(-0.025, 0.025)}
     source = WIDE_ARM.format(**{k: repr(float(v)) for k, v in truth.items()})
-    sim = simulate_cal(tmp_path_factory.mktemp("arm"), source, clean_version(source), 12, seed,
-                       "matrix")
-    prog, p_true = sim.prog, sim.p_true
+    sim = simulate_cal(tmp, source, clean_version(source), 12, seed, "matrix")
+    return sim.prog, sim.p_true
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31 - 1))
+def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory, seed):
+    """A 3-joint arm with joint offsets of +-0.3 rad: first-order rounds stall on the search
+    domains (curvature far above WIDE); second-order rounds bring every parameter below 1 %
+    of its domain, the truth inside. The truth is drawn inside the middle half of each domain."""
+    prog, p_true = _wide_arm(tmp_path_factory.mktemp("arm"), seed)
     ind = independents(prog)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -362,15 +367,7 @@ def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, 
     LP rounds, the truth inside, every parameter below 1 % of its domain as without them."""
     import calib_dsl.tight as tight
 
-    rng = np.random.default_rng(seed)
-    truth = {"t1": rng.uniform(-0.15, 0.15), "t2": rng.uniform(-0.15, 0.15),
-             "t3": rng.uniform(-0.15, 0.15), "a2": math.pi / 2 + rng.uniform(-0.15, 0.15),
-             "l1": 0.5 + rng.uniform(-0.05, 0.05), "l2": 0.4 + rng.uniform(-0.05, 0.05),
-             "bz": rng.uniform(-0.025, 0.025)}
-    source = WIDE_ARM.format(**{k: repr(float(v)) for k, v in truth.items()})
-    sim = simulate_cal(tmp_path_factory.mktemp("arm"), source, clean_version(source), 12, seed,
-                       "matrix")
-    prog, p_true = sim.prog, sim.p_true
+    prog, p_true = _wide_arm(tmp_path_factory.mktemp("arm"), seed)
     ind = independents(prog)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
