@@ -111,9 +111,9 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
                min_gain: float, second_order: bool, certs: Certificates,
                cells: bool = False) -> tuple[Result, tuple[int, int], int]:
     """The LP rounds of solve_tight from the box of `res`: (result, (rounds of LPs, rounds
-    of reused multipliers), sweeps). With
-    `cells`, the rounds start with the measurement errors as LP columns (a box near the end).
-    `certs` holds the multipliers and bases of the LPs solved (updated in place)."""
+    of reused multipliers), sweeps). With `cells`, the rounds start with the measurement
+    errors as LP columns (a box near the end). `certs` holds the multipliers and bases of the
+    LPs solved (updated in place; a piece of a split box starts with its whole box's)."""
     sweeps, rounds = 0, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
@@ -126,7 +126,7 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
     while res.status == "contracted" and rounds < max_rounds:
         lo, hi = res.lo, res.hi
         reuse = reuse and reused < REUSE_ROUNDS
-        if reuse and certs.family == "second order":
+        if reuse and certs.family == "second order" and second_order and not cells:
             rel = None  # a second-order round again: no first-order relaxation needed
         else:
             rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
@@ -212,7 +212,7 @@ def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates
 def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
            min_gain: float, certs: Certificates) -> tuple[Result, tuple[int, int], int]:
     """Cut an unknown that the solve left wide into pieces, refine each piece by LP rounds,
-    and return the hull of the pieces: (result, rounds, sweeps).
+    and return the hull of the pieces: (result, (rounds of LPs, reused rounds), sweeps).
 
     A parameter that is not identifiable alone keeps its whole domain (the RX90's r2 and r3:
     only r2 + r3 is seen), and a first-order relaxation pays, in every row, its width times
