@@ -533,7 +533,8 @@ def nearby_lp(rng: np.random.Generator, rel: LinearRelaxation, x0: np.ndarray,
                            rng.exponential(0.3, size=(2, len(stay))))
     lo, hi = x1 - rng.uniform(0.05, 2, size=n), x1 + rng.uniform(0.05, 2, size=n)
     out = LinearRelaxation(sparse.csr_matrix(A.reshape(len(stay), n)), b, lo, hi, n, b_lo=b_lo,
-                           keys=keys[stay], scale=rng.uniform(0.1, 3, size=n), family="f")
+                           keys=keys[stay], scale=rng.uniform(0.1, 3, size=n), family="f",
+                           col_keys=np.arange(n))
     return out, x1
 
 
@@ -545,8 +546,11 @@ def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m
     rel, x0 = two_sided_lp(rng, n, m)
     keys = np.sort(rng.choice(10 * m, size=m, replace=False))
     rel.keys, rel.scale, rel.family = keys, rng.uniform(0.1, 3, size=n), "f"
+    rel.col_keys = np.arange(n)
     certs = Certificates()
     lower, upper = lp_bounds(rel, np.eye(n), solver=solver, certificates=certs)
+    if solver == "simplex":  # each LP solved left its final basis (the interior point: none)
+        assert set(certs.basis) == set(certs.y)
     # on the same relaxation the kept multipliers give the LPs' own bounds back
     rlo, rhi = reused_bounds(rel, np.eye(n), certs)
     solved = {i for i, _ in certs.y}
@@ -561,6 +565,12 @@ def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m
     for i, obj in enumerate(np.eye(n)):
         for p in points:
             assert ge_exact(obj, p, rlo[i]) and le_exact(obj, p, rhi[i]), (i, rlo, rhi)
+    # the LPs again, each objective's simplex starting from its basis on the first box,
+    # mapped onto the rows left (an "alien" basis, which HiGHS completes): as sound
+    llo, lhi = lp_bounds(later, np.eye(n), certificates=certs)
+    for i, obj in enumerate(np.eye(n)):
+        for p in points:
+            assert ge_exact(obj, p, llo[i]) and le_exact(obj, p, lhi[i]), (i, llo, lhi)
     # another family's multipliers are not used: the box's own bounds
     later.family = "g"
     rlo, rhi = reused_bounds(later, np.eye(n), certs)
