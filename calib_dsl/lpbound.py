@@ -231,24 +231,40 @@ def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
                   certs: Certificates) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each unit objective (a row of the identity) over `rel` from the
     multipliers kept in `certs` (the box's own bound where there are none)."""
+    lower, upper, signed = _box_bounds(rel, objectives)
+    if not certs.usable(rel):
+        return lower, upper
+    keys = rel.keys if rel.keys is not None else np.zeros(0, np.int64)
+    for i, sign, c in signed:
+        if (i, sign) in certs.y:
+            old_keys, y_old = certs.y[(i, sign)]
+            y = _mapped(old_keys, y_old, keys, 0.0) * (1.0 / _unit(rel, i))
+            _tighten(lower, upper, i, sign, certified_max(rel, c, y))
+    return lower, upper
+
+
+def _box_bounds(rel: LinearRelaxation, objectives: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float, np.ndarray]]]:
+    """The box's own [min, max] of each objective, and the signed objectives (i, sign, c)
+    over all the relaxation's columns (nuisance columns cost nothing): maximize sign * c.p."""
     k = objectives.shape[0]
     lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
     pad = np.zeros(rel.A.shape[1] - objectives.shape[1])
-    use = certs.usable(rel)
-    keys = rel.keys if rel.keys is not None else np.zeros(0, np.int64)
+    signed = []
     for i, c in enumerate(objectives):
         for sign in (1.0, -1.0):
             c_full = sign * np.concatenate([c, pad])
-            bound = box_max_up(c_full, c_full, rel.lo, rel.hi)
-            if use and (i, sign) in certs.y:
-                old_keys, y_old = certs.y[(i, sign)]
-                y = _mapped(old_keys, y_old, keys, 0.0) * (1.0 / _unit(rel, i))
-                bound = min(bound, certified_max(rel, c_full, y))
-            if sign > 0:
-                upper[i] = bound
-            else:
-                lower[i] = -bound
-    return lower, upper
+            _tighten(lower, upper, i, sign, box_max_up(c_full, c_full, rel.lo, rel.hi))
+            signed.append((i, sign, c_full))
+    return lower, upper, signed
+
+
+def _tighten(lower: np.ndarray, upper: np.ndarray, i: int, sign: float, bound: float) -> None:
+    """Take a certified max of sign * c_i.p into c_i's bounds."""
+    if sign > 0:
+        upper[i] = min(upper[i], bound)
+    else:
+        lower[i] = max(lower[i], -bound)
 
 
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
@@ -269,20 +285,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     The multipliers of each LP solved are kept in `certificates` if given (for
     reused_bounds on a later box).
     """
-    k = objectives.shape[0]
-    lower, upper = np.full(k, -np.inf), np.full(k, np.inf)
-    pad = np.zeros(rel.A.shape[1] - objectives.shape[1])
-    tasks = []  # (objective, sign): maximize sign * c.p
-    for i, c in enumerate(objectives):
-        for sign in (1.0, -1.0):
-            c_full = sign * np.concatenate([c, pad])  # nuisance columns have no cost
-            box = box_max_up(c_full, c_full, rel.lo, rel.hi)
-            if sign > 0:
-                upper[i] = box
-            else:
-                lower[i] = -box
-            if not (skip is not None and skip[i]):
-                tasks.append((i, sign, c_full))
+    lower, upper, signed = _box_bounds(rel, objectives)
+    tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
     workers = max(1, min(WORKERS, len(tasks)))
     shares = [tasks[w::workers] for w in range(workers)]
     if workers == 1:
@@ -296,10 +300,7 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
         for i, sign, bound, y, basis in share:
             if certificates is not None:
                 certificates.record(rel, i, sign, y, basis)
-            if sign > 0:
-                upper[i] = min(upper[i], bound)
-            else:
-                lower[i] = max(lower[i], -bound)
+            _tighten(lower, upper, i, sign, bound)
     return lower, upper
 
 
