@@ -339,6 +339,12 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
         # HiGHS's time limit counts all runs of the object: extend it per solve.
         h.setOptionValue("time_limit", h.getRunTime() + seconds)
         h.run()
+        if solver == "ipm" and check is None and not _optimal(h):
+            # without crossover the interior point method can stop short on a degenerate LP
+            # (status unknown) with multipliers far from optimal: the simplex finishes it
+            h.setOptionValue("solver", "simplex")
+            h.run()
+            h.setOptionValue("solver", solver)
         while check is not None:
             sol = h.getSolution()
             if sol.value_valid:
@@ -360,6 +366,12 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
             y[rows] = -np.asarray(sol.row_dual)
             out.append((i, sign, certified_max(rel, c, y), y, _basis(h) if keep_basis else None))
     return out
+
+
+def _optimal(h: Any) -> bool:
+    import highspy
+
+    return bool(h.getModelStatus() == highspy.HighsModelStatus.kOptimal)
 
 
 def _basis(h: Any) -> tuple[np.ndarray, np.ndarray] | None:
