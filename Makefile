@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test lint bench clean
+.PHONY: install test test-random lint bench clean
 
 install: $(VENV)/.installed
 
@@ -13,8 +13,13 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/pip install -q -e ".[dev]"
 	touch $@
 
+# test: the same pseudo-random property cases on every run (reproducible, as CI runs it);
+# test-random: fresh cases each run, to look for failures the fixed ones miss.
 test: install
 	$(BIN)/pytest
+
+test-random: install
+	HYPOTHESIS_PROFILE=random $(BIN)/pytest
 
 lint: install
 	$(BIN)/ruff check calib_dsl tests bench

@@ -3,15 +3,23 @@ model into a temporary directory, compile it, find the installed `calibc` comman
 
 from __future__ import annotations
 
+import os
 import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from calib_dsl.elaborate import elaborate
 from calib_dsl.program import Program, compile_model
+
+# `make test` (and so CI) draws the same pseudo-random cases on every run and machine, so a run
+# that passed here passes there; `make test-random` (HYPOTHESIS_PROFILE=random) draws fresh ones.
+settings.register_profile("fixed", derandomize=True, print_blob=True)
+settings.register_profile("random", print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fixed"))
 
 
 @pytest.fixture

@@ -454,7 +454,10 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
         assert np.all(cut.lo <= plo) and np.all(phi <= cut.hi)
     assert np.all(cut.lo[ind] >= whole.lo[ind]) and np.all(cut.hi[ind] <= whole.hi[ind])
     ratio = (cut.hi[ind] - cut.lo[ind]) / (whole.hi[ind] - whole.lo[ind])
-    assert np.median(ratio) < 0.95, dict(zip(names, ratio, strict=True))
+    others = [k for k, n in enumerate(names) if n not in ("r2", "r3")]
+    # The box of the other seven shrinks: geometric mean 0.66-0.91 over 40 seeds (one of them
+    # may barely move, so not each one); no shrink at all would be 1.
+    assert np.exp(np.mean(np.log(ratio[others]))) < 0.95, dict(zip(names, ratio, strict=True))
     info = analyse(prog)  # at the true values: r2 + r3 only if alpha3 is 0
     cut_sums = combination_enclosures(prog, info, cut.lo, cut.hi, True, cut.pieces)
     whole_sums = combination_enclosures(prog, info, whole.lo, whole.hi, True)
