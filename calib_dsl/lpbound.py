@@ -188,13 +188,14 @@ class Certificates:
     def usable(self, rel: LinearRelaxation) -> bool:
         return bool(self.y) and rel.keys is not None and rel.family == self.family
 
-    def record(self, rel: LinearRelaxation, i: int, sign: float, y: np.ndarray,
+    def record(self, rel: LinearRelaxation, i: int, sign: float, y: np.ndarray | None,
                basis: tuple | None = None) -> None:
         if rel.keys is None:
             return
         if rel.family != self.family:
             self.family, self.y, self.basis = rel.family, {}, {}
-        self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
+        if y is not None:  # (None: no LP solved, the box bound stood; its old y stays valid)
+            self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
         if basis is not None and rel.col_keys is not None:
             self.basis[(i, sign)] = (rel.keys, basis[0], rel.col_keys, basis[1])
         else:
@@ -288,26 +289,32 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     lower, upper, signed = _box_bounds(rel, objectives)
     tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
     workers = max(1, min(WORKERS, len(tasks)))
-    shares = [tasks[w::workers] for w in range(workers)]
+    points = _probe_points(rel, tasks, iterations, seconds) if workers > 1 else []
+    # both signs of an objective in the same share: the second starts from the first's optimum
+    share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
+    shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]
     if workers == 1:
         results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates)]
     else:
         with ThreadPoolExecutor(workers) as pool:
             results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
-                                                                    solver, certificates),
+                                                                    solver, certificates,
+                                                                    points),
                                     shares))
     for share in results:
         for i, sign, bound, y, basis in share:
             if certificates is not None:
                 certificates.record(rel, i, sign, y, basis)
-            _tighten(lower, upper, i, sign, bound)
+            if y is not None:  # (None: the box bound stands, and only a basis is kept)
+                _tighten(lower, upper, i, sign, bound)
     return lower, upper
 
 
 def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERATIONS,
                  seconds: float = LP_SECONDS,
                  solver: str = "simplex",
-                 certificates: Certificates | None = None) -> list[tuple]:
+                 certificates: Certificates | None = None,
+                 probes: list[tuple[np.ndarray, tuple | None]] | None = None) -> list[tuple]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
     A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
@@ -326,12 +333,17 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     cols = np.arange(n, dtype=np.int32)
     check = _RowCheck(rel) if len(rows) < m else None
     out = []
-    points: list[np.ndarray] = []  # LP solutions found so far (feasible up to HiGHS's tolerance)
+    # LP solutions found so far (feasible up to HiGHS's tolerance) and their bases, from the
+    # probes on
+    points: list[tuple[np.ndarray, tuple | None]] = list(probes or [])
     # the simplex on the whole LP can start from this objective's basis on an earlier box
     keep_basis = certificates is not None and len(rows) == m and solver == "simplex"
     for i, sign, c in share:
-        if _reached(c, points, rel):
-            continue  # an LP point already lies on the box's bound: the box bound stays
+        at = _reaching(c, points, rel)
+        if at is not None:  # an LP point already lies on the box's bound: the box bound stays
+            if keep_basis:  # next time, this objective starts from that point's basis
+                out.append((i, sign, np.inf, None, points[at][1]))
+            continue
         h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
         start = certificates.start(rel, i, sign) if keep_basis and certificates else None
         if start is not None:
@@ -359,12 +371,13 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
+        basis = _basis(h) if keep_basis else None
         if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
-            points.append(np.asarray(sol.col_value))
+            points.append((np.asarray(sol.col_value), basis))
         if sol.dual_valid:
             y = np.zeros(m)
             y[rows] = -np.asarray(sol.row_dual)
-            out.append((i, sign, certified_max(rel, c, y), y, _basis(h) if keep_basis else None))
+            out.append((i, sign, certified_max(rel, c, y), y, basis))
     return out
 
 
@@ -396,18 +409,60 @@ def _set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
     h.setBasis(b)
 
 
-def _reached(c: np.ndarray, points: list[np.ndarray], rel: LinearRelaxation) -> bool:
-    """Whether some LP point already attains the box's own bound on c.p: then the LP cannot
-    tighten it, and solving it is skipped. (Skipping never narrows anything, so it is sound
-    whatever the points are; it saves most LPs of a round far from the solution, where many
-    unknowns do not move.)"""
+PROBES = 4  # at most this many probe LPs before the objectives are shared out
+
+
+def _probe_points(rel: LinearRelaxation, tasks: list, iterations: int,
+                  seconds: float) -> list[tuple[np.ndarray, tuple | None]]:
+    """LP points that attain many of the box's own bounds at once, for every worker's
+    `_reaching`: the optima of the sum of the objectives, of its opposite, then of sums with
+    random signs (seeded: the same points on every run), while each probe adds an objective
+    that no LP needs to solve. One worker's own optima would serve only its share; far from
+    the solution (where many unknowns do not move) these serve all, for two to four LPs.
+    Only points (and their bases, where an objective they reach starts next time): no bound
+    depends on them (see `_reaching`)."""
+    if len(tasks) < 4 * PROBES or rel.A.shape[0] > ROWS_AT_ONCE:
+        return []
+    h = _load(rel, None, iterations)
+    h.setOptionValue("time_limit", seconds)
+    n = rel.A.shape[1]
+    cols = np.arange(n, dtype=np.int32)
+    unsigned = np.array(list({i: sign * c for i, sign, c in tasks}.values()))
+    rng = np.random.default_rng(0)
+    points: list[tuple[np.ndarray, tuple | None]] = []
+    reached = 0
+    for k in range(PROBES):
+        signs = np.full(len(unsigned), 1.0 if k % 2 == 0 else -1.0)
+        if k >= 2:
+            signs = rng.choice([-1.0, 1.0], len(unsigned))
+        c = signs @ unsigned
+        h.changeColsCost(n, cols, (-c).astype(float))
+        h.run()
+        sol = h.getSolution()
+        if not (sol.value_valid and h.getInfo().primal_solution_status == 2):
+            break
+        points.append((np.asarray(sol.col_value), _basis(h)))
+        now = sum(_reaching(c_t, points, rel) is not None for _, _, c_t in tasks)
+        if now <= reached:
+            break
+        reached = now
+    return points
+
+
+def _reaching(c: np.ndarray, points: list[tuple[np.ndarray, Any]],
+              rel: LinearRelaxation) -> int | None:
+    """The first LP point (of (point, basis) pairs) that already attains the box's own bound
+    on c.p, or None: then the LP cannot tighten it, and solving it is skipped. (Skipping never
+    narrows anything, so it is sound whatever the points are; it saves most LPs of a round
+    far from the solution, where many unknowns do not move.)"""
     if not points:
-        return False
+        return None
     box = box_max_up(c, c, rel.lo, rel.hi)
     if not np.isfinite(box):
-        return False
-    best = float(np.max(np.stack(points) @ c))
-    return best >= box - 1e-9 * (1.0 + abs(box))
+        return None
+    values = np.stack([p for p, _ in points]) @ c
+    hits = np.flatnonzero(values >= box - 1e-9 * (1.0 + abs(box)))
+    return int(hits[0]) if len(hits) else None
 
 
 def _starting_rows(rel: LinearRelaxation) -> np.ndarray:

@@ -305,6 +305,48 @@ def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite, solver):
             assert lower[i] == -box_max_up(-c, -c, lo, hi)
 
 
+@settings(max_examples=120, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(8, 14), m=st.integers(1, 10))
+def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
+    """With two workers, probe LPs first find points on many box bounds, and the objectives
+    they reach are not solved: every bound still holds every feasible point, equals the one
+    worker's bound (no probes) to the LP's tolerance, and every objective keeps a basis to
+    start from next time (its own LP's, or the reaching point's)."""
+    import calib_dsl.lpbound as lpb
+
+    rng = np.random.default_rng(seed)
+    A, b, lo, hi, _, x0 = random_float_lp(rng, n, m, False)
+    unseen = rng.random(n) < 0.5
+    A[:, unseen] = 0.0  # unknowns no row sees: the probes reach their bounds
+    b = np.maximum(b, A @ x0)
+    for i in range(m):  # x0 still exactly feasible
+        while not le_exact(A[i], x0, b[i]):
+            b[i] = np.nextafter(b[i], np.inf)
+    rel = rel_of(A, b, lo, hi)
+    rel.keys, rel.col_keys = np.arange(m), np.arange(n)
+    bounds, certs = {}, {}
+    for workers in (1, 2):  # (each case sets WORKERS anew: the fixture needs no reset)
+        monkeypatch.setattr(lpb, "WORKERS", workers)
+        certs[workers] = Certificates()
+        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers])
+    points = feasible_samples(rng, A, b, lo, hi, [x0], count=100)
+    scale = 1.0 + np.maximum(np.abs(lo), np.abs(hi))
+    for i in range(n):
+        low, up = bounds[2][0][i], bounds[2][1][i]
+        for p in points:
+            assert low <= p[i] <= up  # unit objectives: exact comparisons
+        assert abs(low - bounds[1][0][i]) <= 1e-6 * scale[i]
+        assert abs(up - bounds[1][1][i]) <= 1e-6 * scale[i]
+        for sign in (1.0, -1.0):
+            assert (i, sign) in certs[2].basis
+    probes = np.array([p for p, _ in lpb._probe_points(rel, lpb._box_bounds(rel, np.eye(n))[2],
+                                                       lpb.LP_ITERATIONS, lpb.LP_SECONDS)])
+    assert len(probes) >= 2
+    assert np.all(probes[:, unseen].max(axis=0) == hi[unseen])
+    assert np.all(probes[:, unseen].min(axis=0) == lo[unseen])
+
+
 # -- special cases ----------------------------------------------------------------------------
 
 def test_unbounded_column_gives_infinity_not_a_wrong_value():
@@ -549,8 +591,10 @@ def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m
     rel.col_keys = np.arange(n)
     certs = Certificates()
     lower, upper = lp_bounds(rel, np.eye(n), solver=solver, certificates=certs)
-    if solver == "simplex":  # each LP solved left its final basis (the interior point: none)
-        assert set(certs.basis) == set(certs.y)
+    if solver == "simplex":  # each LP solved left its final basis (the interior point: none),
+        # and an objective that an LP point reached (not solved) that point's basis
+        assert set(certs.basis) == {(i, s) for i in range(n) for s in (1.0, -1.0)}
+        assert set(certs.y) <= set(certs.basis)
     # on the same relaxation the kept multipliers give the LPs' own bounds back
     rlo, rhi = reused_bounds(rel, np.eye(n), certs)
     solved = {i for i, _ in certs.y}
