@@ -332,7 +332,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
     check = _RowCheck(rel) if len(rows) < m else None
-    out = []
+    out: list[tuple] = []
     # LP solutions found so far (feasible up to HiGHS's tolerance) and their bases, from the
     # probes on
     points: list[tuple[np.ndarray, tuple | None]] = list(probes or [])
