@@ -156,14 +156,64 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     y_i > 0 multiplies the row's upper side A_i p <= b_i, y_i < 0 its lower side
     A_i p >= b_lo_i (both give y_i A_i p <= y_i rhs_i); any such y is a certificate.
     """
-    b_lo = rel.b_lo if rel.b_lo is not None else np.full(len(rel.b), -np.inf)
-    ok = np.isfinite(y) & (((y > 0) & np.isfinite(rel.b)) | ((y < 0) & np.isfinite(b_lo)))
-    y = np.where(ok, y, 0.0)  # an unusable multiplier is dropped (0: the row is not used)
-    rhs = np.where(y > 0, rel.b, np.where(y < 0, b_lo, 0.0))
-    r = c - transpose_times(rel.A, y)
-    # rounding error of r, componentwise
-    err = _REL * (np.abs(c) + transpose_times(rel.A, np.abs(y), absolute=True)) + _ABS
-    return dot_up(y, rhs) + box_max_up(r - err, r + err, rel.lo, rel.hi)
+    return float(certified_maxes(rel, c[None, :], y[None, :])[0])
+
+
+# Above this many matrix entries, certified_maxes works row by row of Y on the sparse matrix
+# instead of on a dense copy of A.
+DENSE_ENTRIES = 4_000_000
+
+
+def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """certified_max for each row of C (objectives) and Y (their multipliers) at once: a few
+    matrix products instead of two sparse passes per objective. Each float dot product has
+    length at most 10^6, so _REL covers its rounding in any order of summation."""
+    b = rel.b[None, :]
+    b_lo = (rel.b_lo if rel.b_lo is not None else np.full(len(rel.b), -np.inf))[None, :]
+    ok = np.isfinite(Y) & (((Y > 0) & np.isfinite(b)) | ((Y < 0) & np.isfinite(b_lo)))
+    Y = np.where(ok, Y, 0.0)  # an unusable multiplier is dropped (0: the row is not used)
+    rhs = np.where(Y > 0, b, np.where(Y < 0, b_lo, 0.0))
+    AY, absAY = _times(rel.A, Y)
+    r = C - AY
+    err = _REL * (np.abs(C) + absAY) + _ABS  # rounding error of r, componentwise
+    return _dots_up(Y, rhs) + _box_maxes_up(r - err, r + err, rel.lo, rel.hi)
+
+
+def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Y A, |Y| |A|) for a CSR matrix A (Rows or scipy's) and rows of multipliers Y."""
+    m, n = A.shape
+    if m * n <= DENSE_ENTRIES:
+        at = np.repeat(np.arange(m), np.diff(A.indptr)) * n + np.asarray(A.indices)
+        # a matrix with a repeated entry is left to the exact path (summing it would round)
+        if len(at) == 0 or np.bincount(at, minlength=m * n).max() <= 1:
+            dense = np.zeros(m * n)
+            dense[at] = A.data
+            dense = dense.reshape(m, n)
+            return Y @ dense, np.abs(Y) @ np.abs(dense)
+    return (np.array([transpose_times(A, y) for y in Y]).reshape(len(Y), n),
+            np.array([transpose_times(A, np.abs(y), absolute=True)
+                      for y in Y]).reshape(len(Y), n))
+
+
+def _dots_up(X: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    """dot_up of each row pair."""
+    s = np.sum(X * Z, axis=1)
+    err = np.sum(np.abs(X) * np.abs(Z), axis=1)
+    ok = np.isfinite(s) & np.isfinite(err)
+    return np.where(ok, s + _REL * np.where(ok, err, 0.0) + _ABS, np.inf)
+
+
+def _box_maxes_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray,
+                  hi: np.ndarray) -> np.ndarray:
+    """box_max_up of each row of r_lo, r_hi over the same box."""
+    with np.errstate(invalid="ignore"):
+        cand = np.stack([r_lo * lo, r_lo * hi, r_hi * lo, r_hi * hi])
+    cand = np.where(np.isnan(cand), 0.0, cand)  # 0 * inf: a zero coefficient contributes 0
+    terms = cand.max(axis=0)
+    s = terms.sum(axis=1)
+    with np.errstate(invalid="ignore"):
+        out = s + _REL * np.abs(terms).sum(axis=1) + _ABS
+    return np.where(np.isfinite(s), out, np.inf)  # +inf: unbounded; -inf only by overflow
 
 
 @dataclass
@@ -236,11 +286,14 @@ def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     if not certs.usable(rel):
         return lower, upper
     keys = rel.keys if rel.keys is not None else np.zeros(0, np.int64)
-    for i, sign, c in signed:
-        if (i, sign) in certs.y:
-            old_keys, y_old = certs.y[(i, sign)]
-            y = _mapped(old_keys, y_old, keys, 0.0) * (1.0 / _unit(rel, i))
-            _tighten(lower, upper, i, sign, certified_max(rel, c, y))
+    kept = [(i, sign, c) for i, sign, c in signed if (i, sign) in certs.y]
+    if not kept:
+        return lower, upper
+    Y = np.array([_mapped(*certs.y[(i, sign)], keys, 0.0) * (1.0 / _unit(rel, i))
+                  for i, sign, _ in kept]).reshape(len(kept), len(keys))
+    bounds = certified_maxes(rel, np.array([c for _, _, c in kept]), Y)
+    for (i, sign, _), bound in zip(kept, bounds, strict=True):
+        _tighten(lower, upper, i, sign, float(bound))
     return lower, upper
 
 

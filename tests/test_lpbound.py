@@ -168,6 +168,24 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
         bound = certified_max(rel, c, y)
         assert not math.isnan(bound), name
         assert bound == math.inf or fr(bound) >= best, (name, bound, float(best))
+    # all guesses at once, by the dense product, row by row on the sparse matrix, and on a
+    # matrix whose every entry is stored as two halves (a repeated entry: not summed)
+    Y = np.array(list(guesses.values())).reshape(len(guesses), m)
+    C = np.tile(c, (len(guesses), 1))
+    r, k = np.nonzero(A)
+    indptr = np.concatenate([[0], np.cumsum(2 * np.bincount(r, minlength=m))])
+    halves = LinearRelaxation(Rows(np.repeat(A[r, k] / 2, 2), np.repeat(k, 2), indptr, A.shape),
+                              b, lo, hi, n)
+    import calib_dsl.lpbound as lpb
+    dense_limit = lpb.DENSE_ENTRIES
+    try:
+        for limit, relax in ((dense_limit, rel), (0, rel), (dense_limit, halves)):
+            lpb.DENSE_ENTRIES = limit
+            for name, bound in zip(guesses, lpb.certified_maxes(relax, C, Y), strict=True):
+                assert not math.isnan(bound), name
+                assert bound == math.inf or fr(bound) >= best, (name, limit, float(best))
+    finally:
+        lpb.DENSE_ENTRIES = dense_limit
     if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
         # The exact dual gives the optimum itself, up to the rounding pad.
         bound = certified_max(rel, c, y_hat)
