@@ -239,3 +239,17 @@ def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
     monkeypatch.setattr(tm, "MAX_TABLE_BYTES", 1000.0)
     assert tm.expand(prog, lo, hi) is None
     assert relax_quadratic(prog, lo, hi) is None
+
+
+@settings(max_examples=100, deadline=None)
+@given(n=st.integers(1, 12), data=st.data())
+def test_pair_index_maps_a_subset_of_unknowns_into_all_pairs(n: int, data) -> None:
+    """expand works on the unknowns a group depends on: the pairs of that subset must land on
+    the same pairs of all the unknowns."""
+    from calib_dsl.taylor import Pairs, _pair_index
+
+    cols = np.array(sorted(data.draw(st.sets(st.integers(0, n - 1), min_size=1))))
+    at = _pair_index(cols, n)
+    whole, local = Pairs.of(n), Pairs.of(len(cols))
+    assert np.array_equal(whole.i[at], cols[local.i])
+    assert np.array_equal(whole.j[at], cols[local.j])
