@@ -159,8 +159,8 @@ def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
     return float(certified_maxes(rel, c[None, :], y[None, :])[0])
 
 
-# Above this many matrix entries, certified_maxes works row by row of Y on the sparse matrix
-# instead of on a dense copy of A.
+# Above this many matrix entries (or for a sparse matrix and few objectives), certified_maxes
+# works row by row of Y on the sparse matrix instead of on a dense copy of A.
 DENSE_ENTRIES = 4_000_000
 
 
@@ -182,7 +182,8 @@ def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray) -> np.n
 def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(Y A, |Y| |A|) for a CSR matrix A (Rows or scipy's) and rows of multipliers Y."""
     m, n = A.shape
-    if m * n <= DENSE_ENTRIES:
+    # a dense copy pays when it is not much larger than the entries times the objectives
+    if m * n <= DENSE_ENTRIES and m * n * (1 + len(Y)) <= 4 * len(Y) * len(A.data):
         at = np.repeat(np.arange(m), np.diff(A.indptr)) * n + np.asarray(A.indices)
         # a matrix with a repeated entry is left to the exact path (summing it would round)
         if len(at) == 0 or np.bincount(at, minlength=m * n).max() <= 1:
@@ -324,7 +325,8 @@ def _tighten(lower: np.ndarray, upper: np.ndarray, i: int, sign: float, bound: f
 def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
               seconds: float = LP_SECONDS, solver: str = "simplex",
-              certificates: Certificates | None = None) -> tuple[np.ndarray, np.ndarray]:
+              certificates: Certificates | None = None,
+              probes: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -337,12 +339,13 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     starts afresh each time but costs the same few dozen iterations on any objective, which
     pays on a large LP whose objectives are far apart (their multipliers certify all the same).
     The multipliers of each LP solved are kept in `certificates` if given (for
-    reused_bounds on a later box).
+    reused_bounds on a later box). With `probes`, a few probe LPs first find points on many
+    box bounds at once (_probe_points): worth it far from the solution only.
     """
     lower, upper, signed = _box_bounds(rel, objectives)
     tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
     workers = max(1, min(WORKERS, len(tasks)))
-    points = _probe_points(rel, tasks, iterations, seconds) if workers > 1 else []
+    points = _probe_points(rel, tasks, iterations, seconds) if probes and workers > 1 else []
     # both signs of an objective in the same share: the second starts from the first's optimum
     share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
     shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]

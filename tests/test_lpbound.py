@@ -347,7 +347,7 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
     for workers in (1, 2):  # (each case sets WORKERS anew: the fixture needs no reset)
         monkeypatch.setattr(lpb, "WORKERS", workers)
         certs[workers] = Certificates()
-        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers])
+        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers], probes=True)
     points = feasible_samples(rng, A, b, lo, hi, [x0], count=100)
     scale = 1.0 + np.maximum(np.abs(lo), np.abs(hi))
     for i in range(n):
