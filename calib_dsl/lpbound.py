@@ -131,23 +131,12 @@ class LinearRelaxation:
 
 def dot_up(x: np.ndarray, y: np.ndarray) -> float:
     """An upper bound on the exact dot product x.y of float vectors."""
-    s = float(np.dot(x, y))
-    err = float(np.dot(np.abs(x), np.abs(y)))
-    if not (np.isfinite(s) and np.isfinite(err)):  # overflow: no finite bound to give
-        return np.inf
-    return s + _REL * err + _ABS
+    return float(_dots_up(x[None, :], y[None, :])[0])
 
 
 def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     """An upper bound on max r.p over r in [r_lo, r_hi], p in [lo, hi]."""
-    with np.errstate(invalid="ignore"):
-        cand = np.stack([r_lo * lo, r_lo * hi, r_hi * lo, r_hi * hi])
-    cand = np.where(np.isnan(cand), 0.0, cand)  # 0 * inf: a zero coefficient contributes 0
-    terms = cand.max(axis=0)
-    s = float(terms.sum())
-    if not np.isfinite(s):  # +inf: unbounded; -inf can only be an overflow
-        return np.inf
-    return s + _REL * float(np.abs(terms).sum()) + _ABS
+    return float(_box_maxes_up(r_lo[None, :], r_hi[None, :], lo, hi)[0])
 
 
 def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
@@ -197,7 +186,8 @@ def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _dots_up(X: np.ndarray, Z: np.ndarray) -> np.ndarray:
-    """dot_up of each row pair."""
+    """dot_up of each row pair: the float sum plus a bound on its rounding error (infinite
+    where either overflows: no finite bound to give)."""
     s = np.sum(X * Z, axis=1)
     err = np.sum(np.abs(X) * np.abs(Z), axis=1)
     ok = np.isfinite(s) & np.isfinite(err)
@@ -206,7 +196,8 @@ def _dots_up(X: np.ndarray, Z: np.ndarray) -> np.ndarray:
 
 def _box_maxes_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray,
                   hi: np.ndarray) -> np.ndarray:
-    """box_max_up of each row of r_lo, r_hi over the same box."""
+    """box_max_up of each row of r_lo, r_hi over the same box: per entry the largest of the
+    four corner products, summed, plus a bound on the sum's rounding error."""
     with np.errstate(invalid="ignore"):
         cand = np.stack([r_lo * lo, r_lo * hi, r_hi * lo, r_hi * hi])
     cand = np.where(np.isnan(cand), 0.0, cand)  # 0 * inf: a zero coefficient contributes 0
