@@ -479,9 +479,8 @@ def _probe_points(rel: LinearRelaxation, tasks: list, iterations: int,
     points: list[tuple[np.ndarray, tuple | None]] = []
     reached = 0
     for k in range(PROBES):
-        signs = np.full(len(unsigned), 1.0 if k % 2 == 0 else -1.0)
-        if k >= 2:
-            signs = rng.choice([-1.0, 1.0], len(unsigned))
+        signs = (rng.choice([-1.0, 1.0], len(unsigned)) if k >= 2
+                 else np.full(len(unsigned), 1.0 if k == 0 else -1.0))
         c = signs @ unsigned
         h.changeColsCost(n, cols, (-c).astype(float))
         h.run()
