@@ -14,6 +14,7 @@ only when that stops paying.
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
@@ -24,6 +25,7 @@ from .lpbound import Certificates, LinearRelaxation, lp_bounds, reused_bounds
 from .program import Program
 from .propagate import Emptied, Result, propagate
 from .quadratic import relax_quadratic, to_box
+from .workers import map_in_processes
 
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
@@ -58,6 +60,8 @@ SPLIT_PIECES = 4
 SPLIT_ROUNDS = 10
 SPLIT_WORTH = 0.03
 SPLIT_TRIED = 3
+# Child processes that refine the pieces (1: the solving process refines them itself).
+PIECE_PROCESSES = min(2, os.cpu_count() or 1)
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
@@ -230,17 +234,9 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
     rounds, reused, sweeps = 0, 0, 0
     boxes = []
     last = res
-    for plo, phi in _pieces(res.lo, res.hi, slot, SPLIT_PIECES):
-        piece = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps,
-                          lo=plo, hi=phi)
-        sweeps += piece.sweeps
-        # each piece starts from the whole box's last multipliers and bases
-        piece, (n, k), s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS,
-                                      min_gain, False, certs.copy(), cells=True)
+    pieces = _pieces(res.lo, res.hi, slot, SPLIT_PIECES)
+    for piece, n, k, s in _refined(prog, pieces, tol, max_sweeps, min_gain, certs):
         rounds, reused, sweeps = rounds + n, reused + k, sweeps + s
-        if piece.status == "contracted":
-            piece = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=piece.lo, hi=piece.hi)
-            sweeps += piece.sweeps
         last = piece
         if piece.status != "contracted":
             continue  # no solution in this piece
@@ -252,6 +248,37 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
     out = Result("contracted", lo, hi, sweeps, 0.0, res.stop,
                  split=[prog.slots.names[slot]], pieces=boxes)
     return out, (rounds, reused), sweeps
+
+
+def _refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
+                  max_sweeps: int, min_gain: float,
+                  certs: Certificates) -> tuple[Result, int, int, int]:
+    """One piece of a split box: propagation, then LP rounds of its own (starting from the
+    whole box's last multipliers and bases), then propagation to the fixed point."""
+    piece = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=plo, hi=phi)
+    sweeps = piece.sweeps
+    piece, (n, k), s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS, min_gain, False,
+                                  certs, cells=True)
+    sweeps += s
+    if piece.status == "contracted":
+        piece = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=piece.lo, hi=piece.hi)
+        sweeps += piece.sweeps
+    return piece, n, k, sweeps
+
+
+def _refined(prog: Program, pieces: list[tuple[np.ndarray, np.ndarray]], tol: float,
+             max_sweeps: int, min_gain: float,
+             certs: Certificates) -> list[tuple[Result, int, int, int]]:
+    """_refine_piece of every piece, in order. The pieces are independent, and refining one
+    is bound by Python (the first-order relaxations), which threads cannot share out: with
+    two cores they go to PIECE_PROCESSES child processes (workers.py; the same inputs, so the
+    same results, bit for bit). Where children cannot run, the pieces are refined here."""
+    args = [(prog, plo, phi, tol, max_sweeps, min_gain, certs.copy()) for plo, phi in pieces]
+    workers = min(PIECE_PROCESSES, len(pieces))
+    done = map_in_processes(_refine_piece, args, workers) if workers > 1 else None
+    if done is not None:
+        return done
+    return [_refine_piece(*a) for a in args]
 
 
 def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray) -> int | None:

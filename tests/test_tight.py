@@ -471,6 +471,35 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     assert b - a <= 1.01 * (b0 - a0)  # not wider (narrower unless r2 + r3 is near its edge)
 
 
+def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
+    """The pieces go to two child processes (workers.py); the result is the one the solving
+    process gives when it refines them itself, bit for bit."""
+    import calib_dsl.tight as tight
+
+    sim = _parallel_arm(tmp_path, 7, 0.05)
+    ran = []
+
+    def recorded(*args):
+        out = tight_map(*args)
+        ran.append(out is not None)
+        return out
+
+    tight_map = tight.map_in_processes
+    monkeypatch.setattr(tight, "map_in_processes", recorded)
+    results = []
+    for processes in (2, 1):
+        monkeypatch.setattr(tight, "PIECE_PROCESSES", processes)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            results.append(solve_tight(sim.prog))
+    assert ran == [True]  # the children ran (once: one process refines them itself)
+    two, one = results
+    assert two.split and two.split == one.split and len(two.pieces) == len(one.pieces)
+    assert np.array_equal(two.lo, one.lo) and np.array_equal(two.hi, one.hi)
+    for (a, b), (c, d) in zip(two.pieces, one.pieces, strict=True):
+        assert np.array_equal(a, c) and np.array_equal(b, d)
+
+
 def test_no_split_where_it_does_not_pay(tmp_path):
     """The same arm with r2 and r3 known to +-2 mm: their slack is already small, a piece's
     relaxation is hardly narrower, and nothing is split (no rounds spent for nothing)."""

@@ -1,0 +1,26 @@
+"""Calls run in child interpreters (workers.py): results in the calls' order, or None."""
+
+import operator
+
+import numpy as np
+
+from calib_dsl.workers import map_in_processes
+
+
+def test_results_come_back_in_the_calls_order():
+    calls = [(k, 10 * k) for k in range(7)]  # 7 calls over 3 children: uneven shares
+    assert map_in_processes(operator.add, calls, 3) == [11 * k for k in range(7)]
+
+
+def test_arrays_come_back_bit_for_bit():
+    rng = np.random.default_rng(3)
+    calls = [(rng.standard_normal(50), rng.standard_normal(50)) for _ in range(4)]
+    out = map_in_processes(np.multiply, calls, 2)
+    assert out is not None
+    for (a, b), got in zip(calls, out, strict=True):
+        assert np.array_equal(got, a * b)
+
+
+def test_a_failing_child_gives_none():
+    # the caller then makes the calls itself
+    assert map_in_processes(operator.truediv, [(1, 2), (1, 0)], 2) is None
