@@ -26,6 +26,8 @@ def map_in_processes(fn: Callable[..., Any], calls: list[tuple],
     """[fn(*args) for args in calls], shared out over `processes` children (call k to child
     k mod processes), in the calls' order; None if a child could not start or failed (the
     caller then makes the calls itself)."""
+    if not sys.executable:  # an embedded interpreter: no command to start a child with
+        return None
     shares = [calls[w::processes] for w in range(processes)]
     env = dict(os.environ)
     # the child imports this package from where the parent did, installed or not
@@ -48,7 +50,7 @@ def map_in_processes(fn: Callable[..., Any], calls: list[tuple],
             if child.wait() != 0:
                 return None
             results.append(pickle.loads(data))
-    except (OSError, pickle.PickleError, EOFError):
+    except (OSError, ValueError, pickle.PickleError, EOFError):
         return None
     finally:
         for child in children:

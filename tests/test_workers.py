@@ -24,3 +24,10 @@ def test_arrays_come_back_bit_for_bit():
 def test_a_failing_child_gives_none():
     # the caller then makes the calls itself
     assert map_in_processes(operator.truediv, [(1, 2), (1, 0)], 2) is None
+
+
+def test_no_interpreter_to_start_gives_none(monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys, "executable", "")
+    assert map_in_processes(operator.add, [(1, 2), (3, 4)], 2) is None
