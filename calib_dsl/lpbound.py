@@ -12,8 +12,13 @@ in exact arithmetic. A poor y gives a poor bound, never a wrong one.
 
 from __future__ import annotations
 
+import ctypes
 import os
+import sys
+import threading
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -565,7 +570,7 @@ def _load(rel: LinearRelaxation, rows: np.ndarray | None = None,
     """A HiGHS model of the relaxation, with only `rows` of its rows if given."""
     import highspy
 
-    h = highspy.Highs()
+    h = _new_highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
     # HiGHS equilibrates rows and columns by default. Our relaxations are built scaled (the
@@ -594,6 +599,50 @@ def _load(rel: LinearRelaxation, rows: np.ndarray | None = None,
     lp.a_matrix_.value_ = np.asarray(rel.A.data, dtype=float)
     h.passModel(lp)
     return h
+
+
+_GREETED = threading.Lock()  # held while the process's first HiGHS object is made
+_greeted = False
+
+
+def _new_highs() -> Any:
+    """A new HiGHS object. From highspy 1.16 on, the first one made in a process prints HiGHS's
+    banner on the C-level stdout, before any option can turn output off; it would corrupt
+    `calibc solve --json -` (and the pickled results of a child process, workers.py). So the
+    first one is made with file descriptor 1 pointed at /dev/null (and C's buffers flushed
+    before it is put back); later ones print nothing."""
+    import highspy
+
+    global _greeted
+    with _GREETED:
+        if not _greeted:
+            _greeted = True
+            with _stdout_silenced():
+                return highspy.Highs()
+    return highspy.Highs()
+
+
+@contextmanager
+def _stdout_silenced() -> Iterator[None]:
+    if sys.stdout is not None:
+        sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no stdout at all: nothing to protect
+        yield
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        yield
+    finally:
+        try:
+            ctypes.CDLL(None).fflush(None)  # what C wrote is still buffered: to /dev/null too
+        except (OSError, AttributeError, TypeError):  # no C library to flush here
+            pass
+        os.dup2(saved, 1)
+        os.close(null)
+        os.close(saved)
 
 
 def _finite_or_none(x: np.ndarray) -> list[float | None]:

@@ -64,9 +64,14 @@ def map_in_processes(fn: Callable[..., Any], calls: list[tuple],
 
 
 def _main() -> None:
+    # the results go to the real stdout; whatever a library prints there meanwhile (C or
+    # Python) goes to stderr, which the parent discards
+    results_out = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
     fn, calls = pickle.load(sys.stdin.buffer)
     results = [fn(*args) for args in calls]
-    sys.stdout.buffer.write(pickle.dumps(results, pickle.HIGHEST_PROTOCOL))
+    results_out.write(pickle.dumps(results, pickle.HIGHEST_PROTOCOL))
+    results_out.close()
 
 
 if __name__ == "__main__":

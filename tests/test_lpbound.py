@@ -782,3 +782,17 @@ def test_row_generation_on_an_infeasible_tall_lp():
     lower, upper = _with_row_generation(rel, np.eye(1))
     # no point to contain: the box back, or bounds that cross (a proof of infeasibility)
     assert (lower[0] <= -10.0 and upper[0] >= 10.0) or lower[0] > upper[0], (lower, upper)
+
+
+def test_highs_prints_nothing_on_stdout():
+    """highspy 1.16 prints a banner on stdout when a process makes its first HiGHS object,
+    before output can be turned off: it would spoil `calibc solve --json -`."""
+    import subprocess
+    import sys
+
+    code = ("from calib_dsl.lpbound import _load, LinearRelaxation, Rows; import numpy as np; "
+            "rel = LinearRelaxation(Rows.join(np.ones((1, 1)), np.zeros(0, np.int64), "
+            "np.zeros(0, np.int64), np.zeros(0), 0), np.ones(1), np.zeros(1), np.ones(1)); "
+            "_load(rel).run(); _load(rel).run(); print('done')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout == "done\n"

@@ -31,3 +31,8 @@ def test_no_interpreter_to_start_gives_none(monkeypatch):
 
     monkeypatch.setattr(sys, "executable", "")
     assert map_in_processes(operator.add, [(1, 2), (3, 4)], 2) is None
+
+
+def test_what_a_child_prints_does_not_spoil_its_results():
+    # print writes to the child's stdout, the pipe its results come back through
+    assert map_in_processes(print, [("noise",), ("more noise",)], 2) == [None, None]
