@@ -14,14 +14,13 @@ only when that stops paying.
 
 from __future__ import annotations
 
-import os
 import time
 from typing import Any
 
 import numpy as np
 
 from .linearize import independents, measured_cells, relax
-from .lpbound import Certificates, LinearRelaxation, lp_bounds, reused_bounds
+from .lpbound import WORKERS, Certificates, LinearRelaxation, lp_bounds, reused_bounds
 from .program import Program
 from .propagate import Emptied, Result, propagate
 from .quadratic import relax_quadratic, to_box
@@ -60,8 +59,9 @@ SPLIT_PIECES = 4
 SPLIT_ROUNDS = 10
 SPLIT_WORTH = 0.03
 SPLIT_TRIED = 3
-# Child processes that refine the pieces (1: the solving process refines them itself).
-PIECE_PROCESSES = min(2, os.cpu_count() or 1)
+# Child processes that refine the pieces, one per core the LPs use (1: the solving process
+# refines them itself).
+PIECE_PROCESSES = WORKERS
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,

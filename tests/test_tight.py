@@ -478,13 +478,13 @@ def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
 
     sim = _parallel_arm(tmp_path, 7, 0.05)
     ran = []
+    tight_map = tight.map_in_processes
 
     def recorded(*args):
         out = tight_map(*args)
         ran.append(out is not None)
         return out
 
-    tight_map = tight.map_in_processes
     monkeypatch.setattr(tight, "map_in_processes", recorded)
     results = []
     for processes in (2, 1):
