@@ -323,7 +323,7 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
               seconds: float = LP_SECONDS, solver: str = "simplex",
               certificates: Certificates | None = None,
-              probes: bool = False) -> tuple[np.ndarray, np.ndarray]:
+              probes: bool = False, own_bases: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -337,7 +337,9 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     pays on a large LP whose objectives are far apart (their multipliers certify all the same).
     The multipliers of each LP solved are kept in `certificates` if given (for
     reused_bounds on a later box). With `probes`, a few probe LPs first find points on many
-    box bounds at once (_probe_points): worth it far from the solution only.
+    box bounds at once (_probe_points): worth it far from the solution only. With `own_bases`
+    (and `certificates`), the simplex starts each objective from that objective's last basis
+    kept there; without, from the optimum of the objective its worker solved before.
     """
     lower, upper, signed = _box_bounds(rel, objectives)
     tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
@@ -347,12 +349,13 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
     shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]
     if workers == 1:
-        results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates)]
+        results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates,
+                                own_bases=own_bases)]
     else:
         with ThreadPoolExecutor(workers) as pool:
             results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
                                                                     solver, certificates,
-                                                                    points),
+                                                                    points, own_bases),
                                     shares))
     for share in results:
         for i, sign, bound, y, basis in share:
@@ -367,7 +370,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
                  seconds: float = LP_SECONDS,
                  solver: str = "simplex",
                  certificates: Certificates | None = None,
-                 probes: list[tuple[np.ndarray, tuple | None]] | None = None) -> list[tuple]:
+                 probes: list[tuple[np.ndarray, tuple | None]] | None = None,
+                 own_bases: bool = True) -> list[tuple]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
     A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
@@ -390,7 +394,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = LP_ITERAT
     # probes on
     points: list[tuple[np.ndarray, tuple | None]] = list(probes or [])
     # the simplex on the whole LP can start from this objective's basis on an earlier box
-    keep_basis = certificates is not None and len(rows) == m and solver == "simplex"
+    keep_basis = (own_bases and certificates is not None and len(rows) == m
+                  and solver == "simplex")
     for i, sign, c in share:
         at = _reaching(c, points, rel)
         if at is not None:  # an LP point already lies on the box's bound: the box bound stays

@@ -24,7 +24,7 @@ from .lpbound import WORKERS, Certificates, LinearRelaxation, lp_bounds, reused_
 from .program import Program
 from .propagate import Emptied, Result, propagate
 from .quadratic import relax_quadratic, to_box
-from .workers import map_in_processes
+from .workers import Children
 
 PRELIMINARY_TOL = 1e-2  # propagation before the first relaxation: a small box, not a fixed point
 MAX_CELL_COLUMNS = 3000  # beyond, measurement errors stay folded (the LP would grow too large)
@@ -36,12 +36,18 @@ SETTLED = 0.01  # a relaxation whose remainder is below this share of its rows' 
 # models instead (quadratic.py), until the box is small enough.
 WIDE = 0.06
 WIDE_MIN_GAIN = 0.02  # a second-order round gaining less than this ends the search
-# The second-order LPs are dense, and one objective's optimum is far from the next's: from
-# the previous objective's basis the simplex takes hundreds of pivots, the interior point
-# method ("ipm") 15-20 iterations for any objective. From the same objective's own basis in
-# the last round of LPs (Certificates keeps it) the simplex needs far fewer: on the RX90 from
-# section 4, 42 s for the second-order rounds against 53 s with the interior point method.
+# The second-order LPs are dense, and one objective's optimum is far from the next's: the
+# interior point method ("ipm") takes 15-20 iterations for any objective, the simplex
+# hundreds of pivots, and yet less time in all (section 4, an earlier release: 42 s against
+# 53 s for the second-order rounds). Each worker solves both signs of an unknown in a row:
+# an objective starts from the optimum of the one solved before it.
+# WIDE_OWN_BASES: whether each objective starts instead from its own basis of the last round
+# of LPs. Since HiGHS's scaling is off (lpbound.SCALING) that costs more than it saves: the
+# box moved much in between (the rounds reusing multipliers), and on section 4 the rounds
+# of LPs after the first took 3.2, 4.0 and 1.3 s from their own bases, 2.1, 2.4 and 1.3 s
+# from the last optimum, to the same bounds.
 WIDE_SOLVER = "simplex"
+WIDE_OWN_BASES = False
 # After a round of LPs, the next rounds first reuse its multipliers on the new box (a matrix
 # product each, Certificates): on the RX90 from section 4 they give nearly the LPs' bounds,
 # and the LPs are solved again only when such a round gains less than REUSE_GAIN (4
@@ -84,7 +90,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     After a second-order or cell round of LPs, the next rounds reuse its multipliers on the
     new box (lpbound.Certificates; the LPs of a folded first-order round cost no more than
     its relaxation) while such a round narrows some unknown by REUSE_GAIN; then a round
-    solves its LPs again, the simplex starting each objective from its own last basis.
+    solves its LPs again (a first-order one's simplex starting each objective from its own
+    last basis).
     On a box too wide for first order (curvature above WIDE) a round relaxes second-order
     Taylor models instead (quadratic.py); such rounds repeat while they gain WIDE_MIN_GAIN.
     With `split`, an unknown left wide (not identifiable alone) is then cut into pieces, each
@@ -151,7 +158,8 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
             # far from the solution many objectives stay at the box's bounds: probe LPs find
             # points on them first (lpbound; elsewhere they cost 7-10 % more iterations)
             tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, iterations=WIDE_ITERATIONS,
-                             seconds=WIDE_SECONDS, solver=WIDE_SOLVER, probes=True)
+                             seconds=WIDE_SECONDS, solver=WIDE_SOLVER, probes=True,
+                             own_bases=WIDE_OWN_BASES)
             nlo, nhi = to_box(quad[1], tl, th)
         else:
             nlo, nhi = _bounds(target, len(ind), skip, certs, fresh)
@@ -228,14 +236,25 @@ def _split(prog: Program, res: Result, tol: float, max_sweeps: int,
     solution in it; each piece starts from the unsplit result (near its own fixed point: a
     few rounds). Nothing is cut unless a piece's relaxation is narrower (_worth_splitting).
     """
-    slot = _worth_splitting(prog, res.lo, res.hi)
-    if slot is None:
-        return res, (0, 0), 0
+    # the children that would refine the pieces start while the cut is chosen (their start-up,
+    # 0.3-0.5 s, overlaps _worth_splitting's relaxations)
+    every = independents(prog)
+    children = (Children(min(PIECE_PROCESSES, SPLIT_PIECES), __name__)
+                if PIECE_PROCESSES > 1 and np.any(_left(prog, every, res.lo, res.hi) > LEFT_WIDE)
+                else None)
+    try:
+        slot = _worth_splitting(prog, res.lo, res.hi)
+        if slot is None:
+            return res, (0, 0), 0
+        pieces = _pieces(res.lo, res.hi, slot, SPLIT_PIECES)
+        refined = _refined(prog, pieces, tol, max_sweeps, min_gain, certs, children)
+    finally:
+        if children is not None:
+            children.close()
     rounds, reused, sweeps = 0, 0, 0
     boxes = []
     last = res
-    pieces = _pieces(res.lo, res.hi, slot, SPLIT_PIECES)
-    for piece, n, k, s in _refined(prog, pieces, tol, max_sweeps, min_gain, certs):
+    for piece, n, k, s in refined:
         rounds, reused, sweeps = rounds + n, reused + k, sweeps + s
         last = piece
         if piece.status != "contracted":
@@ -267,15 +286,15 @@ def _refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
 
 
 def _refined(prog: Program, pieces: list[tuple[np.ndarray, np.ndarray]], tol: float,
-             max_sweeps: int, min_gain: float,
-             certs: Certificates) -> list[tuple[Result, int, int, int]]:
+             max_sweeps: int, min_gain: float, certs: Certificates,
+             children: Children | None = None) -> list[tuple[Result, int, int, int]]:
     """_refine_piece of every piece, in order. The pieces are independent, and refining one
     is bound by Python (the first-order relaxations), which threads cannot share out: with
-    two cores they go to PIECE_PROCESSES child processes (workers.py; the same inputs, so the
-    same results, bit for bit). Where children cannot run, the pieces are refined here."""
+    two cores they go to `children` (PIECE_PROCESSES child processes, workers.py; the same
+    inputs, so the same results, bit for bit). Where children cannot run, the pieces are
+    refined here."""
     args = [(prog, plo, phi, tol, max_sweeps, min_gain, certs.copy()) for plo, phi in pieces]
-    workers = min(PIECE_PROCESSES, len(pieces))
-    done = map_in_processes(_refine_piece, args, workers) if workers > 1 else None
+    done = children.map(_refine_piece, args) if children is not None else None
     if done is not None:
         return done
     return [_refine_piece(*a) for a in args]

@@ -633,6 +633,11 @@ def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m
     for i, obj in enumerate(np.eye(n)):
         for p in points:
             assert ge_exact(obj, p, llo[i]) and le_exact(obj, p, lhi[i]), (i, llo, lhi)
+    # or from the optimum of the objective solved before (own_bases off): as sound
+    flo, fhi = lp_bounds(later, np.eye(n), certificates=certs.copy(), own_bases=False)
+    for i, obj in enumerate(np.eye(n)):
+        for p in points:
+            assert ge_exact(obj, p, flo[i]) and le_exact(obj, p, fhi[i]), (i, flo, fhi)
     # another family's multipliers are not used: the box's own bounds
     later.family = "g"
     rlo, rhi = reused_bounds(later, np.eye(n), certs)

@@ -478,14 +478,14 @@ def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
 
     sim = _parallel_arm(tmp_path, 7, 0.05)
     ran = []
-    tight_map = tight.map_in_processes
+    children_map = tight.Children.map
 
-    def recorded(*args):
-        out = tight_map(*args)
+    def recorded(self, *args):
+        out = children_map(self, *args)
         ran.append(out is not None)
         return out
 
-    monkeypatch.setattr(tight, "map_in_processes", recorded)
+    monkeypatch.setattr(tight.Children, "map", recorded)
     results = []
     for processes in (2, 1):
         monkeypatch.setattr(tight, "PIECE_PROCESSES", processes)

@@ -4,7 +4,7 @@ import operator
 
 import numpy as np
 
-from calib_dsl.workers import map_in_processes
+from calib_dsl.workers import Children, map_in_processes
 
 
 def test_results_come_back_in_the_calls_order():
@@ -36,3 +36,22 @@ def test_no_interpreter_to_start_gives_none(monkeypatch):
 def test_what_a_child_prints_does_not_spoil_its_results():
     # print writes to the child's stdout, the pipe its results come back through
     assert map_in_processes(print, [("noise",), ("more noise",)], 2) == [None, None]
+
+
+def test_children_started_ahead_then_given_their_calls():
+    children = Children(2, "operator")
+    assert children.map(operator.add, [(1, 2), (3, 4), (5, 6)]) == [3, 7, 11]
+    assert children.procs == []  # map stops them
+    assert children.map(operator.add, [(1, 2)]) is None  # once only
+
+
+def test_children_never_given_calls_are_stopped():
+    children = Children(2, "numpy")
+    procs = list(children.procs)
+    assert len(procs) == 2
+    children.close()
+    assert all(p.poll() is not None for p in procs)
+
+
+def test_a_child_that_cannot_import_its_module_gives_none():
+    assert Children(2, "no_such_module_for_calibc").map(operator.add, [(1, 2), (3, 4)]) is None
