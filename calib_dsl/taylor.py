@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .interval import LIB_ABS, LIB_REL
-from .linearize import _defining_masks, independents
+from .linearize import _defining_masks, group_unknowns, independents
 from .program import Program
 
 U = 2.0**-53  # unit roundoff
@@ -255,7 +255,7 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     masks = _defining_masks(prog, temp)
     known = kinds == "const"  # a constraint's target with a range of its own, not a model
     found: list[tuple[Models, np.ndarray, np.ndarray]] = []
-    for g, mask, cols in zip(prog.groups, masks.defining, _group_unknowns(prog, ind),
+    for g, mask, cols in zip(prog.groups, masks.defining, group_unknowns(prog, ind),
                              strict=True):
         # Only the unknowns the group's arguments depend on: every other coefficient of
         # theirs is 0, and so is the result's (a quarter of the work on the RX90).
@@ -277,22 +277,6 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     rows = Constraints(_concat([f[0] for f in found]), np.concatenate([f[1] for f in found]),
                 np.concatenate([f[2] for f in found]))
     return Expansion(center, half, pairs, rows)
-
-
-def _group_unknowns(prog: Program, ind: np.ndarray) -> list[np.ndarray]:
-    """For each group, the unknowns (column numbers) that some argument of it depends on."""
-    n = len(ind)
-    dep = np.zeros((len(prog.slots.names), n), dtype=bool)
-    dep[ind, np.arange(n)] = True
-    out = []
-    for g in prog.groups:
-        rows = np.zeros((g.out.shape[0], n), dtype=bool)
-        for col in g.args.T:
-            rows |= dep[col]
-        for j in range(g.out.shape[1]):
-            dep[g.out[:, j]] |= rows
-        out.append(np.flatnonzero(rows.any(axis=0)))
-    return out
 
 
 def _pair_index(cols: np.ndarray, n: int) -> np.ndarray:

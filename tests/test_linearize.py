@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -760,3 +761,66 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
     assert np.all(mixed_slack <= plain_slack * (1 + 1e-12))
     if model.startswith("rx90"):
         assert np.median(mixed_slack) < 0.7 * np.median(plain_slack)
+
+
+_ENDS = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, -3.0, 1e-300, -1e-300, 5e-324, 1e300,
+                         -1e300, math.inf, -math.inf, 0.1, -0.7])
+
+
+@settings(max_examples=1000, deadline=None)
+@given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
+       args=st.integers(1, 3), mixed=st.booleans())
+def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, args, mixed):
+    """linearize._chain (written out for speed, not through `forward`): for members d of the
+    partials and g of the gradients, sum d * g lies in the result; where a factor is [0, 0]
+    the result is exactly 0."""
+    from calib_dsl.linearize import _chain
+
+    def interval(shape):
+        a = np.array(data.draw(st.lists(_ENDS, min_size=math.prod(shape),
+                                        max_size=math.prod(shape)))).reshape(shape)
+        b = np.array(data.draw(st.lists(_ENDS, min_size=math.prod(shape),
+                                        max_size=math.prod(shape)))).reshape(shape)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        both = np.isinf(lo) & (lo == hi)  # a one-point infinity is not a real interval
+        return np.where(both, 0.0, lo), np.where(both, 0.0, hi)
+
+    parts = [interval((rows, cols) if mixed else (rows,)) for _ in range(args)]
+    grads = [interval((rows, cols)) for _ in range(args)]
+    lo, hi = _chain(parts, grads)
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+
+    def member(x):  # a member of each interval: an end, or a point inside
+        t = rng.uniform(size=x[0].shape)
+        pick = rng.integers(0, 3, size=x[0].shape)
+        with np.errstate(invalid="ignore", over="ignore"):
+            inner = np.clip(x[0] + t * (x[1] - x[0]), x[0], x[1])
+        inner = np.where(np.isfinite(inner), inner, np.where(np.isfinite(x[0]), x[0], x[1]))
+        inner = np.where(np.isfinite(inner), inner, 0.0)  # [-inf, inf]: 0 is a member
+        return np.where(pick == 0, x[0], np.where(pick == 1, x[1], inner))
+
+    for _ in range(20):
+        total = [Fraction(0)] * (rows * cols)
+        infinite = np.zeros(rows * cols, dtype=bool)
+        for d, g in zip(parts, grads, strict=True):
+            dv = member(d)
+            dv = np.broadcast_to(dv if mixed else dv[:, None], (rows, cols)).ravel()
+            gv = member(g).ravel()
+            for k in range(rows * cols):
+                if math.isinf(dv[k]) or math.isinf(gv[k]):
+                    if dv[k] != 0 and gv[k] != 0:
+                        infinite[k] = True
+                    continue  # 0 * an unbounded partial: 0
+                total[k] += Fraction(float(dv[k])) * Fraction(float(gv[k]))
+        for k in range(rows * cols):
+            r, c = divmod(k, cols)
+            if infinite[k]:  # an unbounded product: so is the result, on one side at least
+                assert lo[r, c] == -math.inf or hi[r, c] == math.inf, (k, lo, hi)
+                continue
+            assert lo[r, c] == -math.inf or Fraction(lo[r, c]) <= total[k], (k, lo, hi)
+            assert hi[r, c] == math.inf or total[k] <= Fraction(hi[r, c]), (k, lo, hi)
+    for d, g in zip(parts, grads, strict=True):
+        dz = (d[0] == 0) & (d[1] == 0)
+        zero = ((g[0] == 0) & (g[1] == 0)) | (dz if mixed else dz[:, None])
+        if len(parts) == 1:
+            assert np.all(lo[zero] == 0) and np.all(hi[zero] == 0)
