@@ -323,7 +323,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
               skip: np.ndarray | None = None, iterations: int = LP_ITERATIONS,
               seconds: float = LP_SECONDS, solver: str = "simplex",
               certificates: Certificates | None = None,
-              probes: bool = False, own_bases: bool = True) -> tuple[np.ndarray, np.ndarray]:
+              probes: bool = False, own_bases: bool = True,
+              threads: int = WORKERS) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -340,10 +341,11 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     box bounds at once (_probe_points): worth it far from the solution only. With `own_bases`
     (and `certificates`), the simplex starts each objective from that objective's last basis
     kept there; without, from the optimum of the objective its worker solved before.
+    `threads`: how many workers (each with its own HiGHS model) share the objectives.
     """
     lower, upper, signed = _box_bounds(rel, objectives)
     tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
-    workers = max(1, min(WORKERS, len(tasks)))
+    workers = max(1, min(threads, len(tasks)))
     points = _probe_points(rel, tasks, iterations, seconds) if probes and workers > 1 else []
     # both signs of an objective in the same share: the second starts from the first's optimum
     share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}

@@ -66,8 +66,11 @@ SPLIT_ROUNDS = 10
 SPLIT_WORTH = 0.03
 SPLIT_TRIED = 3
 # Child processes that refine the pieces, one per core the LPs use (1: the solving process
-# refines them itself).
+# refines them itself), and the LP threads of each: the children share the cores (with 2
+# threads each, the pieces of section 4 took 5.5 s, with 1 about 4.5 s). A piece refined in
+# the solving process uses as many, for the same result.
 PIECE_PROCESSES = WORKERS
+PIECE_LP_THREADS = max(1, WORKERS // PIECE_PROCESSES)
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
@@ -120,7 +123,7 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
 
 def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_rounds: int,
                min_gain: float, second_order: bool, certs: Certificates,
-               cells: bool = False) -> tuple[Result, tuple[int, int], int]:
+               cells: bool = False, threads: int = WORKERS) -> tuple[Result, tuple[int, int], int]:
     """The LP rounds of solve_tight from the box of `res`: (result, (rounds of LPs, rounds
     of reused multipliers), sweeps). With `cells`, the rounds start with the measurement
     errors as LP columns (a box near the end). `certs` holds the multipliers and bases of the
@@ -157,12 +160,13 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         if quad is not None:
             # far from the solution many objectives stay at the box's bounds: probe LPs find
             # points on them first (lpbound; elsewhere they cost 7-10 % more iterations)
-            tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, iterations=WIDE_ITERATIONS,
+            tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, threads=threads,
+                             iterations=WIDE_ITERATIONS,
                              seconds=WIDE_SECONDS, solver=WIDE_SOLVER, probes=True,
                              own_bases=WIDE_OWN_BASES)
             nlo, nhi = to_box(quad[1], tl, th)
         else:
-            nlo, nhi = _bounds(target, len(ind), skip, certs, fresh)
+            nlo, nhi = _bounds(target, len(ind), skip, certs, fresh, threads=threads)
         new_lo, new_hi = np.maximum(lo[ind], nlo), np.minimum(hi[ind], nhi)
         if np.any(new_lo > new_hi):  # certified bounds cross: no solution at all
             k = int(np.flatnonzero(new_lo > new_hi)[0])
@@ -277,7 +281,7 @@ def _refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
     piece = propagate(prog, tol=max(tol, PRELIMINARY_TOL), max_sweeps=max_sweeps, lo=plo, hi=phi)
     sweeps = piece.sweeps
     piece, (n, k), s = _lp_rounds(prog, piece, tol, max_sweeps, SPLIT_ROUNDS, min_gain, False,
-                                  certs, cells=True)
+                                  certs, cells=True, threads=PIECE_LP_THREADS)
     sweeps += s
     if piece.status == "contracted":
         piece = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=piece.lo, hi=piece.hi)
