@@ -22,6 +22,7 @@ primitive has no model (`None`), and the strategies fall back to first order.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,9 +37,10 @@ U = 2.0**-53  # unit roundoff
 _SUM = 1.0 + 2.0**-40
 _TINY = 1e-300  # covers underflow of the (few) products in one remainder update
 SUPPORTED = {"neg", "add", "sub", "mul", "sqr", "sin", "cos", "rot"}
-# The models of all slots are held at once (slots x n(n+1)/2 coefficients): above this size
-# (the RX90 with 33 unknowns: about 350 configurations) there are no models, and the
-# strategies keep to first order rather than exhaust the memory.
+# A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its outputs'
+# models in the unknowns they depend on only, a quarter of that on the RX90). Above it (the
+# RX90 with 33 unknowns: about 350 configurations) there are no models, and the strategies
+# keep to first order rather than exhaust the memory.
 MAX_TABLE_BYTES = 600e6
 
 
@@ -245,38 +247,145 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     p = len(pairs.i)
     if len(lo) * (1 + n + p) * 8 > MAX_TABLE_BYTES:
         return None
+    plan = _plan(prog, ind)
     center = 0.5 * plo + 0.5 * phi
     half = _up(np.maximum(center - plo, phi - center))
-    kinds = np.array(prog.slots.kinds)
-    temp = kinds == "temp"
-    table = constant(np.where(temp, 0.0, lo), np.where(temp, 0.0, hi), n, p)
-    table.c0[ind], table.r[ind] = center, 0.0
-    table.c1[ind, np.arange(n)] = half
-    masks = _defining_masks(prog, temp)
-    known = kinds == "const"  # a constraint's target with a range of its own, not a model
+    temp, known = plan.temp, plan.known
+    # every slot's constant term and remainder; the coefficients live with the group that
+    # defines the slot (`store`), in that group's own unknowns only
+    base = constant(np.where(temp, 0.0, lo), np.where(temp, 0.0, hi), 0, 0)
+    c0, r = base.c0, base.r
+    c0[ind], r[ind] = center, 0.0
+    store: list[list[Models]] = []
     found: list[tuple[Models, np.ndarray, np.ndarray]] = []
-    for g, mask, cols in zip(prog.groups, masks.defining, group_unknowns(prog, ind),
-                             strict=True):
-        # Only the unknowns the group's arguments depend on: every other coefficient of
-        # theirs is 0, and so is the result's (a quarter of the work on the RX90).
-        at = _pair_index(cols, n)
+    for g, mask, cols, gathers in zip(prog.groups, plan.masks, plan.cols, plan.gathers,
+                                      strict=True):
         local = Pairs.of(len(cols))
-        args = [_take_local(table, col, cols, at) for col in g.args.T]
-        for j, out in enumerate(apply(g.op, args, local)):
+        args = [_gathered(c0, r, store, half, col, len(cols), len(local.i), pieces)
+                for col, pieces in zip(g.args.T, gathers, strict=True)]
+        outs = apply(g.op, args, local)
+        store.append(outs)
+        for j, out in enumerate(outs):
             slots, d = g.out[:, j], mask[:, j]
-            _put_local(table, slots[d], out.take(np.flatnonzero(d)), cols, at)
+            c0[slots[d]], r[slots[d]] = out.c0[d], out.r[d]
             nd = np.flatnonzero(~d)
             if len(nd):
-                whole = _widened(out.take(nd), cols, at, n, p)
-                found.append(_constraint(table, whole, slots[nd], known, lo, hi))
+                whole = _widened(out.take(nd), cols, plan.at[len(store) - 1], n, p)
+                others = slots[nd][~known[slots[nd]]]
+                models = _global(plan, c0, r, store, half, others, n, p)
+                found.append(_constraint(whole, models, slots[nd], known, lo, hi))
     capped = np.flatnonzero(temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
     if len(capped):
-        found.append((table.take(capped), lo[capped], hi[capped]))
+        found.append((_global(plan, c0, r, store, half, capped, n, p), lo[capped], hi[capped]))
     if not found:
         return None
     rows = Constraints(_concat([f[0] for f in found]), np.concatenate([f[1] for f in found]),
                 np.concatenate([f[2] for f in found]))
     return Expansion(center, half, pairs, rows)
+
+
+# -- where each slot's model is kept --------------------------------------------------------
+
+@dataclass
+class _Piece:
+    """The argument rows `rows` of a group whose models some earlier group's output `out`
+    defines (at its rows `src`), and where that group's unknowns `c1_at` and pairs `c2_at`
+    sit among this group's; `group` < 0: the rows are unknowns, `src` their columns and
+    `c1_at` where those sit."""
+
+    rows: np.ndarray
+    group: int
+    out: int
+    src: np.ndarray
+    c1_at: np.ndarray
+    c2_at: np.ndarray
+    # the source's unknowns and pairs that are among this group's (None: all of them); the
+    # others are zero in these rows (a row depends on fewer unknowns than its group)
+    c1_of: np.ndarray | None
+    c2_of: np.ndarray | None
+    whole: bool  # every row, in the same unknowns: a plain take
+
+    def __post_init__(self) -> None:
+        # the open-mesh index pairs of the gather, made once (np.ix_ costs as much as a
+        # small copy, and a plan is used on every box)
+        self.to1 = np.ix_(self.rows, self.c1_at)
+        self.to2 = np.ix_(self.rows, self.c2_at)
+        self.from1 = self.src if self.c1_of is None else np.ix_(self.src, self.c1_of)
+        self.from2 = self.src if self.c2_of is None else np.ix_(self.src, self.c2_of)
+
+
+@dataclass
+class _Plan:
+    """What expand does on every box of a program, worked out once: each group's unknowns and
+    pairs, its defining outputs, and where each of its arguments' models is kept."""
+
+    temp: np.ndarray
+    known: np.ndarray
+    cols: list[np.ndarray]
+    at: list[np.ndarray]
+    masks: list[np.ndarray]
+    gathers: list[list[list[_Piece]]]
+    home: tuple[np.ndarray, np.ndarray, np.ndarray]  # (group, output, row) per slot, -1: none
+    unknown: np.ndarray  # the column of an unknown's slot, -1 for the others
+
+
+_PLANS: dict[int, tuple[list, _Plan]] = {}  # by id(program), as propagate's kernels
+
+
+def _plan(prog: Program, ind: np.ndarray) -> _Plan:
+    cached = _PLANS.get(id(prog))
+    if cached is not None and cached[0] is prog.groups:
+        return cached[1]
+    kinds = np.array(prog.slots.kinds)
+    temp = kinds == "temp"
+    n_slots = len(kinds)
+    unknown = np.full(n_slots, -1, dtype=np.int64)
+    unknown[ind] = np.arange(len(ind))
+    hg, hj, hr = (np.full(n_slots, -1, dtype=np.int64) for _ in range(3))
+    cols = group_unknowns(prog, ind)
+    masks = _defining_masks(prog, temp).defining
+    gathers = []
+    for k, g in enumerate(prog.groups):
+        gathers.append([_pieces(c, cols[k], cols, (hg, hj, hr), unknown) for c in g.args.T])
+        for j in range(g.out.shape[1]):
+            d = np.flatnonzero(masks[k][:, j])
+            hg[g.out[d, j]], hj[g.out[d, j]], hr[g.out[d, j]] = k, j, d
+    plan = _Plan(temp, kinds == "const", cols, [_pair_index(c, len(ind)) for c in cols],
+                 masks, gathers, (hg, hj, hr), unknown)
+    if id(prog) not in _PLANS:
+        weakref.finalize(prog, _PLANS.pop, id(prog), None)
+    _PLANS[id(prog)] = (prog.groups, plan)
+    return plan
+
+
+def _pieces(slots: np.ndarray, dest: np.ndarray, cols: list[np.ndarray],
+            home: tuple[np.ndarray, np.ndarray, np.ndarray], unknown: np.ndarray,
+            done: int | None = None) -> list[_Piece]:
+    """How to gather the models of `slots` in the unknowns `dest` (sorted column numbers),
+    from the groups before `done` (all if None)."""
+    hg, hj, hr = home
+    pieces = []
+    u = np.flatnonzero(unknown[slots] >= 0)
+    if len(u):
+        at = np.searchsorted(dest, unknown[slots[u]])
+        pieces.append(_Piece(u, -1, -1, unknown[slots[u]], at, np.zeros(0, np.int64), None,
+                             None, False))
+    g = hg[slots]
+    key = np.where((g >= 0) & (g < (len(cols) if done is None else done)),
+                   2 * g + hj[slots], -1)
+    for k in np.unique(key[key >= 0]):
+        rows = np.flatnonzero(key == k)
+        src_cols = cols[k // 2]
+        c1_of = np.flatnonzero(np.isin(src_cols, dest))
+        c1_at = np.searchsorted(dest, src_cols[c1_of])
+        c2_at = _pair_index(c1_at, len(dest))
+        full = len(c1_of) == len(src_cols)
+        # the source's pairs among both members in dest, in the order of _pair_index
+        c2_of = None if full else _pair_index(c1_of, len(src_cols))
+        whole = len(rows) == len(slots) and full and len(src_cols) == len(dest)
+        pieces.append(_Piece(rows, int(k // 2), int(k % 2), hr[slots[rows]], c1_at, c2_at,
+                             None if full else c1_of, c2_of, whole))
+    return pieces
 
 
 def _pair_index(cols: np.ndarray, n: int) -> np.ndarray:
@@ -286,17 +395,29 @@ def _pair_index(cols: np.ndarray, n: int) -> np.ndarray:
     return gi * n - gi * (gi - 1) // 2 + (gj - gi)
 
 
-def _take_local(table: Models, rows: np.ndarray, cols: np.ndarray, at: np.ndarray) -> Models:
-    return Models(table.c0[rows], table.c1[np.ix_(rows, cols)], table.c2[np.ix_(rows, at)],
-                  table.r[rows])
+def _gathered(c0: np.ndarray, r: np.ndarray, store: list[list[Models]], half: np.ndarray,
+              slots: np.ndarray, n: int, p: int, pieces: list[_Piece]) -> Models:
+    """The models of `slots` in a group's n unknowns and p pairs (zero where a slot has no
+    coefficient: a constant, or a temporary no group defines before)."""
+    if len(pieces) == 1 and pieces[0].whole:
+        s = store[pieces[0].group][pieces[0].out]
+        return Models(c0[slots], s.c1[pieces[0].src], s.c2[pieces[0].src], r[slots])
+    c1, c2 = np.zeros((len(slots), n)), np.zeros((len(slots), p))
+    for pc in pieces:
+        if pc.group < 0:
+            c1[pc.rows, pc.c1_at] = half[pc.src]
+            continue
+        s = store[pc.group][pc.out]
+        c1[pc.to1] = s.c1[pc.from1]
+        c2[pc.to2] = s.c2[pc.from2]
+    return Models(c0[slots], c1, c2, r[slots])
 
 
-def _put_local(table: Models, slots: np.ndarray, m: Models, cols: np.ndarray,
-               at: np.ndarray) -> None:
-    """Store models of new slots (their other coefficients are the table's zeros)."""
-    table.c0[slots], table.r[slots] = m.c0, m.r
-    table.c1[np.ix_(slots, cols)] = m.c1
-    table.c2[np.ix_(slots, at)] = m.c2
+def _global(plan: _Plan, c0: np.ndarray, r: np.ndarray, store: list[list[Models]],
+            half: np.ndarray, slots: np.ndarray, n: int, p: int) -> Models:
+    """The models of `slots` in all the unknowns, as the groups done so far define them."""
+    pieces = _pieces(slots, np.arange(n), plan.cols, plan.home, plan.unknown, len(store))
+    return _gathered(c0, r, store, half, slots, n, p, pieces)
 
 
 def _widened(m: Models, cols: np.ndarray, at: np.ndarray, n: int, p: int) -> Models:
@@ -309,15 +430,15 @@ def _put(table: Models, slots: np.ndarray, m: Models) -> None:
     table.c0[slots], table.c1[slots], table.c2[slots], table.r[slots] = m.c0, m.c1, m.c2, m.r
 
 
-def _constraint(table: Models, f: Models, slots: np.ndarray, known: np.ndarray,
+def _constraint(f: Models, models: Models, slots: np.ndarray, known: np.ndarray,
                 lo: np.ndarray, hi: np.ndarray) -> tuple[Models, np.ndarray, np.ndarray]:
     """f = s: a constant s (a measured value) is f's target range; an unknown or a temporary
-    computed elsewhere gives the row f - s in [0, 0]."""
+    computed elsewhere (`models`: theirs, in order) gives the row f - s in [0, 0]."""
     other = ~known[slots]
     tlo, thi = lo[slots].copy(), hi[slots].copy()
     if np.any(other):
         k = np.flatnonzero(other)
-        diff = add(f.take(k), table.take(slots[k]), -1.0)
+        diff = add(f.take(k), models, -1.0)
         f = Models(f.c0.copy(), f.c1.copy(), f.c2.copy(), f.r.copy())
         _put(f, k, diff)
         tlo[k], thi[k] = 0.0, 0.0
