@@ -21,6 +21,7 @@ mean-value theorem needs the derivative along segments that leave the solution s
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,6 +63,52 @@ def group_unknowns(prog: Program, ind: np.ndarray) -> list[np.ndarray]:
             dep[g.out[:, j]] |= rows
         out.append(np.flatnonzero(rows.any(axis=0)))
     return out
+
+
+@dataclass
+class Layout:
+    """What every forward pass over a program needs, whatever the box: worked out once per
+    program (the tight strategy relaxes the same program dozens of times)."""
+
+    ind: np.ndarray  # the declared unknowns' slots
+    temp: np.ndarray  # bool per slot
+    const: np.ndarray
+    defining: list[np.ndarray]  # _defining_masks
+    used: list[np.ndarray]  # group_unknowns
+    # per group: the (slots, used unknowns) index meshes of each argument column and of each
+    # output's defining rows (np.ix_ costs as much as a small copy)
+    takes: list[list[tuple]]
+    puts: list[list[tuple]]
+
+
+_LAYOUTS: dict[int, tuple[list[Group], Layout]] = {}  # by id(program), as propagate's kernels
+
+
+def layout(prog: Program, ind: np.ndarray | None = None) -> Layout:
+    """The program's layout for the unknowns `ind` (its declared unknowns if None)."""
+    cached = _LAYOUTS.get(id(prog))
+    if cached is not None and cached[0] is prog.groups and (
+            ind is None or np.array_equal(ind, cached[1].ind)):
+        return cached[1]
+    kinds = np.array(prog.slots.kinds)
+    mine = independents(prog)
+    if ind is not None and not np.array_equal(ind, mine):
+        return _layout(prog, ind, kinds)  # (not kept)
+    out = _layout(prog, mine, kinds)
+    if id(prog) not in _LAYOUTS:
+        weakref.finalize(prog, _LAYOUTS.pop, id(prog), None)
+    _LAYOUTS[id(prog)] = (prog.groups, out)
+    return out
+
+
+def _layout(prog: Program, ind: np.ndarray, kinds: np.ndarray) -> Layout:
+    temp = kinds == "temp"
+    defining = _defining_masks(prog, temp).defining
+    used = group_unknowns(prog, ind)
+    takes = [[np.ix_(c, u) for c in g.args.T] for g, u in zip(prog.groups, used, strict=True)]
+    puts = [[np.ix_(g.out[m[:, j], j], u) for j in range(g.out.shape[1])]
+            for g, m, u in zip(prog.groups, defining, used, strict=True)]
+    return Layout(ind, temp, kinds == "const", defining, used, takes, puts)
 
 
 def measured_cells(prog: Program) -> int:
@@ -115,13 +162,12 @@ class _Evaluation:
     def __init__(self, prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
                  center: np.ndarray, point: bool = False, mixed: bool = False) -> None:
         n, k = len(lo), len(ind)
-        s = prog.slots
         self.prog = prog
         self.ind = ind
         # point mode (a Jacobian for analysis, no guarantee): gradients in plain floats
         self.chain = _chain_point if point else _chain
-        kinds = np.array(s.kinds)
-        self.temp, self.const = kinds == "temp", kinds == "const"
+        self.layout = layout(prog, ind)
+        self.temp, self.const = self.layout.temp, self.layout.const
         self.box = (lo, hi)
         # A temporary's range over the box is recomputed from its definition: the contraction
         # propagation gave it is valid on the solution set only, and the mean-value theorem
@@ -143,7 +189,6 @@ class _Evaluation:
             fm[0][ind] = np.where(full, lo[ind][:, None], center[:, None])
             fm[1][ind] = np.where(full, hi[ind][:, None], center[:, None])
             self.FM = fm
-        self.masks = _defining_masks(prog, self.temp)
         # (C_f, G_f, D_f, owner_f, target slots, whether the target is the slot's box domain)
         self.rows: list[tuple] = []
 
@@ -169,11 +214,12 @@ class _Evaluation:
         self.D[1][idx, cols[idx]] = 1.0
 
     def run(self) -> list[tuple[Iv, Iv, Iv, np.ndarray]]:
-        for g, mask, used in zip(self.prog.groups, self.masks.defining,
-                                 group_unknowns(self.prog, self.ind), strict=True):
-            for j, form in enumerate(self._group(g, used)):
+        lay = self.layout
+        for g, mask, used, takes, puts in zip(self.prog.groups, lay.defining, lay.used,
+                                              lay.takes, lay.puts, strict=True):
+            for j, form in enumerate(self._group(g, used, takes)):
                 slots, d = g.out[:, j], mask[:, j]
-                self._store(slots[d], form, d, used)
+                self._store(slots[d], form, d, used, puts[j])
                 nd = ~d
                 if np.any(nd):
                     form = (*form[:2], self._widened(form[2], used), *form[3:])
@@ -185,17 +231,18 @@ class _Evaluation:
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
-    def _group(self, g: Group, used: np.ndarray) -> list[tuple]:
+    def _group(self, g: Group, used: np.ndarray, takes: list[tuple]) -> list[tuple]:
         """(F, C, G, D, owner, FM) of each output of the group's primitives. `used`: the
         unknowns (columns of G) some argument depends on; every other column of the outputs'
-        G is 0, and only these are computed (a quarter to a half of them on the RX90)."""
+        G is 0, and only these are computed (a quarter to a half of them on the RX90).
+        `takes`: each argument column's (slots, used) mesh."""
         cols = list(g.args.T)
         owner, fold = _owners([self.owner[c] for c in cols])
         fa = [(self.F[0][c], self.F[1][c]) for c in cols]
         ca = [self._center(c, f) for c, f in zip(cols, fold, strict=True)]
         every = len(used) == self.G[0].shape[1]
-        ga = [(self.G[0][c], self.G[1][c]) if every else
-              (self.G[0][np.ix_(c, used)], self.G[1][np.ix_(c, used)]) for c in cols]
+        ga = [(self.G[0][c], self.G[1][c]) if every else (self.G[0][at], self.G[1][at])
+              for c, at in zip(cols, takes, strict=True)]
         da = [_zero_rows((self.D[0][c], self.D[1][c]), f) for c, f in zip(cols, fold, strict=True)]
         parts, ranges = _local(g.op, fa, g.param)
         centers = [forward(op, ca, g.param) for op in _OUTPUTS.get(g.op, (g.op,))]
@@ -230,9 +277,10 @@ class _Evaluation:
         hi[fold] = hi[fold] + spread
         return _widen(lo, hi)
 
-    def _store(self, slots: np.ndarray, form: tuple, d: np.ndarray, used: np.ndarray) -> None:
-        """The group's outputs on the rows d, to their slots (G on the `used` columns: the
-        others stay 0, as a slot is stored once)."""
+    def _store(self, slots: np.ndarray, form: tuple, d: np.ndarray, used: np.ndarray,
+               at: tuple) -> None:
+        """The group's outputs on the rows d, to their slots (G on the `used` columns, at the
+        mesh `at`: the others stay 0, as a slot is stored once)."""
         f, c, gr, dd, owner, fm = form
         if fm is not None and self.FM is not None:
             self.FM[0][slots], self.FM[1][slots] = fm[0][d], fm[1][d]
@@ -241,7 +289,6 @@ class _Evaluation:
         if len(used) == self.G[0].shape[1]:
             self.G[0][slots], self.G[1][slots] = gr[0][d], gr[1][d]
         else:
-            at = np.ix_(slots, used)
             self.G[0][at], self.G[1][at] = gr[0][d], gr[1][d]
         self.D[0][slots], self.D[1][slots] = dd[0][d], dd[1][d]
         self.owner[slots] = owner[d]

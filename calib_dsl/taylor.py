@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .interval import LIB_ABS, LIB_REL
-from .linearize import _defining_masks, group_unknowns, independents
+from .linearize import independents, layout
 from .program import Program
 
 U = 2.0**-53  # unit roundoff
@@ -336,21 +336,20 @@ def _plan(prog: Program, ind: np.ndarray) -> _Plan:
     cached = _PLANS.get(id(prog))
     if cached is not None and cached[0] is prog.groups:
         return cached[1]
-    kinds = np.array(prog.slots.kinds)
-    temp = kinds == "temp"
-    n_slots = len(kinds)
+    lay = layout(prog, ind)
+    temp = lay.temp
+    n_slots = len(temp)
     unknown = np.full(n_slots, -1, dtype=np.int64)
     unknown[ind] = np.arange(len(ind))
     hg, hj, hr = (np.full(n_slots, -1, dtype=np.int64) for _ in range(3))
-    cols = group_unknowns(prog, ind)
-    masks = _defining_masks(prog, temp).defining
+    cols, masks = lay.used, lay.defining
     gathers = []
     for k, g in enumerate(prog.groups):
         gathers.append([_pieces(c, cols[k], cols, (hg, hj, hr), unknown) for c in g.args.T])
         for j in range(g.out.shape[1]):
             d = np.flatnonzero(masks[k][:, j])
             hg[g.out[d, j]], hj[g.out[d, j]], hr[g.out[d, j]] = k, j, d
-    plan = _Plan(temp, kinds == "const", cols, [_pair_index(c, len(ind)) for c in cols],
+    plan = _Plan(temp, lay.const, cols, [_pair_index(c, len(ind)) for c in cols],
                  masks, gathers, (hg, hj, hr), unknown)
     if id(prog) not in _PLANS:
         weakref.finalize(prog, _PLANS.pop, id(prog), None)
