@@ -75,10 +75,16 @@ class Layout:
     const: np.ndarray
     defining: list[np.ndarray]  # _defining_masks
     used: list[np.ndarray]  # group_unknowns
-    # per group: the (slots, used unknowns) index meshes of each argument column and of each
-    # output's defining rows (np.ix_ costs as much as a small copy)
+    # The passes keep their per-slot arrays of rows (gradients) in this row order: each
+    # group's defining outputs take the next rows, so a group stores its results as one
+    # slice (a fancy store cost a fifth of a relaxation); the other slots come last.
+    pos: np.ndarray  # the row of each slot
+    order: np.ndarray  # the slot of each row
+    blocks: list[list[tuple[int, int]]]  # per group and output: its defining rows' slice
+    # per group and argument column: its rows, and the (rows, used unknowns) mesh
+    # (np.ix_ costs as much as a small copy)
+    args: list[list[np.ndarray]]
     takes: list[list[tuple]]
-    puts: list[list[tuple]]
 
 
 _LAYOUTS: dict[int, tuple[list[Group], Layout]] = {}  # by id(program), as propagate's kernels
@@ -105,10 +111,25 @@ def _layout(prog: Program, ind: np.ndarray, kinds: np.ndarray) -> Layout:
     temp = kinds == "temp"
     defining = _defining_masks(prog, temp).defining
     used = group_unknowns(prog, ind)
-    takes = [[np.ix_(c, u) for c in g.args.T] for g, u in zip(prog.groups, used, strict=True)]
-    puts = [[np.ix_(g.out[m[:, j], j], u) for j in range(g.out.shape[1])]
-            for g, m, u in zip(prog.groups, defining, used, strict=True)]
-    return Layout(ind, temp, kinds == "const", defining, used, takes, puts)
+    first: list[np.ndarray] = []
+    blocks: list[list[tuple[int, int]]] = []
+    at = 0
+    for g, m in zip(prog.groups, defining, strict=True):
+        blocks.append([])
+        for j in range(g.out.shape[1]):
+            out = g.out[m[:, j], j]  # (no repeats: a slot is defined once)
+            first.append(out)
+            blocks[-1].append((at, at + len(out)))
+            at += len(out)
+    placed = np.concatenate([np.zeros(0, np.int64), *first]).astype(np.int64)
+    rest = np.setdiff1d(np.arange(len(kinds)), placed)
+    order = np.concatenate([placed, rest])
+    pos = np.empty(len(kinds), dtype=np.int64)
+    pos[order] = np.arange(len(kinds))
+    args = [[pos[c] for c in g.args.T] for g in prog.groups]
+    takes = [[np.ix_(r, u) for r in rows] for rows, u in zip(args, used, strict=True)]
+    return Layout(ind, temp, kinds == "const", defining, used, pos, order, blocks, args,
+                  takes)
 
 
 def measured_cells(prog: Program) -> int:
@@ -175,9 +196,11 @@ class _Evaluation:
         self.F = [np.where(self.temp, -np.inf, lo), np.where(self.temp, np.inf, hi)]
         self.C = [lo.copy(), hi.copy()]
         self.C[0][ind], self.C[1][ind] = center, center
+        # G, FM and D are kept by rows in the layout's order (pos: a slot's row)
+        self.pos = pos = self.layout.pos
         self.G = [np.zeros((n, k)), np.zeros((n, k))]
-        self.G[0][ind, np.arange(k)] = 1.0
-        self.G[1][ind, np.arange(k)] = 1.0
+        self.G[0][pos[ind], np.arange(k)] = 1.0
+        self.G[1][pos[ind], np.arange(k)] = 1.0
         self._init_cells(lo, hi)
         # mixed form: FM[:, j] holds every slot's range over the box of column j (unknowns
         # 0..j over their ranges, the later ones at the center; cells over their ranges, so
@@ -185,9 +208,10 @@ class _Evaluation:
         self.FM: list[np.ndarray] | None = None
         if mixed and not point:
             full = np.arange(k)[:, None] <= np.arange(k)[None, :]  # unknown i, column j
-            fm = [np.repeat(f[:, None], k, axis=1) for f in self.F]
-            fm[0][ind] = np.where(full, lo[ind][:, None], center[:, None])
-            fm[1][ind] = np.where(full, hi[ind][:, None], center[:, None])
+            order = self.layout.order
+            fm = [np.repeat(f[order][:, None], k, axis=1) for f in self.F]
+            fm[0][pos[ind]] = np.where(full, lo[ind][:, None], center[:, None])
+            fm[1][pos[ind]] = np.where(full, hi[ind][:, None], center[:, None])
             self.FM = fm
         # (C_f, G_f, D_f, owner_f, target slots, whether the target is the slot's box domain)
         self.rows: list[tuple] = []
@@ -210,16 +234,16 @@ class _Evaluation:
         self.owner = np.where(cell, rows, -1)
         self.D = [np.zeros((n, ncol)), np.zeros((n, ncol))]
         idx = np.flatnonzero(cell)
-        self.D[0][idx, cols[idx]] = 1.0
-        self.D[1][idx, cols[idx]] = 1.0
+        self.D[0][self.pos[idx], cols[idx]] = 1.0
+        self.D[1][self.pos[idx], cols[idx]] = 1.0
 
     def run(self) -> list[tuple[Iv, Iv, Iv, np.ndarray]]:
         lay = self.layout
-        for g, mask, used, takes, puts in zip(self.prog.groups, lay.defining, lay.used,
-                                              lay.takes, lay.puts, strict=True):
-            for j, form in enumerate(self._group(g, used, takes)):
+        for k, (g, mask, used) in enumerate(zip(self.prog.groups, lay.defining, lay.used,
+                                                strict=True)):
+            for j, form in enumerate(self._group(g, used, lay.args[k], lay.takes[k])):
                 slots, d = g.out[:, j], mask[:, j]
-                self._store(slots[d], form, d, used, puts[j])
+                self._store(slots[d], form, d, used, lay.blocks[k][j])
                 nd = ~d
                 if np.any(nd):
                     form = (*form[:2], self._widened(form[2], used), *form[3:])
@@ -231,25 +255,26 @@ class _Evaluation:
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
-    def _group(self, g: Group, used: np.ndarray, takes: list[tuple]) -> list[tuple]:
+    def _group(self, g: Group, used: np.ndarray, rows: list[np.ndarray],
+               takes: list[tuple]) -> list[tuple]:
         """(F, C, G, D, owner, FM) of each output of the group's primitives. `used`: the
         unknowns (columns of G) some argument depends on; every other column of the outputs'
         G is 0, and only these are computed (a quarter to a half of them on the RX90).
-        `takes`: each argument column's (slots, used) mesh."""
+        `rows`: each argument column's rows, `takes` its (rows, used) mesh."""
         cols = list(g.args.T)
         owner, fold = _owners([self.owner[c] for c in cols])
         fa = [(self.F[0][c], self.F[1][c]) for c in cols]
         ca = [self._center(c, f) for c, f in zip(cols, fold, strict=True)]
         every = len(used) == self.G[0].shape[1]
-        ga = [(self.G[0][c], self.G[1][c]) if every else (self.G[0][at], self.G[1][at])
-              for c, at in zip(cols, takes, strict=True)]
-        da = [_zero_rows((self.D[0][c], self.D[1][c]), f) for c, f in zip(cols, fold, strict=True)]
+        ga = [(self.G[0][r], self.G[1][r]) if every else (self.G[0][at], self.G[1][at])
+              for r, at in zip(rows, takes, strict=True)]
+        da = [_zero_rows((self.D[0][r], self.D[1][r]), f) for r, f in zip(rows, fold, strict=True)]
         parts, ranges = _local(g.op, fa, g.param)
         centers = [forward(op, ca, g.param) for op in _OUTPUTS.get(g.op, (g.op,))]
         gparts: list[list[Iv]] = parts
         mixed: list[Iv] | list[None] = [None] * len(ranges)
         if self.FM is not None:  # the same, over each column's box
-            fm = [(self.FM[0][c], self.FM[1][c]) for c in cols]
+            fm = [(self.FM[0][r], self.FM[1][r]) for r in rows]
             gparts, mixed = _local_2d(g, fm)
             if not every:
                 gparts = [[(p[0][:, used], p[1][:, used]) for p in ps] for ps in gparts]
@@ -270,7 +295,7 @@ class _Evaluation:
         lo, hi = self.C[0][col], self.C[1][col]
         if not np.any(fold) or self.D[0].shape[1] == 0:
             return lo, hi
-        dl, dh = self.D[0][col[fold]], self.D[1][col[fold]]
+        dl, dh = self.D[0][self.pos[col[fold]]], self.D[1][self.pos[col[fold]]]
         spread = _spread(dl, dh, self.e)
         lo, hi = lo.copy(), hi.copy()
         lo[fold] = lo[fold] - spread
@@ -278,19 +303,25 @@ class _Evaluation:
         return _widen(lo, hi)
 
     def _store(self, slots: np.ndarray, form: tuple, d: np.ndarray, used: np.ndarray,
-               at: tuple) -> None:
-        """The group's outputs on the rows d, to their slots (G on the `used` columns, at the
-        mesh `at`: the others stay 0, as a slot is stored once)."""
+               block: tuple[int, int]) -> None:
+        """The group's outputs on the rows d, to their slots, whose rows are the slice
+        `block` (G on the `used` columns: the others stay 0, as a slot is stored once)."""
         f, c, gr, dd, owner, fm = form
+        at = slice(*block)
+        every = bool(np.all(d))
+
+        def rows(x: np.ndarray) -> np.ndarray:
+            return x if every else x[d]
+
         if fm is not None and self.FM is not None:
-            self.FM[0][slots], self.FM[1][slots] = fm[0][d], fm[1][d]
+            self.FM[0][at], self.FM[1][at] = rows(fm[0]), rows(fm[1])
         self.F[0][slots], self.F[1][slots] = f[0][d], f[1][d]
         self.C[0][slots], self.C[1][slots] = c[0][d], c[1][d]
         if len(used) == self.G[0].shape[1]:
-            self.G[0][slots], self.G[1][slots] = gr[0][d], gr[1][d]
+            self.G[0][at], self.G[1][at] = rows(gr[0]), rows(gr[1])
         else:
-            self.G[0][at], self.G[1][at] = gr[0][d], gr[1][d]
-        self.D[0][slots], self.D[1][slots] = dd[0][d], dd[1][d]
+            self.G[0][at, used], self.G[1][at, used] = rows(gr[0]), rows(gr[1])
+        self.D[0][at], self.D[1][at] = rows(dd[0]), rows(dd[1])
         self.owner[slots] = owner[d]
 
     def _capped_temporaries(self) -> None:
@@ -298,9 +329,10 @@ class _Evaluation:
         s = self.prog.slots
         capped = np.flatnonzero(self.temp & (np.isfinite(s.lo) | np.isfinite(s.hi)))
         if len(capped):
+            r = self.pos[capped]
             form = ((self.F[0][capped], self.F[1][capped]), (self.C[0][capped],
-                    self.C[1][capped]), (self.G[0][capped], self.G[1][capped]),
-                    (self.D[0][capped], self.D[1][capped]), self.owner[capped])
+                    self.C[1][capped]), (self.G[0][r], self.G[1][r]),
+                    (self.D[0][r], self.D[1][r]), self.owner[capped])
             self.rows.append((*form, capped, True))
 
     def _difference(self, f: Iv, c: Iv, gr: Iv, dd: Iv, owner: np.ndarray,
@@ -312,10 +344,10 @@ class _Evaluation:
         # two computed sides: fold both sides' cell errors (rows of this kind are rare)
         c = self._fold(c, dd)
         target = self._fold((self.C[0][slots], self.C[1][slots]),
-                            (self.D[0][slots], self.D[1][slots]))
+                            (self.D[0][self.pos[slots]], self.D[1][self.pos[slots]]))
         zero = np.zeros_like(dd[0])
         return (forward("sub", [c, target]),
-                _flat("sub", gr, (self.G[0][slots], self.G[1][slots])),
+                _flat("sub", gr, (self.G[0][self.pos[slots]], self.G[1][self.pos[slots]])),
                 (zero, zero), np.full(len(slots), -1))
 
     def _fold(self, c: Iv, dd: Iv) -> Iv:
