@@ -269,8 +269,18 @@ class _Evaluation:
         ga = [(self.G[0][r], self.G[1][r]) if every else (self.G[0][at], self.G[1][at])
               for r, at in zip(rows, takes, strict=True)]
         da = [_zero_rows((self.D[0][r], self.D[1][r]), f) for r, f in zip(rows, fold, strict=True)]
-        parts, ranges = _local(g.op, fa, g.param)
         centers = [forward(op, ca, g.param) for op in _OUTPUTS.get(g.op, (g.op,))]
+        signs = _LINEAR.get(g.op) if self.chain is _chain else None
+        if signs is not None:  # partials +-1: the chain rule is a signed sum, no product
+            f = forward(g.op, fa, g.param)
+            m = None
+            if self.FM is not None:
+                fm = [(self.FM[0][r].ravel(), self.FM[1][r].ravel()) for r in rows]
+                lo, hi = forward(g.op, fm)
+                shape = (len(rows[0]), self.FM[0].shape[1])
+                m = lo.reshape(shape), hi.reshape(shape)
+            return [(f, centers[0], _signed_sum(signs, ga), _signed_sum(signs, da), owner, m)]
+        parts, ranges = _local(g.op, fa, g.param)
         gparts: list[list[Iv]] = parts
         mixed: list[Iv] | list[None] = [None] * len(ranges)
         if self.FM is not None:  # the same, over each column's box
@@ -445,6 +455,20 @@ def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
 
 
 _OUTPUTS = {"rot": ("rotu", "rotv")}  # primitives with more than one output
+# The primitives whose partial derivatives are exactly +1 or -1: the signs, per argument.
+_LINEAR = {"add": (1.0, 1.0), "sub": (1.0, -1.0), "neg": (-1.0,)}
+
+
+def _signed_sum(signs: tuple[float, ...], grads: list[Iv]) -> Iv:
+    """The chain rule for partials of exactly +-1: the gradients' signed sum (a product by
+    +-1 is exact; only the sum rounds, outward, and a sum of exact zeros stays 0)."""
+    total: Iv | None = None
+    with iv.quiet():
+        for sign, g in zip(signs, grads, strict=True):
+            term = g if sign > 0 else (-g[1], -g[0])
+            total = term if total is None else iv.add(total, term)
+    assert total is not None
+    return total
 
 
 def _local(op: str, fa: list[Iv], param: np.ndarray | None) -> tuple[list[list[Iv]], list[Iv]]:

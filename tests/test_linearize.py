@@ -824,3 +824,44 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
         zero = ((g[0] == 0) & (g[1] == 0)) | (dz if mixed else dz[:, None])
         if len(parts) == 1:
             assert np.all(lo[zero] == 0) and np.all(hi[zero] == 0)
+
+
+@settings(max_examples=1000, deadline=None)
+@given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
+       signs=st.lists(st.sampled_from([1.0, -1.0]), min_size=1, max_size=3))
+def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
+    """linearize._signed_sum (the chain rule of add, sub and neg, without products): for
+    members g_k of the gradients, sum sign_k g_k lies in the result; a sum of [0, 0] terms is
+    exactly 0 (the relaxation's rows stay sparse)."""
+    from calib_dsl.linearize import _signed_sum
+
+    def interval():
+        a, b = (np.array(data.draw(st.lists(_ENDS, min_size=rows * cols,
+                                            max_size=rows * cols))).reshape(rows, cols)
+                for _ in range(2))
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        both = np.isinf(lo) & (lo == hi)  # a one-point infinity is not a real interval
+        return np.where(both, 0.0, lo), np.where(both, 0.0, hi)
+
+    grads = [interval() for _ in signs]
+    lo, hi = _signed_sum(tuple(signs), grads)
+    assert not np.any(np.isnan(lo)) and not np.any(np.isnan(hi))
+    ends = [(g[0], g[1]) if s > 0 else (-g[1], -g[0]) for s, g in zip(signs, grads, strict=True)]
+    for r in range(rows):
+        for c in range(cols):
+            for pick in range(3):  # the lower ends, the upper ends, points between (if finite)
+                with np.errstate(invalid="ignore"):  # (inf - inf: skipped below)
+                    terms = [e[0][r, c] if pick == 0 else e[1][r, c] if pick == 1
+                             else min(max(0.5 * e[0][r, c] + 0.5 * e[1][r, c], e[0][r, c]),
+                                      e[1][r, c]) for e in ends]
+                if not all(math.isfinite(t) for t in terms):  # (nan: not finite)
+                    if pick == 0 and any(t == -math.inf for t in terms):
+                        assert lo[r, c] == -math.inf
+                    if pick == 1 and any(t == math.inf for t in terms):
+                        assert hi[r, c] == math.inf
+                    continue
+                exact = sum(Fraction(float(t)) for t in terms)
+                assert lo[r, c] == -math.inf or Fraction(lo[r, c]) <= exact
+                assert hi[r, c] == math.inf or exact <= Fraction(hi[r, c])
+    zero = np.all([(g[0] == 0) & (g[1] == 0) for g in grads], axis=0)
+    assert np.all(lo[zero] == 0) and np.all(hi[zero] == 0)
