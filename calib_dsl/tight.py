@@ -54,6 +54,10 @@ WIDE_OWN_BASES = False
 # second-order rounds of LPs instead of 10); at most REUSE_ROUNDS of them in a row.
 REUSE_GAIN = 0.05
 REUSE_ROUNDS = 20
+# Probe LPs (lpbound._probe_points) before a second-order round's objectives: they were
+# worth it when each objective started from its own basis of the last round; from the
+# previous objective's optimum (WIDE_OWN_BASES) they cost more than they save.
+WIDE_PROBES = False
 WIDE_ITERATIONS = 20000  # simplex pivots per objective in a second-order round
 WIDE_SECONDS = 30.0
 # At the end, an unknown not identifiable alone (like the RX90's r2 and r3) and left wider
@@ -158,11 +162,9 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         assert target is not None
         fresh = not (reuse and certs.usable(target))
         if quad is not None:
-            # far from the solution many objectives stay at the box's bounds: probe LPs find
-            # points on them first (lpbound; elsewhere they cost 7-10 % more iterations)
             tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, threads=threads,
                              iterations=WIDE_ITERATIONS,
-                             seconds=WIDE_SECONDS, solver=WIDE_SOLVER, probes=True,
+                             seconds=WIDE_SECONDS, solver=WIDE_SOLVER, probes=WIDE_PROBES,
                              own_bases=WIDE_OWN_BASES)
             nlo, nhi = to_box(quad[1], tl, th)
         else:
