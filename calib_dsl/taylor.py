@@ -46,7 +46,8 @@ MAX_TABLE_BYTES = 600e6
 
 @dataclass
 class Models:
-    """Taylor models of k slots in n unknowns: c0 (k,), c1 (k, n), c2 (k, P), r (k,)."""
+    """Taylor models of k slots in n unknowns: c0 (k,), c1 (k, n), c2 (k, P), r (k,).
+    (Coefficients are not changed in place once their sizes are asked for: they are kept.)"""
 
     c0: np.ndarray
     c1: np.ndarray
@@ -55,6 +56,15 @@ class Models:
 
     def take(self, pick: np.ndarray) -> Models:
         return Models(self.c0[pick], self.c1[pick], self.c2[pick], self.r[pick])
+
+    def sizes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(linear_size, quadratic_size), computed once: every operation asks for them, some
+        twice (a tenth of an expansion)."""
+        kept = self.__dict__.get("_sizes")
+        if kept is None:
+            kept = (_up(np.abs(self.c1).sum(axis=1)), _up(np.abs(self.c2).sum(axis=1)))
+            self.__dict__["_sizes"] = kept
+        return kept
 
 
 @dataclass
@@ -77,16 +87,17 @@ def _up(x: np.ndarray) -> np.ndarray:
 
 
 def linear_size(a: Models) -> np.ndarray:
-    return _up(np.abs(a.c1).sum(axis=1))
+    return a.sizes()[0]
 
 
 def quadratic_size(a: Models) -> np.ndarray:
-    return _up(np.abs(a.c2).sum(axis=1))
+    return a.sizes()[1]
 
 
 def size(a: Models) -> np.ndarray:
     """An upper bound on |polynomial part| over the t-box (every monomial is within [-1, 1])."""
-    return _up(np.abs(a.c0) + linear_size(a) + quadratic_size(a))
+    la, qa = a.sizes()
+    return _up(np.abs(a.c0) + la + qa)
 
 
 # -- arithmetic ---------------------------------------------------------------------------
