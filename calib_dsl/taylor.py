@@ -22,6 +22,7 @@ primitive has no model (`None`), and the strategies fall back to first order.
 
 from __future__ import annotations
 
+import functools
 import weakref
 from dataclasses import dataclass
 
@@ -69,16 +70,29 @@ class Models:
 
 @dataclass
 class Pairs:
-    """The monomials t_i t_j (i <= j) in a fixed order, and which of them are squares."""
+    """The monomials t_i t_j (i <= j) in a fixed order, and which of them are squares (as a
+    mask, and as the positions of the squares and of the other products)."""
 
     i: np.ndarray
     j: np.ndarray
     diagonal: np.ndarray  # bool (P,)
+    squares: np.ndarray
+    others: np.ndarray
 
     @staticmethod
     def of(n: int) -> Pairs:
-        i, j = np.triu_indices(n)
-        return Pairs(i, j, i == j)
+        return _pairs(n)
+
+
+@functools.cache
+def _pairs(n: int) -> Pairs:
+    """Pairs.of(n), made once per n (every group of every expansion asks; read-only)."""
+    i, j = np.triu_indices(n)
+    diagonal = i == j
+    out = Pairs(i, j, diagonal, np.flatnonzero(diagonal), np.flatnonzero(~diagonal))
+    for a in (out.i, out.j, out.diagonal, out.squares, out.others):
+        a.setflags(write=False)
+    return out
 
 
 def _up(x: np.ndarray) -> np.ndarray:
@@ -153,7 +167,7 @@ def mul(a: Models, b: Models, pairs: Pairs) -> Models:
     c0 = a.c0 * b.c0
     c1 = a.c0[:, None] * b.c1 + b.c0[:, None] * a.c1 + gain_a + gain_b
     cross = a.c1[:, pairs.i] * b.c1[:, pairs.j] + a.c1[:, pairs.j] * b.c1[:, pairs.i]
-    cross[:, pairs.diagonal] *= 0.5  # a_i b_i + a_i b_i, halved: exact
+    cross[:, pairs.squares] *= 0.5  # a_i b_i + a_i b_i, halved: exact
     c2 = a.c0[:, None] * b.c2 + b.c0[:, None] * a.c2 + cross
     return Models(c0, c1, c2, r)
 
@@ -166,11 +180,11 @@ def _cubic(a1: np.ndarray, b2: np.ndarray, pairs: Pairs) -> tuple[np.ndarray, np
     (Chebyshev). So the squares of b2 give a1_i (sum_j b_jj / 2 + b_ii / 4) t_i exactly, and
     leave half their bound (a quarter for i = j); the other products t_j t_k leave all of it.
     On the RX90 the squares (from the cosines of the angles) carry most of the curvature."""
-    sq = b2[:, pairs.diagonal]
+    sq = b2[:, pairs.squares]
     gain = a1 * (0.5 * sq.sum(axis=1)[:, None] + 0.25 * sq)
     mag_a = np.abs(a1)
     mag_sq = np.abs(sq)
-    off = np.abs(b2[:, ~pairs.diagonal]).sum(axis=1)
+    off = np.abs(b2[:, pairs.others]).sum(axis=1)
     la = mag_a.sum(axis=1)
     bound = 0.5 * la * mag_sq.sum(axis=1) - 0.25 * (mag_a * mag_sq).sum(axis=1) + la * off
     # the gain's own rounding (a product and two sums per coefficient) is within 4U of the
