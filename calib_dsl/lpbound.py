@@ -13,6 +13,7 @@ in exact arithmetic. A poor y gives a poor bound, never a wrong one.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import sys
 import threading
@@ -177,14 +178,22 @@ def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray) -> np.n
 def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(Y A, |Y| |A|) for a CSR matrix A (Rows or scipy's) and rows of multipliers Y."""
     m, n = A.shape
-    # a dense copy pays when it is not much larger than the entries times the objectives
-    if m * n <= DENSE_ENTRIES and m * n * (1 + len(Y)) <= 4 * len(Y) * len(A.data):
+    kept = A.__dict__.get("_dense") if isinstance(A, Rows) else None
+    if kept is not None:
+        return Y @ kept[0], np.abs(Y) @ kept[1]
+    # a dense copy pays when it is not much larger than the entries times the objectives, or
+    # when it is kept for the next objectives (a Rows: the LP's objectives are certified one
+    # by one against the same matrix)
+    reused = isinstance(A, Rows)
+    if m * n <= DENSE_ENTRIES and (reused or m * n * (1 + len(Y)) <= 4 * len(Y) * len(A.data)):
         at = np.repeat(np.arange(m), np.diff(A.indptr)) * n + np.asarray(A.indices)
         # a matrix with a repeated entry is left to the exact path (summing it would round)
         if len(at) == 0 or np.bincount(at, minlength=m * n).max() <= 1:
             dense = np.zeros(m * n)
             dense[at] = A.data
             dense = dense.reshape(m, n)
+            if reused:  # (Rows are not changed once made; two threads may both store it)
+                A.__dict__["_dense"] = (dense, np.abs(dense))
             return Y @ dense, np.abs(Y) @ np.abs(dense)
     return (np.array([transpose_times(A, y) for y in Y]).reshape(len(Y), n),
             np.array([transpose_times(A, np.abs(y), absolute=True)
@@ -451,8 +460,17 @@ def _basis(h: Any) -> tuple[np.ndarray, np.ndarray] | None:
     b = h.getBasis()
     if not b.valid:
         return None
-    return (np.array([int(v) for v in b.row_status], np.int8),
-            np.array([int(v) for v in b.col_status], np.int8))
+    return (np.array([v.value for v in b.row_status], np.int8),
+            np.array([v.value for v in b.col_status], np.int8))
+
+
+@functools.cache
+def _statuses() -> list:
+    """HiGHS's basis statuses by value (making each anew from an int cost a millisecond per
+    basis set)."""
+    import highspy
+
+    return [highspy.HighsBasisStatus(k) for k in range(5)]
 
 
 def _set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
@@ -460,10 +478,10 @@ def _set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
     many or too few basic variables, as a mapped one may have) and completes it."""
     import highspy
 
-    status = highspy.HighsBasisStatus
+    status = _statuses()
     b = highspy.HighsBasis()
-    b.row_status = [status(int(v)) for v in rows]
-    b.col_status = [status(int(v)) for v in cols]
+    b.row_status = [status[v] for v in rows.tolist()]
+    b.col_status = [status[v] for v in cols.tolist()]
     b.alien = True
     b.valid = True
     h.setBasis(b)
