@@ -21,14 +21,13 @@ mean-value theorem needs the derivative along segments that leave the solution s
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import interval as iv
 from .lpbound import LinearRelaxation, Rows
-from .program import Group, Program
+from .program import Group, Program, derived
 from .projections import forward
 
 Iv = tuple[np.ndarray, np.ndarray]
@@ -87,27 +86,17 @@ class Layout:
     takes: list[list[tuple]]
 
 
-_LAYOUTS: dict[int, tuple[list[Group], Layout]] = {}  # by id(program), as propagate's kernels
-
-
 def layout(prog: Program, ind: np.ndarray | None = None) -> Layout:
-    """The program's layout for the unknowns `ind` (its declared unknowns if None)."""
-    cached = _LAYOUTS.get(id(prog))
-    if cached is not None and cached[0] is prog.groups and (
-            ind is None or np.array_equal(ind, cached[1].ind)):
-        return cached[1]
-    kinds = np.array(prog.slots.kinds)
+    """The program's layout for the unknowns `ind` (its declared unknowns if None; made once
+    per program for those, anew for others)."""
     mine = independents(prog)
     if ind is not None and not np.array_equal(ind, mine):
-        return _layout(prog, ind, kinds)  # (not kept)
-    out = _layout(prog, mine, kinds)
-    if id(prog) not in _LAYOUTS:
-        weakref.finalize(prog, _LAYOUTS.pop, id(prog), None)
-    _LAYOUTS[id(prog)] = (prog.groups, out)
-    return out
+        return _layout(prog, ind)
+    return derived(prog, "layout", lambda: _layout(prog, mine))
 
 
-def _layout(prog: Program, ind: np.ndarray, kinds: np.ndarray) -> Layout:
+def _layout(prog: Program, ind: np.ndarray) -> Layout:
+    kinds = np.array(prog.slots.kinds)
     temp = kinds == "temp"
     defining = _defining_masks(prog, temp).defining
     used = group_unknowns(prog, ind)

@@ -6,14 +6,19 @@ the propagator runs one group with a few numpy calls, whatever its size.
 
 from __future__ import annotations
 
+import weakref
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
 
 from .dag import paused_gc
 from .decompose import Primitive, PrimitiveArrays, Slots, decompose_arrays
 from .model import Model
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -112,3 +117,22 @@ def _unique(column: np.ndarray) -> bool:
     """No slot twice in the column (a sort: np.unique hashes, many times slower here)."""
     s = np.sort(column)
     return bool((s[1:] != s[:-1]).all())
+
+
+# What the solvers derive from a program whatever the box (propagation kernels, layouts,
+# plans), by (id(program), kind): the tight strategy runs the same program dozens of times.
+_DERIVED: dict[tuple[int, str], tuple[list[Group], Any]] = {}
+
+
+def derived(prog: Program, kind: str, build: Callable[[], T]) -> T:
+    """build(), made once per program and `kind`: kept until the program is collected, and
+    made again if its groups were replaced."""
+    key = (id(prog), kind)
+    cached = _DERIVED.get(key)
+    if cached is not None and cached[0] is prog.groups:
+        return cached[1]
+    value = build()
+    if key not in _DERIVED:
+        weakref.finalize(prog, _DERIVED.pop, key, None)
+    _DERIVED[key] = (prog.groups, value)
+    return value

@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import inspect
 import time
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import Loc
-from .program import Group, Program
+from .program import Group, Program, derived
 from .projections import _BACKWARD, _FAST_BACKWARD, _FORWARD, backward, forward
 from .rotation import rot_contract, rot_contract_raw
 
@@ -145,15 +144,13 @@ def _fast_sweep(steps: tuple[Steps, Steps], lo: np.ndarray, hi: np.ndarray,
                 step(lo, hi, stamp, k)
 
 
-_STEPS: dict[int, tuple[list[Group], tuple[Steps, Steps]]] = {}  # by id(program)
-
-
 def _kernels(prog: Program) -> tuple[Steps, Steps]:
     """The fast steps of a program (made once per program: the tight strategy propagates the
     same program several times)."""
-    cached = _STEPS.get(id(prog))
-    if cached is not None and cached[0] is prog.groups:
-        return cached[1]
+    return derived(prog, "kernels", lambda: _make_kernels(prog))
+
+
+def _make_kernels(prog: Program) -> tuple[Steps, Steps]:
     fw: Steps = []
     bw: Steps = []
     for g in prog.groups:
@@ -162,11 +159,7 @@ def _kernels(prog: Program) -> tuple[Steps, Steps]:
         f, b = _group_kernels(g)
         fw.append((slots, f))
         bw.append((slots, b))
-    steps = (fw, bw[::-1])
-    if id(prog) not in _STEPS:
-        weakref.finalize(prog, _STEPS.pop, id(prog), None)
-    _STEPS[id(prog)] = (prog.groups, steps)
-    return steps
+    return fw, bw[::-1]
 
 
 def _group_kernels(g: Group) -> tuple[Step, Step]:

@@ -23,14 +23,13 @@ primitive has no model (`None`), and the strategies fall back to first order.
 from __future__ import annotations
 
 import functools
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
 from .interval import LIB_ABS, LIB_REL
-from .linearize import independents, layout
-from .program import Program
+from .linearize import Layout, independents, layout
+from .program import Program, derived
 
 U = 2.0**-53  # unit roundoff
 # an upper bound on a float sum of nonnegative terms (<= 2^12 of them, plus products):
@@ -275,7 +274,7 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     plan = _plan(prog, ind)
     center = 0.5 * plo + 0.5 * phi
     half = _up(np.maximum(center - plo, phi - center))
-    temp, known = plan.temp, plan.known
+    temp, known = plan.layout.temp, plan.layout.const
     # every slot's constant term and remainder; the coefficients live with the group that
     # defines the slot (`store`), in that group's own unknowns only
     base = constant(np.where(temp, 0.0, lo), np.where(temp, 0.0, hi), 0, 0)
@@ -283,8 +282,8 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     c0[ind], r[ind] = center, 0.0
     store: list[list[Models]] = []
     found: list[tuple[Models, np.ndarray, np.ndarray]] = []
-    for g, mask, cols, gathers in zip(prog.groups, plan.masks, plan.cols, plan.gathers,
-                                      strict=True):
+    for g, mask, cols, gathers in zip(prog.groups, plan.layout.defining, plan.layout.used,
+                                      plan.gathers, strict=True):
         local = Pairs.of(len(cols))
         args = [_gathered(c0, r, store, half, col, len(cols), len(local.i), pieces)
                 for col, pieces in zip(g.args.T, gathers, strict=True)]
@@ -341,29 +340,24 @@ class _Piece:
 
 @dataclass
 class _Plan:
-    """What expand does on every box of a program, worked out once: each group's unknowns and
-    pairs, its defining outputs, and where each of its arguments' models is kept."""
+    """What expand does on every box of a program, worked out once: the program's layout
+    (each group's unknowns and defining rows), each group's pairs, and where each of its
+    arguments' models is kept."""
 
-    temp: np.ndarray
-    known: np.ndarray
-    cols: list[np.ndarray]
-    at: list[np.ndarray]
-    masks: list[np.ndarray]
+    layout: Layout
+    at: list[np.ndarray]  # each group's pairs among all pairs
     gathers: list[list[list[_Piece]]]
     home: tuple[np.ndarray, np.ndarray, np.ndarray]  # (group, output, row) per slot, -1: none
     unknown: np.ndarray  # the column of an unknown's slot, -1 for the others
 
 
-_PLANS: dict[int, tuple[list, _Plan]] = {}  # by id(program), as propagate's kernels
-
-
 def _plan(prog: Program, ind: np.ndarray) -> _Plan:
-    cached = _PLANS.get(id(prog))
-    if cached is not None and cached[0] is prog.groups:
-        return cached[1]
+    return derived(prog, "taylor plan", lambda: _make_plan(prog, ind))
+
+
+def _make_plan(prog: Program, ind: np.ndarray) -> _Plan:
     lay = layout(prog, ind)
-    temp = lay.temp
-    n_slots = len(temp)
+    n_slots = len(lay.temp)
     unknown = np.full(n_slots, -1, dtype=np.int64)
     unknown[ind] = np.arange(len(ind))
     hg, hj, hr = (np.full(n_slots, -1, dtype=np.int64) for _ in range(3))
@@ -374,12 +368,8 @@ def _plan(prog: Program, ind: np.ndarray) -> _Plan:
         for j in range(g.out.shape[1]):
             d = np.flatnonzero(masks[k][:, j])
             hg[g.out[d, j]], hj[g.out[d, j]], hr[g.out[d, j]] = k, j, d
-    plan = _Plan(temp, lay.const, cols, [_pair_index(c, len(ind)) for c in cols],
-                 masks, gathers, (hg, hj, hr), unknown)
-    if id(prog) not in _PLANS:
-        weakref.finalize(prog, _PLANS.pop, id(prog), None)
-    _PLANS[id(prog)] = (prog.groups, plan)
-    return plan
+    return _Plan(lay, [_pair_index(c, len(ind)) for c in cols], gathers, (hg, hj, hr),
+                 unknown)
 
 
 def _pieces(slots: np.ndarray, dest: np.ndarray, cols: list[np.ndarray],
@@ -440,7 +430,8 @@ def _gathered(c0: np.ndarray, r: np.ndarray, store: list[list[Models]], half: np
 def _global(plan: _Plan, c0: np.ndarray, r: np.ndarray, store: list[list[Models]],
             half: np.ndarray, slots: np.ndarray, n: int, p: int) -> Models:
     """The models of `slots` in all the unknowns, as the groups done so far define them."""
-    pieces = _pieces(slots, np.arange(n), plan.cols, plan.home, plan.unknown, len(store))
+    pieces = _pieces(slots, np.arange(n), plan.layout.used, plan.home, plan.unknown,
+                     len(store))
     return _gathered(c0, r, store, half, slots, n, p, pieces)
 
 
