@@ -34,13 +34,6 @@ Iv = tuple[np.ndarray, np.ndarray]
 _REL = 1e-9  # rounding budget of right-hand sides (see lpbound)
 
 
-@dataclass
-class _Masks:
-    """Per group: which rows define their output temporary (the others are constraints)."""
-
-    defining: list[np.ndarray]  # (n, outputs) bool per group
-
-
 def independents(prog: Program) -> np.ndarray:
     """The slots of the declared unknowns: the LP's variables."""
     s = prog.slots
@@ -98,7 +91,7 @@ def layout(prog: Program, ind: np.ndarray | None = None) -> Layout:
 def _layout(prog: Program, ind: np.ndarray) -> Layout:
     kinds = np.array(prog.slots.kinds)
     temp = kinds == "temp"
-    defining = _defining_masks(prog, temp).defining
+    defining = _defining_masks(prog, temp)
     used = group_unknowns(prog, ind)
     first: list[np.ndarray] = []
     blocks: list[list[tuple[int, int]]] = []
@@ -173,7 +166,6 @@ class _Evaluation:
                  center: np.ndarray, point: bool = False, mixed: bool = False) -> None:
         n, k = len(lo), len(ind)
         self.prog = prog
-        self.ind = ind
         # point mode (a Jacobian for analysis, no guarantee): gradients in plain floats
         self.chain = _chain_point if point else _chain
         self.layout = layout(prog, ind)
@@ -427,7 +419,9 @@ def _chain(partials: list[Iv], grads: list[Iv]) -> Iv:
     return total
 
 
-def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
+def _defining_masks(prog: Program, temp: np.ndarray) -> list[np.ndarray]:
+    """Per group, (rows, outputs) bool: which rows define their output temporary (its first
+    output in program order); the others are constraints."""
     defined = np.zeros(len(temp), dtype=bool)
     masks = []
     for g in prog.groups:
@@ -440,7 +434,7 @@ def _defining_masks(prog: Program, temp: np.ndarray) -> _Masks:
             m[:, j] = temp[col] & ~defined[col] & firsts
             defined[col[m[:, j]]] = True
         masks.append(m)
-    return _Masks(masks)
+    return masks
 
 
 _OUTPUTS = {"rot": ("rotu", "rotv")}  # primitives with more than one output
