@@ -143,16 +143,20 @@ def render(info: Identifiability) -> str:
 
 
 def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
-                           hi: np.ndarray, use_lp: bool,
-                           pieces: list | None = None) -> list[tuple[str, float, float]]:
+                           hi: np.ndarray, use_lp: bool, pieces: list | None = None,
+                           known: list[tuple[str, float, float]] | None = None
+                           ) -> list[tuple[str, float, float]]:
     """A guaranteed enclosure of each identifiable combination over the box [lo, hi]:
     certified LP bounds over the linear relaxation (tight), else interval arithmetic. With
     `pieces` (boxes within [lo, hi] holding every solution: a split solve), the hull of each
-    piece's enclosure: on a piece the relaxation is narrower."""
+    piece's enclosure: on a piece the relaxation is narrower. `known`: certified bounds the
+    solve already has for some combinations, by text (the tight strategy solves for them,
+    Result.combinations): those are intersected with the box's, and need no LP."""
     if pieces:
         parts = [combination_enclosures(prog, info, a, b, use_lp) for a, b in pieces]
-        return [(t, min(p[k][1] for p in parts), max(p[k][2] for p in parts))
+        hull = [(t, min(p[k][1] for p in parts), max(p[k][2] for p in parts))
                 for k, (t, _, _) in enumerate(parts[0])]
+        return _with_known(hull, known)
     ind = independents(prog)
     index = {n: k for k, n in enumerate(info.names)}
     rows, texts = [], []
@@ -171,7 +175,7 @@ def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
     plo, phi = lo[ind], hi[ind]
     upper = np.array([box_max_up(c, c, plo, phi) for c in obj])
     lower = np.array([-box_max_up(-c, -c, plo, phi) for c in obj])
-    if use_lp:
+    if use_lp and not set(texts) <= {t for t, _, _ in known or []}:
         from .linearize import relax
         from .lpbound import lp_bounds
 
@@ -179,7 +183,16 @@ def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
         if rel is not None:
             a, b = lp_bounds(rel, obj)
             lower, upper = np.maximum(lower, a), np.minimum(upper, b)
-    return [(t, float(a), float(b)) for t, a, b in zip(texts, lower, upper, strict=True)]
+    return _with_known([(t, float(a), float(b)) for t, a, b in zip(texts, lower, upper,
+                                                                   strict=True)], known)
+
+
+def _with_known(bounds: list[tuple[str, float, float]],
+                known: list[tuple[str, float, float]] | None) -> list[tuple[str, float, float]]:
+    """Each enclosure intersected with a known one of the same combination (both hold it)."""
+    have = {t: (a, b) for t, a, b in known or []}
+    return [(t, max(a, have[t][0]), min(b, have[t][1])) if t in have else (t, a, b)
+            for t, a, b in bounds]
 
 
 def identifiability_json(info: Identifiability) -> dict:

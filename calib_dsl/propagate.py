@@ -46,6 +46,9 @@ class Result:
     # piece's box that holds solutions; the result is their hull
     split: list[str] = field(default_factory=list)
     pieces: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    # tight strategy: certified bounds of the identifiable combinations it solved for
+    # (reparametrize.py), as (text, lo, hi)
+    combinations: list[tuple[str, float, float]] = field(default_factory=list)
 
 
 def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,

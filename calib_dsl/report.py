@@ -40,7 +40,7 @@ class Extras:
         except CalError:  # no nominal values to linearize at: say nothing rather than guess
             return
         self.combinations = combination_enclosures(prog, self.info, res.lo, res.hi, use_lp,
-                                                   pieces=res.pieces)
+                                                   pieces=res.pieces, known=res.combinations)
         self.seconds += time.perf_counter() - start
 
     def least_squares(self, prog: Program, res: Result) -> None:
