@@ -169,16 +169,17 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
     while res.status == "contracted" and rounds < max_rounds:
         lo, hi = res.lo, res.hi
         reuse = reuse and reused < REUSE_ROUNDS
-        if reuse and certs.family == "second order" and second_order and not cells:
+        # the second-order phase ends with a round of LPs (reused multipliers may have left
+        # the box just below WIDE while the LPs would still contract it much further)
+        ending = second_order and not cells and last == "reused second order"
+        if (reuse and certs.family == "second order" and second_order and not cells) \
+                or ending:
             rel = None  # a second-order round again: no first-order relaxation needed
         else:
             rel = relax(prog, lo, hi, cell_variables=cells, max_cell_columns=MAX_CELL_COLUMNS)
             if rel is None:
                 break
-        # the second-order phase ends with a round of LPs (reused multipliers may have left
-        # the box just below WIDE while the LPs would still contract it much further)
-        wide = second_order and not cells and (rel is None or rel.curvature > WIDE
-                                               or last == "reused second order")
+        wide = second_order and not cells and (rel is None or rel.curvature > WIDE)
         quad = relax_quadratic(prog, lo, hi) if wide else None
         if quad is None and rel is None:  # (cannot happen: a first round built them)
             break
@@ -217,7 +218,9 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         # the next round first tries this round's multipliers, unless its LPs are as cheap as
         # a relaxation (folded first-order rounds: as many columns as unknowns), or the
         # second-order phase is over (the box is no longer too wide for first order)
-        reuse, reused = cells or (wide and rel is not None and rel.curvature > WIDE), 0
+        # (the curvature of a round without a first-order relaxation: the second-order
+        # one's estimate of it, quadratic._curvature)
+        reuse, reused = cells or (wide and (rel or target).curvature > WIDE), 0
         if wide:
             if best < WIDE_MIN_GAIN:
                 break  # neither order contracts this box: the search domains are too wide
