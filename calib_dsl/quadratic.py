@@ -19,8 +19,11 @@ back to p with outward rounding.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from . import interval as iv
 from .interval import dn1, up1
 from .lpbound import LinearRelaxation, Rows
 from .program import Program
@@ -143,6 +146,25 @@ def _with_mccormick(rows: Rows, b_up: np.ndarray, b_lo: np.ndarray, pairs, keep:
                   np.concatenate([rows.indptr, rows.indptr[-1] + extra.indptr[1:]]),
                   (rows.shape[0] + k, rows.shape[1]))
     return joined, np.concatenate([b_up, hi]), np.concatenate([b_lo, lo])
+
+
+def narrowed(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray,
+             th: np.ndarray) -> LinearRelaxation:
+    """The relaxation with its columns bounded by t in [tl, th] (clipped to [-1, 1]) and
+    each product column by the product of its two factors' intervals (rounded outward): its
+    rows hold on the whole box, so on every point of the smaller one, where [tl, th] holds
+    every solution. The same multipliers then certify narrower bounds: the products shrink
+    with the square of the box (and the reduced costs pay less of it)."""
+    n = rel.main
+    tl, th = np.maximum(tl, -1.0), np.minimum(th, 1.0)
+    assert rel.col_keys is not None
+    q = rel.col_keys[n:] - n  # the kept products' positions among the pairs
+    i, j = ex.pairs.i[q], ex.pairs.j[q]
+    with iv.quiet():
+        plo, phi = iv.mul((tl[i], th[i]), (tl[j], th[j]))
+    plo = np.where(ex.pairs.diagonal[q], np.maximum(plo, 0.0), plo)  # a square: >= 0
+    plo, phi = np.maximum(plo, rel.lo[n:]), np.minimum(phi, rel.hi[n:])
+    return replace(rel, lo=np.concatenate([tl, plo]), hi=np.concatenate([th, phi]))
 
 
 def to_box(ex: Expansion, tl: np.ndarray, th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

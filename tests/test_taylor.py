@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import warnings
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -29,9 +30,9 @@ from test_linearize import (  # the sibling test module: its model generators
 from calib_dsl import taylor as tm
 from calib_dsl.elaborate import elaborate
 from calib_dsl.linearize import independents
-from calib_dsl.lpbound import lp_bounds
+from calib_dsl.lpbound import Certificates, LinearRelaxation, Rows, lp_bounds, reused_bounds
 from calib_dsl.program import Program, compile_model
-from calib_dsl.quadratic import relax_quadratic, to_box
+from calib_dsl.quadratic import narrowed, relax_quadratic, to_box
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -187,9 +188,17 @@ def check_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.nd
             assert np.all(az <= rel.b + slack), (what, mccormick, np.max(az - rel.b))
             assert np.all(az >= rel.b_lo - slack), (what, mccormick, np.max(rel.b_lo - az))
             if bounds and not mccormick:
-                tl, th = lp_bounds(rel, np.eye(len(ind)))
+                certs = Certificates()
+                tl, th = lp_bounds(rel, np.eye(len(ind)), certificates=certs)
                 plo, phi = to_box(ex, tl, th)
                 assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, plo, p_true, phi)
+                # narrowed to those bounds, the relaxation's columns still hold the truth,
+                # and the same multipliers certify bounds that hold it too
+                small = narrowed(rel, ex, tl, th)
+                assert np.all(small.lo <= z) and np.all(z <= small.hi), what
+                nl, nh = reused_bounds(small, np.eye(len(ind)), certs)
+                plo, phi = to_box(ex, np.maximum(tl, nl), np.minimum(th, nh))
+                assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, "narrowed")
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -229,6 +238,38 @@ def test_rx90_section_4_models_and_relaxation_hold() -> None:
     tool = [k for k, n in enumerate(names) if n.startswith("b")]
     narrowed = (phi - plo)[tool] / (hi[ind] - lo[ind])[tool]
     assert np.all(narrowed < 0.9), narrowed  # 0.72-0.81 measured; first order gives 1.0
+
+
+@settings(max_examples=1000, deadline=None)
+@given(data=st.data(), n=st.integers(1, 5))
+def test_narrowed_product_columns_hold_every_product(data, n) -> None:
+    """quadratic.narrowed: for every t in the new bounds, each kept product t_i t_j (a square
+    too) lies in its column's new bounds, which lie in the old ones."""
+    pairs = tm.Pairs.of(n)
+    p = len(pairs.i)
+    kept = np.array(sorted(data.draw(st.sets(st.integers(0, p - 1), min_size=1))))
+    unit = st.floats(-1, 1, allow_nan=False)
+    ends = np.sort(np.array(data.draw(st.lists(st.tuples(unit, unit), min_size=n,
+                                                 max_size=n))), axis=1)
+    tl, th = ends[:, 0], ends[:, 1]
+    rel = LinearRelaxation(Rows(np.zeros(0), np.zeros(0, np.int64), np.zeros(1, np.int64),
+                                (0, n + len(kept))), np.zeros(0),
+                           np.concatenate([-np.ones(n), np.where(pairs.diagonal[kept], 0, -1.0)]),
+                           np.ones(n + len(kept)), main=n,
+                           col_keys=np.concatenate([np.arange(n), n + kept]))
+    ex = tm.Expansion(np.zeros(n), np.ones(n), pairs, None)  # (rows: not used)
+    small = narrowed(rel, ex, tl, th)
+    assert np.all(rel.lo <= small.lo) and np.all(small.hi <= rel.hi)
+    for _ in range(20):
+        frac = np.array(data.draw(st.lists(st.floats(0, 1), min_size=n, max_size=n)))
+        t = np.minimum(tl + frac * (th - tl), th)
+        z = np.concatenate([t, t[pairs.i[kept]] * t[pairs.j[kept]]])
+        # (exact products of floats in [-1, 1] round to within an ulp: Fractions decide)
+        for k in range(n, n + len(kept)):
+            i, j = pairs.i[kept[k - n]], pairs.j[kept[k - n]]
+            exact = Fraction(float(t[i])) * Fraction(float(t[j]))
+            assert Fraction(float(small.lo[k])) <= exact <= Fraction(float(small.hi[k]))
+        assert np.all(small.lo[:n] <= z[:n]) and np.all(z[:n] <= small.hi[:n])
 
 
 def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
