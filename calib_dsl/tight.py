@@ -137,7 +137,7 @@ def _solve(prog: Program, tol: float, max_sweeps: int, max_rounds: int, min_gain
     sweeps = res.sweeps
     certs = Certificates()  # the multipliers (and bases) of the last LPs of each objective
     res, (rounds, reused), more = _lp_rounds(prog, res, tol, max_sweeps, max_rounds,
-                                             min_gain, second_order, certs)
+                                             min_gain, second_order, certs, unsolved=uncut)
     sweeps += more
     if res.status == "contracted":
         res = propagate(prog, tol=tol, max_sweeps=max_sweeps, lo=res.lo, hi=res.hi)
@@ -155,11 +155,14 @@ def _solve(prog: Program, tol: float, max_sweeps: int, max_rounds: int, min_gain
 
 def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_rounds: int,
                min_gain: float, second_order: bool, certs: Certificates,
-               cells: bool = False, threads: int = WORKERS) -> tuple[Result, tuple[int, int], int]:
+               cells: bool = False, threads: int = WORKERS,
+               unsolved: np.ndarray | None = None) -> tuple[Result, tuple[int, int], int]:
     """The LP rounds of solve_tight from the box of `res`: (result, (rounds of LPs, rounds
     of reused multipliers), sweeps). With `cells`, the rounds start with the measurement
     errors as LP columns (a box near the end). `certs` holds the multipliers and bases of the
-    LPs solved (updated in place; a piece of a split box starts with its whole box's)."""
+    LPs solved (updated in place; a piece of a split box starts with its whole box's). The
+    slots `unsolved` get no LPs (a member left free by reparametrize: the data do not see
+    it, and propagation gives it what its combination allows)."""
     sweeps, rounds = 0, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
@@ -190,6 +193,8 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         target = quad[0] if quad is not None else rel
         assert target is not None
         fresh = not (reuse and certs.usable(target))
+        if unsolved is not None:
+            skip = skip | np.isin(ind, unsolved)
         if quad is not None:
             tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, threads=threads,
                              iterations=WIDE_ITERATIONS,
