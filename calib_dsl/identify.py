@@ -18,6 +18,11 @@ from .linearize import constraint_jacobian, independents
 from .program import Program
 
 RANK_TOL = 1e-9  # singular values below this times the largest are structural zeros
+# The analysis differentiates the whole program w.r.t. every unknown: on large programs it
+# would cost more than the solve itself, and the rank does not need a thousand configurations.
+# Above this many primitives `solve` runs it neither for its report nor for the tight
+# strategy's change of unknowns (reparametrize.py); `calibc identify` always does.
+ROUTINE_MAX_PRIMITIVES = 50_000
 
 
 @dataclass

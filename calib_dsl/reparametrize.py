@@ -44,10 +44,14 @@ def along_combinations(prog: Program) -> Reparametrized | None:
     """The program with one new unknown per identifiable combination of each group of
     parameters the data cannot separate (identify.py, at the middle of the search domains),
     each replacing one member (its pivot), which becomes computed from it. None when there
-    is no such group, or no analysis (no finite domains, a Jacobian without finite values)."""
+    is no such group, or no analysis (no finite domains, a Jacobian without finite values, a
+    program over identify.ROUTINE_MAX_PRIMITIVES: on Test A with 1000 configurations the
+    analysis and a second layout cost 1-1.3 s of a 8 s solve, for the same box)."""
     from .errors import CalError
-    from .identify import analyse
+    from .identify import ROUTINE_MAX_PRIMITIVES, analyse
 
+    if len(prog.primitives) > ROUTINE_MAX_PRIMITIVES:
+        return None  # the analysis would cost more than it can save (Test A, 1000 configs)
     try:
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             info = analyse(prog, design=True)

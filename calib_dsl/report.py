@@ -9,10 +9,6 @@ from typing import Any
 from .program import Program
 from .propagate import Result
 
-# The analysis differentiates the whole program w.r.t. every unknown: on large programs it
-# would cost more than the solve itself, and the rank does not need a thousand configurations.
-IDENTIFY_MAX_PRIMITIVES = 50_000
-
 
 class Extras:
     """Optional sections of the report: identifiability, and a least-squares estimate."""
@@ -28,10 +24,10 @@ class Extras:
         import time
 
         from .errors import CalError
-        from .identify import analyse, combination_enclosures
+        from .identify import ROUTINE_MAX_PRIMITIVES, analyse, combination_enclosures
 
         start = time.perf_counter()
-        if len(prog.primitives) > IDENTIFY_MAX_PRIMITIVES:
+        if len(prog.primitives) > ROUTINE_MAX_PRIMITIVES:
             self.skipped = (f"identifiability: not analysed in solve for a program of "
                             f"{len(prog.primitives)} primitives (run `calibc identify`)")
             return
