@@ -3,7 +3,6 @@ and the tight strategy on it."""
 
 from __future__ import annotations
 
-import warnings
 from fractions import Fraction
 from pathlib import Path
 
@@ -11,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_tight import _parallel_arm  # the sibling test module: an arm with parallel axes
+from test_tight import arm_solved_twice  # the sibling test module: an arm with parallel axes
 
 from calib_dsl.elaborate import elaborate
 from calib_dsl.linearize import independents
@@ -174,20 +173,13 @@ def test_parallel_axes_solved_along_their_sum(tmp_path_factory, seed) -> None:
     """r2 and r3 of +-0.05 m on parallel axes: the solve in r2 + r3 and r3 holds the truth and
     the true r2 + r3, and its box of the seven others is narrower than the solve in r2 and r3
     gives (geometric mean 0.72-0.90 of it over 6 seeds; no gain would be 1)."""
-    sim = _parallel_arm(tmp_path_factory.mktemp("par"), seed, 0.05)
-    prog, p_true = sim.prog, sim.p_true
-    ind = independents(prog)
-    names = [prog.slots.names[i] for i in ind]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        plain = solve_tight(prog, split=False, combinations=False)
-        res = solve_tight(prog)
+    _, p_true, ind, names, plain, res = arm_solved_twice(
+        tmp_path_factory.mktemp("par"), seed, {"split": False, "combinations": False}, {})
     assert plain.status == res.status == "contracted"
     assert np.all(res.lo[ind] <= p_true) and np.all(p_true <= res.hi[ind])
-    sums = dict((t, (a, b)) for t, a, b in res.combinations)
-    if "r2 + r3" not in sums:  # alpha3 off 0 at the middle of its domain: not this case
-        return
-    a, b = sums["r2 + r3"]
+    # (alpha3 is 0 at the middle of its domain: the analysis always finds r2 + r3)
+    ((text, a, b),) = res.combinations
+    assert text == "r2 + r3"
     assert a <= p_true[names.index("r2")] + p_true[names.index("r3")] <= b
     others = [k for k, n in enumerate(names) if n not in ("r2", "r3")]
     ratio = (res.hi[ind] - res.lo[ind]) / (plain.hi[ind] - plain.lo[ind])

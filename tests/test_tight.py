@@ -432,6 +432,18 @@ def _parallel_arm(tmp: Path, seed: int, rr: float):
     return simulate_cal(tmp, source, clean_version(source), 12, seed, "matrix")
 
 
+def arm_solved_twice(tmp: Path, seed: int, first: dict, second: dict) -> tuple:
+    """The arm with parallel axes (r2, r3 of +-0.05 m) solved with two sets of options:
+    (program, true unknowns, their slots, their names, first result, second result)."""
+    sim = _parallel_arm(tmp, seed, 0.05)
+    prog = sim.prog
+    ind = independents(prog)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        a, b = solve_tight(prog, **first), solve_tight(prog, **second)
+    return prog, sim.p_true, ind, [prog.slots.names[i] for i in ind], a, b
+
+
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1))
 def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
@@ -440,14 +452,9 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     (the slack of the wide r2, r3 in every row is gone); the enclosure of r2 + r3 holds it."""
     from calib_dsl.identify import analyse, combination_enclosures
 
-    sim = _parallel_arm(tmp_path_factory.mktemp("par"), seed, 0.05)
-    prog, p_true = sim.prog, sim.p_true
-    ind = independents(prog)
-    names = [prog.slots.names[i] for i in ind]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        whole = solve_tight(prog, split=False, combinations=False)
-        cut = solve_tight(prog, combinations=False)
+    prog, p_true, ind, names, whole, cut = arm_solved_twice(
+        tmp_path_factory.mktemp("par"), seed, {"split": False, "combinations": False},
+        {"combinations": False})
     assert whole.status == cut.status == "contracted"
     assert cut.split and cut.split[0] in ("r2", "r3") and 1 <= len(cut.pieces) <= 4
     for res in (whole, cut):
