@@ -63,6 +63,17 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     return Identifiability(names, rank, s_full, ident, groups, weakest)
 
 
+def analyse_design(prog: Program) -> Identifiability | None:
+    """analyse(prog, design=True), or None where there is no analysis to make (no nominal
+    values or finite domains, a Jacobian without finite values): for the solvers, which then
+    go on without it."""
+    try:
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            return analyse(prog, design=True)  # a non-finite Jacobian raises in the SVD
+    except (CalError, np.linalg.LinAlgError, ValueError):
+        return None
+
+
 def _nominal(prog: Program, ind: np.ndarray, names: list[str],
              design: bool = False) -> np.ndarray:
     vals = []

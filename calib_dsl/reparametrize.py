@@ -47,15 +47,12 @@ def along_combinations(prog: Program) -> Reparametrized | None:
     is no such group, or no analysis (no finite domains, a Jacobian without finite values, a
     program over identify.ROUTINE_MAX_PRIMITIVES: on Test A with 1000 configurations the
     analysis and a second layout cost 1-1.3 s of a 8 s solve, for the same box)."""
-    from .errors import CalError
-    from .identify import ROUTINE_MAX_PRIMITIVES, analyse
+    from .identify import ROUTINE_MAX_PRIMITIVES, analyse_design
 
     if len(prog.primitives) > ROUTINE_MAX_PRIMITIVES:
         return None  # the analysis would cost more than it can save (Test A, 1000 configs)
-    try:
-        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            info = analyse(prog, design=True)
-    except (CalError, np.linalg.LinAlgError, ValueError):
+    info = analyse_design(prog)
+    if info is None:
         return None
     slot_of = dict(zip(info.names, independents(prog).tolist(), strict=True))
     combos = []

@@ -169,6 +169,7 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
     sweeps, rounds = 0, 0
     ind = independents(prog)
     skip = np.zeros(len(ind), dtype=bool)
+    never = np.isin(ind, unsolved) if unsolved is not None else skip.copy()  # (no LPs)
     moved = np.zeros(len(ind), dtype=bool)  # whether any round narrowed it by STALLED
     # with too many measured values for cell columns, "cell" rounds fold the errors too
     cellular = measured_cells(prog) <= MAX_CELL_COLUMNS
@@ -196,8 +197,7 @@ def _lp_rounds(prog: Program, res: Result, tol: float, max_sweeps: int, max_roun
         target = quad[0] if quad is not None else rel
         assert target is not None
         fresh = not (reuse and certs.usable(target))
-        if unsolved is not None:
-            skip = skip | np.isin(ind, unsolved)
+        skip = skip | never
         if quad is not None:
             tl, th = _bounds(quad[0], len(ind), skip, certs, fresh, threads=threads,
                              iterations=WIDE_ITERATIONS,
@@ -383,15 +383,12 @@ def _worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray,
     (the remainder's share of them); else the pieces would cost their rounds for nothing.
     (RX90 near its solution: 0.027 against 0.023; from section 4: 0.285 against 0.213.)
     The slots `uncut` are not candidates."""
-    from .errors import CalError
-    from .identify import analyse
+    from .identify import analyse_design
 
     if not np.any(_left(prog, _cuttable(prog, uncut), lo, hi) > LEFT_WIDE):
         return None  # nothing left wide: no need for the analysis (an SVD)
-    try:
-        with np.errstate(invalid="ignore", over="ignore"):  # a non-finite Jacobian raises below
-            info = analyse(prog, design=True)
-    except (CalError, np.linalg.LinAlgError, ValueError):
+    info = analyse_design(prog)
+    if info is None:
         return None  # no nominal values, or a Jacobian without finite values there
     every = independents(prog)
     alone = {n for members, _ in info.groups for n in members}
