@@ -57,9 +57,9 @@ def child(record: str, argv: list[str]) -> None:
     """Run `calibc solve ARGV` in this process, timing its phases by wrapping the functions
     the command calls (the command itself is unchanged), and write them to `record`."""
     import calib_dsl.cli as cli
-    from calib_dsl import elaborate as elab_mod
-    from calib_dsl import program as prog_mod
-    from calib_dsl import propagate as prop_mod
+    from calib_dsl.elaborate import elaborator as elab_mod
+    from calib_dsl.ir import program as prog_mod
+    from calib_dsl.propagate import fixpoint as prop_mod
 
     phases: dict[str, Any] = {"elaborate": 0.0, "compile": 0.0, "solve": 0.0,
                               "elaborate_cpu": 0.0, "compile_cpu": 0.0, "solve_cpu": 0.0}
@@ -105,9 +105,9 @@ def child(record: str, argv: list[str]) -> None:
 
 def synthetic(path: str, sweeps: int, record: str) -> None:
     """Build the generated model and propagate it for a fixed number of sweeps."""
-    from calib_dsl.elaborate import elaborate
-    from calib_dsl.program import compile_model
-    from calib_dsl.propagate import propagate
+    from calib_dsl.elaborate.elaborator import elaborate
+    from calib_dsl.ir.program import compile_model
+    from calib_dsl.propagate.fixpoint import propagate
 
     t = time.perf_counter()
     model = elaborate(path)

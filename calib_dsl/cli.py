@@ -13,7 +13,7 @@ from typing import Any
 
 import click
 
-from .errors import CalError
+from calib_dsl.frontend.diagnostics import CalError
 
 FORMULATION = click.option("--formulation", type=click.Choice(["matrix", "rotation"]),
                            default="matrix", show_default=True,
@@ -53,8 +53,8 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
 def _load(model: str, formulation: str, data: str | None):
     import gc
 
-    from .elaborate import elaborate
-    from .program import compile_model
+    from calib_dsl.elaborate.elaborator import elaborate
+    from calib_dsl.ir.program import compile_model
 
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
@@ -88,7 +88,7 @@ def main() -> None:
 def compile(model: str, output: str | None, as_json: bool, formulation: str,
             data: str | None) -> None:
     """Compile MODEL into its primitive-constraint listing."""
-    from .listing import listing_json, render_listing
+    from calib_dsl.compile.listing import listing_json, render_listing
 
     prog = _load(model, formulation, data)
     text = render_listing(prog)
@@ -121,12 +121,12 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, formulation: str, data: str | None) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
-    from . import report
-    from .propagate import propagate
+    from calib_dsl.propagate.fixpoint import propagate
+    from calib_dsl.report import report
 
     prog = _load(model, formulation, data)
     if strategy == "tight":
-        from .tight import solve_tight
+        from calib_dsl.strategy.tight import solve_tight
 
         res = solve_tight(prog, tol=tol, max_sweeps=max_sweeps)
     else:
@@ -159,7 +159,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
 @user_errors
 def identify(model: str, as_json: bool, formulation: str, data: str | None) -> None:
     """Which parameters of MODEL the measurements can determine (rank of the Jacobian)."""
-    from .identify import analyse, identifiability_json, render
+    from calib_dsl.analysis.identify import analyse, identifiability_json, render
 
     info = analyse(_load(model, formulation, data))
     if as_json:
@@ -178,7 +178,7 @@ def identify(model: str, as_json: bool, formulation: str, data: str | None) -> N
 @user_errors
 def simulate(model: str, configs: int, seed: int, output: str, formulation: str) -> None:
     """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
-    from .simulate import simulate as run
+    from calib_dsl.analysis.simulate import simulate as run
 
     run(model, configs, seed, formulation=formulation, out_csv=Path(output))
     click.echo(f"wrote {configs} configurations to {output}")

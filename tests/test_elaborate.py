@@ -13,11 +13,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl import robot
-from calib_dsl.dag import Dag
-from calib_dsl.elaborate import elaborate
-from calib_dsl.errors import CalError, Loc
-from calib_dsl.evaluate import evaluate
+from calib_dsl.analysis.evaluate import evaluate
+from calib_dsl.elaborate import chains as robot
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.ir.dag import Dag
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"

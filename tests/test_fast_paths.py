@@ -9,9 +9,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl import interval as iv
-from calib_dsl.projections import _bw_mul_raw, backward
-from calib_dsl.rotation import rot_contract, rot_contract_raw
+from calib_dsl.arith import interval as iv
+from calib_dsl.arith.projections import _bw_mul_raw, backward
+from calib_dsl.arith.rotation import rot_contract, rot_contract_raw
 
 INF = math.inf
 SPECIAL = [-INF, -1e300, -3.0, -1.0, -1e-310, -0.0, 0.0, 1e-310, 0.5, 2.0, 1e300, INF]

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.elaborate import elaborate
-from calib_dsl.identify import analyse, combination_enclosures, format_combination, render
-from calib_dsl.lsq import estimate
-from calib_dsl.program import compile_model
-from calib_dsl.propagate import propagate
-from calib_dsl.simulate import simulate
-from calib_dsl.tight import solve_tight
+from calib_dsl.analysis.identify import analyse, combination_enclosures, format_combination, render
+from calib_dsl.analysis.lsq import estimate
+from calib_dsl.analysis.simulate import simulate
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.program import compile_model
+from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.strategy.tight import solve_tight
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 

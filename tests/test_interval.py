@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl import interval as iv
+from calib_dsl.arith import interval as iv
 
 A = np.asarray
 INF = math.inf

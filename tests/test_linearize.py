@@ -31,15 +31,15 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.dag import Dag
-from calib_dsl.elaborate import elaborate
-from calib_dsl.linearize import constraint_jacobian, independents, relax
-from calib_dsl.lpbound import lp_bounds
-from calib_dsl.model import Model
-from calib_dsl.program import Program, compile_model
-from calib_dsl.projections import forward
-from calib_dsl.propagate import propagate
-from calib_dsl.simulate import simulate_model, write_csv
+from calib_dsl.analysis.simulate import simulate_model, write_csv
+from calib_dsl.arith.projections import forward
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.dag import Dag
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.lp.lpbound import lp_bounds
+from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.relax.linearize import constraint_jacobian, independents, relax
 
 ROOT = Path(__file__).resolve().parents[1]
 MARGIN = 1e-13  # float error of evaluating A x in the test (the relaxation's own pad is 1e-9)
@@ -705,9 +705,9 @@ def test_too_many_cell_columns_are_folded() -> None:
     """Over max_cell_columns the measurement errors are folded, not LP columns."""
     from pathlib import Path
 
-    from calib_dsl.elaborate import elaborate
-    from calib_dsl.program import compile_model
-    from calib_dsl.propagate import propagate
+    from calib_dsl.elaborate.elaborator import elaborate
+    from calib_dsl.ir.program import compile_model
+    from calib_dsl.propagate.fixpoint import propagate
 
     models = Path(__file__).resolve().parent.parent / "models"
     prog = compile_model(elaborate(models / "examples" / "planar_arm.cal"))
@@ -729,8 +729,8 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
     slack is never larger; on the RX90 it is about half."""
     from pathlib import Path
 
-    from calib_dsl.elaborate import elaborate
-    from calib_dsl.linearize import _Evaluation, _mid_rad
+    from calib_dsl.elaborate.elaborator import elaborate
+    from calib_dsl.relax.linearize import _Evaluation, _mid_rad
 
     models = Path(__file__).resolve().parent.parent / "models"
     prog = compile_model(elaborate(models / model))
@@ -774,7 +774,7 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
     """linearize._chain (written out for speed, not through `forward`): for members d of the
     partials and g of the gradients, sum d * g lies in the result; where a factor is [0, 0]
     the result is exactly 0."""
-    from calib_dsl.linearize import _chain
+    from calib_dsl.relax.linearize import _chain
 
     def interval(shape):
         a = np.array(data.draw(st.lists(_ENDS, min_size=math.prod(shape),
@@ -833,7 +833,7 @@ def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
     """linearize._signed_sum (the chain rule of add, sub and neg, without products): for
     members g_k of the gradients, sum sign_k g_k lies in the result; a sum of [0, 0] terms is
     exactly 0 (the relaxation's rows stay sparse)."""
-    from calib_dsl.linearize import _signed_sum
+    from calib_dsl.relax.linearize import _signed_sum
 
     def interval():
         a, b = (np.array(data.draw(st.lists(_ENDS, min_size=rows * cols,

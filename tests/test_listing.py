@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from calib_dsl.decompose import Primitive
-from calib_dsl.elaborate import elaborate
-from calib_dsl.errors import Loc
-from calib_dsl.listing import listing_json, render_listing, render_primitive
-from calib_dsl.program import Program, compile_model
+from calib_dsl.compile.decompose import Primitive
+from calib_dsl.compile.listing import listing_json, render_listing, render_primitive
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.frontend.diagnostics import Loc
+from calib_dsl.ir.program import Program, compile_model
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
 

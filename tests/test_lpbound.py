@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linprog
 
-from calib_dsl.lpbound import (
+from calib_dsl.lp.lpbound import (
     Certificates,
     LinearRelaxation,
     Rows,
@@ -176,7 +176,7 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
     indptr = np.concatenate([[0], np.cumsum(2 * np.bincount(r, minlength=m))])
     halves = LinearRelaxation(Rows(np.repeat(A[r, k] / 2, 2), np.repeat(k, 2), indptr, A.shape),
                               b, lo, hi, n)
-    import calib_dsl.lpbound as lpb
+    import calib_dsl.lp.lpbound as lpb
     dense_limit = lpb.DENSE_ENTRIES
     try:
         for limit, relax in ((dense_limit, rel), (0, rel), (dense_limit, halves)):
@@ -331,7 +331,7 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
     they reach are not solved: every bound still holds every feasible point, equals the one
     worker's bound (no probes) to the LP's tolerance, and every objective keeps a basis to
     start from next time (its own LP's, or the reaching point's)."""
-    import calib_dsl.lpbound as lpb
+    import calib_dsl.lp.lpbound as lpb
 
     rng = np.random.default_rng(seed)
     A, b, lo, hi, _, x0 = random_float_lp(rng, n, m, False)
@@ -490,7 +490,7 @@ def test_box_max_up_all_negative_overflow_is_not_nan():
 _HALF_INFINITE = """
 import numpy as np
 from scipy import sparse
-from calib_dsl.lpbound import LinearRelaxation, lp_bounds
+from calib_dsl.lp.lpbound import LinearRelaxation, lp_bounds
 A = np.array([[0.0, -1.7321348424395848], [0.0, -1.1632259734447486e-03],
               [-6.2928809406155450e-01, 0.0], [-7.1331337163224362e+02, 5.5337847035328946e+02],
               [-6.3085971925289158e+01, 0.0], [4.0963782655711697e+02, 8.2985530706132397e+02]])
@@ -722,7 +722,7 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
 def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver):
     """(Row generation keeps to the simplex whatever solver is asked for: it re-solves after
     adding rows, from the last basis.)"""
-    import calib_dsl.lpbound as lpb
+    import calib_dsl.lp.lpbound as lpb
 
     rng = np.random.default_rng(seed)
     x_hat = rng.uniform(-1, 1, n)  # a feasible point: every row holds it with some room
@@ -754,7 +754,7 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver)
 
 
 def _with_row_generation(rel, objectives):
-    import calib_dsl.lpbound as lpb
+    import calib_dsl.lp.lpbound as lpb
 
     saved = lpb.ROWS_AT_ONCE
     try:
@@ -765,7 +765,7 @@ def _with_row_generation(rel, objectives):
 
 
 def test_row_generation_finds_a_bounding_row_left_out_at_the_start():
-    import calib_dsl.lpbound as lpb
+    import calib_dsl.lp.lpbound as lpb
 
     m = 30
     A = np.full((m, 1), -1.0)  # -x <= 5: bounds x from below only
@@ -795,7 +795,7 @@ def test_highs_prints_nothing_on_stdout():
     import subprocess
     import sys
 
-    code = ("from calib_dsl.lpbound import _load, LinearRelaxation, Rows; import numpy as np; "
+    code = ("from calib_dsl.lp.lpbound import _load, LinearRelaxation, Rows; import numpy as np; "
             "rel = LinearRelaxation(Rows.join(np.ones((1, 1)), np.zeros(0, np.int64), "
             "np.zeros(0, np.int64), np.zeros(0), 0), np.ones(1), np.zeros(1), np.ones(1)); "
             "_load(rel).run(); _load(rel).run(); print('done')")

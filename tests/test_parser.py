@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from calib_dsl import ast, grammar
-from calib_dsl.errors import CalError, Loc
-from calib_dsl.parser import parse, parse_file
+from calib_dsl.frontend import ast, grammar
+from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.frontend.parser import parse, parse_file
 
 ROOT = Path(__file__).resolve().parents[1]
 

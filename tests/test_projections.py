@@ -14,8 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl import interval as iv
-from calib_dsl.projections import backward, forward
+from calib_dsl.arith import interval as iv
+from calib_dsl.arith.projections import backward, forward
 
 ENCLOSE_ULPS = 1  # references are exact (mpmath): one float outward
 mp = mpmath.mpf
@@ -563,7 +563,7 @@ def test_lengths(op: str, n: int) -> None:
 
 @pytest.mark.parametrize("op", ALL_OPS)
 def test_dag_constant_folding(op: str) -> None:
-    from calib_dsl.dag import Dag
+    from calib_dsl.ir.dag import Dag
 
     d = Dag()
     vals = [0.3, -0.7, 1.1]

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from calib_dsl.elaborate import elaborate
-from calib_dsl.program import Program, compile_model
-from calib_dsl.propagate import propagate
-from calib_dsl.tight import solve_tight
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.strategy.tight import solve_tight
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
 

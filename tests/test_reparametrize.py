@@ -12,13 +12,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_tight import arm_solved_twice  # the sibling test module: an arm with parallel axes
 
-from calib_dsl.elaborate import elaborate
-from calib_dsl.linearize import independents
-from calib_dsl.program import compile_model
-from calib_dsl.propagate import propagate
-from calib_dsl.reparametrize import _echelon, _sum_enclosure, along_combinations, back
-from calib_dsl.report import Extras, render_summary
-from calib_dsl.tight import solve_tight
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.program import compile_model
+from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.relax.linearize import independents
+from calib_dsl.report.report import Extras, render_summary
+from calib_dsl.strategy.reparametrize import _echelon, _sum_enclosure, along_combinations, back
+from calib_dsl.strategy.tight import solve_tight
 
 SUM_MODEL = """
 param a in [0, 1] true 0.1;
@@ -119,7 +119,7 @@ def test_nothing_to_change_where_all_is_identifiable(tmp_path: Path) -> None:
 def test_no_change_on_a_program_too_large_to_analyse(sum_model, monkeypatch) -> None:
     """Above identify.ROUTINE_MAX_PRIMITIVES the analysis would cost more than it saves:
     the program is solved as it is (the same box as asking for no change)."""
-    import calib_dsl.identify as identify
+    import calib_dsl.analysis.identify as identify
 
     monkeypatch.setattr(identify, "ROUTINE_MAX_PRIMITIVES", len(sum_model.primitives) - 1)
     assert along_combinations(sum_model) is None

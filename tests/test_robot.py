@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.dag import Dag
-from calib_dsl.evaluate import evaluate
-from calib_dsl.kinematics import RX90_PARAMS, RX90_TOOL, forward, rx90_frames
-from calib_dsl.robot import FORMULATIONS, Frame, forward_point
+from calib_dsl.analysis.evaluate import evaluate
+from calib_dsl.analysis.kinematics import RX90_PARAMS, RX90_TOOL, forward, rx90_frames
+from calib_dsl.elaborate.chains import FORMULATIONS, Frame, forward_point
+from calib_dsl.ir.dag import Dag
 
 # A joint: (alpha, d, theta0, r0, prismatic); a None parameter is the structural constant 0.
 angle = st.one_of(st.none(), st.floats(-math.pi, math.pi))
@@ -83,10 +83,8 @@ def test_general_chain_with_variables(formulation, joints, data):
 
 
 # -- guaranteed enclosure under constant folding ---------------------------------------------
-# Folding is the interval arithmetic of calib_dsl.projections; the exact reference uses mpmath
+# Folding is the interval arithmetic of calib_dsl.arith; the exact reference uses mpmath
 # when it is installed (60 digits: the real value of the float inputs, to within 1e-55).
-needs_projections = pytest.mark.skipif(find_spec("calib_dsl.projections") is None,
-                                       reason="calib_dsl.projections not written yet")
 needs_mpmath = pytest.mark.skipif(find_spec("mpmath") is None, reason="mpmath not installed")
 
 
@@ -129,7 +127,6 @@ def rx90_joints():
             + [(p["alpha6"], p["d6"], None, None, False)])
 
 
-@needs_projections
 @pytest.mark.parametrize("formulation", FORMULATIONS)
 @settings(max_examples=100, deadline=None)
 @given(q=st.lists(st.floats(-math.pi, math.pi), min_size=6, max_size=6),
@@ -143,7 +140,6 @@ def test_rx90_constants_fold_to_an_enclosure(formulation, q, b):
         assert_contains(boxes, exact_g(frames, b))  # the real value: strictly inside
 
 
-@needs_projections
 @needs_mpmath
 @pytest.mark.parametrize("formulation", FORMULATIONS)
 @settings(max_examples=100, deadline=None)

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.rotation import rot_contract
+from calib_dsl.arith.rotation import rot_contract
 
 ENCLOSE_ULPS = 1  # references are exact (mpmath): one float outward
 INF = math.inf

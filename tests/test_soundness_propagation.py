@@ -22,12 +22,12 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.dag import Dag
-from calib_dsl.elaborate import elaborate
-from calib_dsl.model import Model
-from calib_dsl.program import Program, compile_model
-from calib_dsl.propagate import Result, propagate
-from calib_dsl.tight import solve_tight
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.dag import Dag
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.propagate.fixpoint import Result, propagate
+from calib_dsl.strategy.tight import solve_tight
 
 # -- floats with a rigorous error bound ---------------------------------------------------------
 

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from calib_dsl.errors import CalError, Loc
-from calib_dsl.tables import cell_bounds, read_csv
+from calib_dsl.elaborate.tables import cell_bounds, read_csv
+from calib_dsl.frontend.diagnostics import CalError, Loc
 
 DECL = Loc("model.cal", 7, 11)
 

@@ -27,12 +27,12 @@ from test_linearize import (  # the sibling test module: its model generators
     truth_arrays,
 )
 
-from calib_dsl import taylor as tm
-from calib_dsl.elaborate import elaborate
-from calib_dsl.linearize import independents
-from calib_dsl.lpbound import Certificates, LinearRelaxation, Rows, lp_bounds, reused_bounds
-from calib_dsl.program import Program, compile_model
-from calib_dsl.quadratic import narrowed, relax_quadratic, to_box
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.lp.lpbound import Certificates, LinearRelaxation, Rows, lp_bounds, reused_bounds
+from calib_dsl.relax import taylor as tm
+from calib_dsl.relax.linearize import independents
+from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -287,7 +287,7 @@ def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
 def test_pair_index_maps_a_subset_of_unknowns_into_all_pairs(n: int, data) -> None:
     """expand works on the unknowns a group depends on: the pairs of that subset must land on
     the same pairs of all the unknowns."""
-    from calib_dsl.taylor import Pairs, _pair_index
+    from calib_dsl.relax.taylor import Pairs, _pair_index
 
     cols = np.array(sorted(data.draw(st.sets(st.integers(0, n - 1), min_size=1))))
     at = _pair_index(cols, n)

@@ -31,14 +31,14 @@ from test_linearize import (  # the sibling test module: its model generators
     truth_arrays,
 )
 
-from calib_dsl.dag import Dag
-from calib_dsl.elaborate import elaborate
-from calib_dsl.linearize import independents
-from calib_dsl.model import Model
-from calib_dsl.program import Program, compile_model
-from calib_dsl.propagate import Result, propagate
-from calib_dsl.simulate import simulate
-from calib_dsl.tight import solve_tight
+from calib_dsl.analysis.simulate import simulate
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.ir.dag import Dag
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.propagate.fixpoint import Result, propagate
+from calib_dsl.relax.linearize import independents
+from calib_dsl.strategy.tight import solve_tight
 
 ROOT = Path(__file__).resolve().parents[1]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -255,8 +255,8 @@ def _plane_model(tmp_path: Path, curve: str) -> Program:
 
 
 def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
-    from calib_dsl.linearize import relax
-    from calib_dsl.reference import linearized_hull
+    from calib_dsl.analysis.reference import linearized_hull
+    from calib_dsl.relax.linearize import relax
 
     prog = _plane_model(tmp_path, "plane")
     rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)
@@ -273,7 +273,7 @@ def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
 
 
 def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
-    from calib_dsl.linearize import relax
+    from calib_dsl.relax.linearize import relax
 
     prog = _plane_model(tmp_path, "waves")
     rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)
@@ -287,7 +287,7 @@ def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
 
 
 def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path, monkeypatch):
-    import calib_dsl.tight as tight
+    import calib_dsl.strategy.tight as tight
 
     prog = _plane_model(tmp_path, "plane")
     monkeypatch.setattr(tight, "MAX_CELL_COLUMNS", 0)  # as with 1000 configurations
@@ -365,7 +365,7 @@ def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory,
 def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, seed):
     """On the wide arm, rounds that reuse the last LPs' multipliers replace LP rounds: fewer
     LP rounds, the truth inside, every parameter below 1 % of its domain as without them."""
-    import calib_dsl.tight as tight
+    import calib_dsl.strategy.tight as tight
 
     prog, p_true = _wide_arm(tmp_path_factory.mktemp("arm"), seed)
     ind = independents(prog)
@@ -450,7 +450,7 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     """r2 and r3 of +-0.05 m on parallel axes: the solve cuts one of them into pieces, and the
     hull of the pieces holds the truth, lies inside the unsplit result, and is narrower than it
     (the slack of the wide r2, r3 in every row is gone); the enclosure of r2 + r3 holds it."""
-    from calib_dsl.identify import analyse, combination_enclosures
+    from calib_dsl.analysis.identify import analyse, combination_enclosures
 
     prog, p_true, ind, names, whole, cut = arm_solved_twice(
         tmp_path_factory.mktemp("par"), seed, {"split": False, "combinations": False},
@@ -483,7 +483,7 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
 def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
     """The pieces go to two child processes (workers.py); the result is the one the solving
     process gives when it refines them itself, bit for bit."""
-    import calib_dsl.tight as tight
+    import calib_dsl.strategy.tight as tight
 
     sim = _parallel_arm(tmp_path, 7, 0.05)
     ran = []
@@ -520,7 +520,7 @@ def test_no_split_where_it_does_not_pay(tmp_path):
 
 
 def test_split_is_reported(tmp_path):
-    from calib_dsl.report import Extras, render_summary, result_json
+    from calib_dsl.report.report import Extras, render_summary, result_json
 
     sim = _parallel_arm(tmp_path, 4, 0.05)  # alpha3 = 0: only r2 + r3 is identifiable
     with warnings.catch_warnings():
@@ -540,7 +540,7 @@ def test_split_is_reported(tmp_path):
 def test_pieces_cover_the_box(data, per):
     """The pieces of a split tile the box: along the cut slot they chain from its lower end to
     its upper end (shared float endpoints), and every other slot keeps its interval."""
-    from calib_dsl.tight import _pieces
+    from calib_dsl.strategy.tight import _pieces
 
     n = 4
     bound = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)

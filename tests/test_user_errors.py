@@ -11,8 +11,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.elaborate import elaborate
-from calib_dsl.errors import CalError, Loc
+from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.frontend.diagnostics import CalError, Loc
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = "robot r(q) { joint theta = q; }\n"

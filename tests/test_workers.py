@@ -4,7 +4,7 @@ import operator
 
 import numpy as np
 
-from calib_dsl.workers import Children, map_in_processes
+from calib_dsl.strategy.workers import Children, map_in_processes
 
 
 def test_results_come_back_in_the_calls_order():

@@ -1,0 +1,3 @@
+"""Analyses beside the solve: identifiability, least squares, reference hulls, kinematics,
+simulation.
+"""

@@ -1,0 +1,51 @@
+"""A reference for how tight an enclosure can be: the hull of the model linearized at the
+true parameter values (not a guarantee: a yardstick for benchmarks and tests).
+
+The hull is the smallest box holding every parameter vector consistent with the data. Near the
+truth the model is linear to within (box width)^2, far below the measurement errors, so the LP
+"min/max each parameter subject to the linearized constraints, the search domains, and each
+measured value's error within its bound" gives the hull to a few parts in a thousand.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linprog
+
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.linearize import _Evaluation, _inequalities, independents
+
+
+def linearized_hull(prog: Program,
+                    names: list[str] | None = None) -> dict[str, tuple[float, float]]:
+    ind = independents(prog)
+    all_names = [prog.slots.names[i] for i in ind]
+    truth = []
+    for n in all_names:
+        t = prog.true_values.get(n)
+        if t is None:
+            raise CalError(f"the reference hull needs the true value of '{n}'")
+        truth.append(t)
+    p = np.array(truth, dtype=float)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    lo[ind], hi[ind] = p, p
+    ev = _Evaluation(prog, lo, hi, ind, p)
+    rel = _inequalities(ev.run(), p, p, p, ev.e, cell_variables=True)
+    domains = prog.domains or {}
+    box = [domains.get(n, (-np.inf, np.inf)) for n in all_names]
+    bounds = [(a if np.isfinite(a) else None, b if np.isfinite(b) else None) for a, b in box]
+    bounds += list(zip(rel.lo[rel.main:], rel.hi[rel.main:], strict=True))
+    A_ub, b_ub = rel.one_sided()
+    out = {}
+    for k, n in enumerate(all_names):
+        if names is not None and n not in names:
+            continue
+        c = np.zeros(rel.A.shape[1])
+        c[k] = 1.0
+        low = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+        high = linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+        if low.status != 0 or high.status != 0:
+            raise CalError(f"the reference hull LP failed for '{n}'")
+        out[n] = (float(low.fun), float(-high.fun))
+    return out

@@ -1,0 +1,198 @@
+"""Simulated measurements by the paper's protocol (§4).
+
+The model is elaborated in simulation mode: every table cell `table.col[row]` is a `data`
+variable of the DAG. A column with `sim = (lo, hi)` is an INPUT, drawn uniformly in [lo, hi];
+every other column is an OUTPUT, computed from its defining constraint (`cell == expr` or
+`expr == cell`) with every parameter at its true value. Then every column, inputs too, gets
+uniform noise in [-tol, +tol]: the recorded q is q + e_q, as an encoder reading would be.
+
+Random draws, in this order so a seed always gives the same file: the inputs, table by table,
+column by column (declaration order), then the noise in the same order.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from calib_dsl.analysis.evaluate import Array, Evaluator
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.dag import Dag
+from calib_dsl.ir.model import Model, Table
+
+# A constraint that does not define a cell must hold at the true values, up to float error:
+# otherwise the data would be inconsistent and calibration would answer "infeasible".
+CHECK_RTOL = 1e-9
+CHECK_ATOL = 1e-9
+
+
+def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "matrix",
+             out_csv: Path | None = None) -> None:
+    """Elaborate MODEL for `rows` configurations, simulate its tables, write the CSV.
+
+    `out_csv` receives the model's table; without it each table goes to its own path.
+    """
+    from calib_dsl.elaborate.elaborator import (
+        elaborate,  # late import: the elaborator imports much more
+    )
+
+    model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows)
+    if not model.tables:
+        raise CalError("the model has no `table` to simulate")
+    if out_csv is not None and len(model.tables) != 1:
+        raise CalError(f"the model has {len(model.tables)} tables; simulate writes one CSV "
+                       "per table, so give no output path", model.tables[-1].loc)
+    tables = simulate_model(model, seed)
+    for table in model.tables:
+        write_csv(Path(out_csv) if out_csv is not None else Path(table.path), table,
+                  tables[table.name])
+
+
+def simulate_model(model: Model, seed: int) -> dict[str, Array]:
+    """The noisy measurements of every table: {table name: (rows, columns) array}."""
+    dag = model.dag
+    rng = np.random.default_rng(seed)
+    values = _true_parameters(dag)
+    cells = {t.name: _cell_nodes(dag, t) for t in model.tables}
+    for t in model.tables:  # draw the inputs
+        for col, nodes in zip(t.columns, cells[t.name], strict=True):
+            if col.sim is not None:
+                lo, hi = col.sim
+                for node, x in zip(nodes, rng.uniform(lo, hi, size=t.rows), strict=True):
+                    if node is not None:
+                        values[node] = float(x)
+    evaluator = Evaluator(dag)
+    value = _solve_outputs(model, cells, values, evaluator)
+    _check_constraints(dag, value)
+    out: dict[str, Array] = {}
+    for t in model.tables:  # record, with noise
+        table = np.empty((t.rows, len(t.columns)))
+        for j, (col, nodes) in enumerate(zip(t.columns, cells[t.name], strict=True)):
+            exact = np.array([np.nan if n is None else value[n] for n in nodes])
+            table[:, j] = exact + rng.uniform(-col.tol, col.tol, size=t.rows)
+        out[t.name] = table
+    return out
+
+
+def write_csv(path: Path, table: Table, data: Array) -> None:
+    """Header = column names; full-precision floats (repr round-trips exactly)."""
+    lines = [",".join(c.name for c in table.columns)]
+    lines += [",".join(repr(float(x)) for x in row) for row in data]
+    try:
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    except OSError as err:
+        raise CalError(f"cannot write {path}: {err.strerror}", table.loc) from err
+
+
+def cell_name(table: str, column: str, row: int) -> str:
+    """The DAG variable of a cell in simulation mode (rows are 1-based)."""
+    return f"{table}.{column}[{row}]"
+
+
+# -- steps ----------------------------------------------------------------------------------
+def _true_parameters(dag: Dag) -> dict[int, float]:
+    values: dict[int, float] = {}
+    for v in dag.variables.values():
+        if v.kind == "param":
+            if v.true is None:
+                raise CalError(f"parameter '{v.name}' has no true value: simulation needs "
+                               "one for every parameter (`param ... true VALUE;`)", v.loc)
+            values[v.node] = float(v.true)
+        elif v.kind != "data" and v.true is not None:
+            values[v.node] = float(v.true)
+    return values
+
+
+def _cell_nodes(dag: Dag, t: Table) -> list[list[int | None]]:
+    """cells[column][row - 1] = the cell's node (None: the model never mentions the cell)."""
+    out = []
+    for col in t.columns:
+        nodes = []
+        for row in range(1, t.rows + 1):
+            v = dag.variables.get(cell_name(t.name, col.name, row))
+            nodes.append(None if v is None else v.node)
+        out.append(nodes)
+    return out
+
+
+def _solve_outputs(model: Model, cells: dict[str, list[list[int | None]]],
+                   values: dict[int, float], evaluator: Evaluator) -> Array:
+    """Evaluate; give each unknown cell the value of a defining `==`; repeat while it helps
+    (an output may be defined through another output or an auxiliary `var`)."""
+    dag = model.dag
+    defs: dict[int, list[int]] = {}
+    for c in dag.constraints:
+        if c.rel == "==":
+            defs.setdefault(c.lhs, []).append(c.rhs)
+            defs.setdefault(c.rhs, []).append(c.lhs)
+    unknown = set(_output_cells(model, cells, defs))
+    unknown.update(v.node for v in dag.variables.values()
+                   if v.kind not in ("param", "data") and v.node not in values)
+    while True:
+        value = evaluator(values, default=math.nan)
+        solved = [n for n in unknown if _define(n, defs, value, values)]
+        unknown.difference_update(solved)
+        if not solved:
+            break
+    for t in model.tables:
+        for col, nodes in zip(t.columns, cells[t.name], strict=True):
+            for row, cell in enumerate(nodes, start=1):
+                if cell is not None and cell in unknown:
+                    raise CalError(f"cannot compute {cell_name(t.name, col.name, row)} from "
+                                   "the true values (a cycle, or a value out of the domain "
+                                   "of a function)", t.loc)
+    return value
+
+
+def _output_cells(model: Model, cells: dict[str, list[list[int | None]]],
+                  defs: dict[int, list[int]]) -> list[int]:
+    out = []
+    for t in model.tables:
+        for col, nodes in zip(t.columns, cells[t.name], strict=True):
+            if col.sim is not None:
+                continue
+            for row, n in enumerate(nodes, start=1):
+                if n is None or n not in defs:
+                    raise CalError(f"output column '{t.name}.{col.name}' has no defining "
+                                   f"constraint (`cell == expression`) for "
+                                   f"{cell_name(t.name, col.name, row)}, and no `sim` range "
+                                   "to draw it from", t.loc)
+                out.append(n)
+    return out
+
+
+def _define(node: int, defs: dict[int, list[int]], value: Array,
+            values: dict[int, float]) -> bool:
+    for expr in defs.get(node, ()):
+        x = float(value[expr])
+        if math.isfinite(x):
+            values[node] = x
+            return True
+    return False
+
+
+def _check_constraints(dag: Dag, value: Array) -> None:
+    for c in dag.constraints:
+        lhs, rhs = _side(dag, value, c.lhs), _side(dag, value, c.rhs)
+        gap = {"==": max(lhs[0] - rhs[1], rhs[0] - lhs[1]),  # distance between the two sides
+               "<=": lhs[0] - rhs[1], ">=": rhs[0] - lhs[1]}[c.rel]
+        scale = max(abs(lhs[0]), abs(lhs[1]), abs(rhs[0]), abs(rhs[1]))
+        if not gap <= CHECK_ATOL + CHECK_RTOL * scale:  # also catches nan
+            raise CalError(f"this constraint does not hold at the true values "
+                           f"({_show(lhs)} {c.rel} {_show(rhs)}): the simulated data would "
+                           "be inconsistent", c.loc)
+
+
+def _side(dag: Dag, value: Array, node: int) -> tuple[float, float]:
+    # A constant side keeps its interval: `dist(b1, b2) == [0.17, 0.18]` is met inside it.
+    n = dag.nodes[node]
+    if n.op == "const":
+        return float(n.data[0]), float(n.data[1])
+    x = float(value[node])
+    return x, x
+
+
+def _show(side: tuple[float, float]) -> str:
+    return repr(side[0]) if side[0] == side[1] else f"[{side[0]!r}, {side[1]!r}]"

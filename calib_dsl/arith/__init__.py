@@ -1,0 +1,3 @@
+"""Interval arithmetic: outward rounding, intervals, per-operator projections, the rotation
+primitive.
+"""

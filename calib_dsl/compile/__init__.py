@@ -1,0 +1,1 @@
+"""From the DAG to primitives: decomposition, grouping into the flat program, the listing."""

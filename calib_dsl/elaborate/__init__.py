@@ -1,0 +1,2 @@
+"""Elaboration: scopes, statements, expressions, robot chains and tables: from the AST
+to the DAG."""

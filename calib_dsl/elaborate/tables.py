@@ -1,0 +1,163 @@
+"""Measurement tables: CSV files with a header row, one configuration per row.
+
+Only the declared columns are read (extra columns are ignored, whatever they hold). Every
+problem is a `CalError` located in the CSV file itself: `Loc(csv path, line, column number)`
+where the column number is the 1-based position of the field in its row.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from decimal import Decimal
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from calib_dsl.frontend.diagnostics import CalError, Loc
+
+FloatArray = NDArray[np.float64]
+
+_NUMBER = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?")
+_NON_FINITE = re.compile(r"[+-]?(nan|inf|infinity)", re.IGNORECASE)
+
+
+@dataclass
+class CsvData:
+    """The declared columns of a CSV file: `columns[name][row - 1]` is a cell value (the
+    nearest float); `enclosures[name]` = (lo, hi), the tightest floats around the exact decimal
+    value of each cell (lo == hi when the decimal is a float)."""
+
+    path: str
+    rows: int
+    columns: dict[str, FloatArray] = field(default_factory=dict)
+    enclosures: dict[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
+    lines: list[int] = field(default_factory=list)  # the CSV line of each data row
+
+
+def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = None) -> CsvData:
+    """Read the declared `columns` of the CSV file at `path`.
+
+    `decl_loc` (where the model declares the table) locates a missing or unreadable file.
+    """
+    name = str(path)
+    text = _read_text(name, decl_loc)
+    records = [(line, row) for line, row in _records(text, name) if not _blank(row)]
+    if not records:
+        raise CalError(f"data file '{name}' is empty: it needs a header row naming the "
+                       "columns, then one row per configuration", Loc(name, 1, 1))
+    (head_line, header), data = records[0], records[1:]
+    where = _column_positions(name, head_line, [h.strip() for h in header], columns)
+    if not data:
+        raise CalError(f"data file '{name}' has a header but no data rows",
+                       Loc(name, head_line + 1, 1))
+    out = CsvData(name, len(data), lines=[line for line, _ in data])
+    values = np.empty((3, len(columns), len(data)))  # nearest, lo, hi
+    for k, (line, row) in enumerate(data, start=1):
+        if len(row) != len(header):
+            raise CalError(f"data file '{name}', row {k}: {len(row)} fields, but the header "
+                           f"has {len(header)}",
+                           Loc(name, line, min(len(row), len(header)) + 1, field=True))
+        for j, col in enumerate(columns):
+            values[:, j, k - 1] = _cell(row[where[col]], name, line, k, col, where[col] + 1)
+    out.columns = {col: values[0, j] for j, col in enumerate(columns)}
+    out.enclosures = {col: (values[1, j], values[2, j]) for j, col in enumerate(columns)}
+    return out
+
+
+def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray, FloatArray]:
+    """[lo - tol, hi + tol] for each cell, rounded outward (and exact when it can be)."""
+    return _sub_down(lo, tol), _add_up(hi, tol)
+
+
+def _add_up(a: FloatArray, b: float) -> FloatArray:
+    """a + b rounded up: TwoSum gives the rounding error of the float sum exactly."""
+    s = a + b
+    t = s - a
+    err = (a - (s - t)) + (b - t)
+    return np.where(err > 0, np.nextafter(s, np.inf), s)
+
+
+def _sub_down(a: FloatArray, b: float) -> FloatArray:
+    """a - b rounded down."""
+    return -_add_up(-a, b)
+
+
+# -- steps ----------------------------------------------------------------------------------
+def _read_text(name: str, decl_loc: Loc | None) -> str:
+    try:
+        return Path(name).read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise CalError(f"data file '{name}' not found", decl_loc) from None
+    except IsADirectoryError:
+        raise CalError(f"data file '{name}' is a directory", decl_loc) from None
+    except UnicodeDecodeError as err:
+        raise CalError(f"data file '{name}' is not UTF-8 text ({err.reason})",
+                       decl_loc) from None
+    except OSError as err:
+        raise CalError(f"cannot read data file '{name}': {err.strerror}", decl_loc) from None
+
+
+def _records(text: str, name: str) -> list[tuple[int, list[str]]]:
+    reader = csv.reader(text.splitlines())
+    out = []
+    try:
+        for row in reader:
+            out.append((reader.line_num, row))
+    except csv.Error as err:
+        raise CalError(f"data file '{name}' is not valid CSV: {err}",
+                       Loc(name, reader.line_num, 1)) from None
+    return out
+
+
+def _blank(row: list[str]) -> bool:
+    return not row or (len(row) == 1 and not row[0].strip())
+
+
+def _column_positions(name: str, line: int, header: list[str],
+                      columns: Sequence[str]) -> dict[str, int]:
+    """{declared column: its field index}; each must appear exactly once."""
+    where: dict[str, int] = {}
+    for j, h in enumerate(header):
+        if h in columns:
+            if h in where:
+                raise CalError(f"data file '{name}': column '{h}' appears twice in the header "
+                               f"(fields {where[h] + 1} and {j + 1})",
+                               Loc(name, line, j + 1, field=True))
+            where[h] = j
+    missing = [c for c in columns if c not in where]
+    if missing:
+        have = ", ".join(h for h in header if h) or "none"
+        raise CalError(f"data file '{name}' has no column {_quoted(missing)} (its columns: "
+                       f"{have})", Loc(name, line, 1))
+    return where
+
+
+def _quoted(names: list[str]) -> str:
+    return ", ".join(f"'{n}'" for n in names)
+
+
+def _cell(text: str, name: str, line: int, row: int, col: str,
+          field_no: int) -> tuple[float, float, float]:
+    """(nearest float, lo, hi) of a cell: [lo, hi] holds its exact decimal value."""
+    cell = text.strip()
+    where = f"data file '{name}', row {row}, column '{col}'"
+    loc = Loc(name, line, field_no, field=True)
+    if not cell:
+        raise CalError(f"{where}: empty cell", loc)
+    if _NON_FINITE.fullmatch(cell):
+        raise CalError(f"{where}: '{cell}' is not a finite number", loc)
+    if not _NUMBER.fullmatch(cell):
+        raise CalError(f"{where}: '{cell}' is not a number", loc)
+    value = float(cell)
+    if not np.isfinite(value):
+        raise CalError(f"{where}: '{cell}' is too large for a float", loc)
+    exact, near = Decimal(cell), Decimal(value)  # both exact
+    if near == exact:
+        return value, value, value
+    if near < exact:
+        return value, value, float(np.nextafter(value, np.inf))
+    return value, float(np.nextafter(value, -np.inf)), value

@@ -1,0 +1,3 @@
+"""The intermediate representation: the expression DAG with hash-consing, the elaborated model and
+the flat program's data types.
+"""

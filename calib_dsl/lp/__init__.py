@@ -1,0 +1,1 @@
+"""Linear programs: the HiGHS solve of a relaxation and its certified bounds."""

@@ -1,0 +1,2 @@
+"""The fixed-point propagator: the loop, its vectorized kernels, the diagnosis of an
+inconsistency."""
