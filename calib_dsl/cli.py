@@ -51,18 +51,9 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def _load(model: str, formulation: str, data: str | None):
-    import gc
+    from calib_dsl.pipeline import load
 
-    from calib_dsl.elaborate.elaborator import elaborate
-    from calib_dsl.ir.program import compile_model
-
-    # The DAG's nodes live as long as the program: the garbage collector would only rescan
-    # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
-    gc.disable()
-    try:
-        return compile_model(elaborate(model, formulation=formulation, data=data))
-    finally:
-        gc.enable()
+    return load(model, formulation, data)
 
 
 def _write(path: str, text: str) -> None:
@@ -121,16 +112,11 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, formulation: str, data: str | None) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
-    from calib_dsl.propagate.fixpoint import propagate
+    from calib_dsl.pipeline import solve as run
     from calib_dsl.report import report
 
     prog = _load(model, formulation, data)
-    if strategy == "tight":
-        from calib_dsl.strategy.tight import solve_tight
-
-        res = solve_tight(prog, tol=tol, max_sweeps=max_sweeps)
-    else:
-        res = propagate(prog, tol=tol, max_sweeps=max_sweeps)
+    res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
     extra = report.Extras()
     if res.status == "contracted":
         if identify:

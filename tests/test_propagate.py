@@ -263,7 +263,7 @@ def test_result_fields(compile_src):
     prog = compile_src("var x in [0, 4];\nvar y;\ny == sqrt(x);\n")
     res = propagate(prog, tol=0.0)
     assert res.status == "contracted" and res.emptied is None
-    assert res.seconds >= 0.0 and res.rounds == 0
+    assert res.seconds >= 0.0 and res.stop in ("fixed point", "tolerance")
     assert res.lo.shape == res.hi.shape == prog.slots.lo.shape
     lo, hi = box(prog, res, "y")
     assert lo == 0.0 and 2.0 <= hi < 2.0 + 1e-12

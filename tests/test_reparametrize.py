@@ -113,7 +113,7 @@ def test_nothing_to_change_where_all_is_identifiable(tmp_path: Path) -> None:
         'for k in 1..rows(m) { a + 2 * c * m.x[k] == m.y[k]; }\n')
     prog = compile_model(elaborate(tmp_path / "m.cal"))
     assert along_combinations(prog) is None
-    assert solve_tight(prog).combinations == []
+    assert solve_tight(prog).combinations == ()
 
 
 def test_no_change_on_a_program_too_large_to_analyse(sum_model, monkeypatch) -> None:
@@ -124,7 +124,7 @@ def test_no_change_on_a_program_too_large_to_analyse(sum_model, monkeypatch) -> 
     monkeypatch.setattr(identify, "ROUTINE_MAX_PRIMITIVES", len(sum_model.primitives) - 1)
     assert along_combinations(sum_model) is None
     res, plain = solve_tight(sum_model), solve_tight(sum_model, combinations=False)
-    assert res.combinations == []
+    assert res.combinations == ()
     assert np.array_equal(res.lo, plain.lo) and np.array_equal(res.hi, plain.hi)
 
 

@@ -1,4 +1,4 @@
-"""tight.py: the tight strategy never loses a solution, and is never looser than propagation.
+"""strategy/: the tight strategy never loses a solution, and is never looser than propagation.
 
 - The RX90 of the paper (Test A, 14 lengths) on simulated data for several seeds and 8..20
   configurations, both formulations: every true parameter value lies in its result, and every
@@ -17,6 +17,7 @@ import math
 import subprocess
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +37,10 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program, compile_model
-from calib_dsl.propagate.fixpoint import Result, propagate
+from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.linearize import independents
+from calib_dsl.settings import DEFAULT
+from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,7 +53,7 @@ def true_values(prog: Program) -> tuple[np.ndarray, list[str]]:
     return np.array([prog.true_values[n] for n in names], dtype=float), names
 
 
-def assert_sound_and_tighter(prog: Program, tight: Result, hc4: Result, truth: np.ndarray,
+def assert_sound_and_tighter(prog: Program, tight: Solution, hc4, truth: np.ndarray,
                              names: list[str], tol: float) -> None:
     """truth in tight's box, and tight's box in hc4's. Both stop when a sweep gains less than
     `tol` (relative), not at a fixed point, so tight's last propagation may stop a little
@@ -88,7 +91,7 @@ def test_rx90_tight_holds_the_truth_and_is_never_wider(tmp_path, formulation, co
     tol = 1e-5
     tight = solve_tight(prog, tol=tol)
     hc4 = propagate(prog, tol=tol)
-    assert tight.rounds >= 1  # the LP did run
+    assert tight.lp_rounds >= 1  # the LP did run
     assert_sound_and_tighter(prog, tight, hc4, truth, names, tol)
 
 
@@ -263,7 +266,7 @@ def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
     assert rel is not None and rel.remainder_share < 1e-6  # linear: only rounding is left
     res = solve_tight(prog)
     # one folded round, then one cell round, which is final: the model is linear
-    assert res.status == "contracted" and res.rounds == 2
+    assert res.status == "contracted" and res.lp_rounds == 2
     hull = linearized_hull(prog)
     for i in independents(prog):
         name = prog.slots.names[i]
@@ -286,13 +289,10 @@ def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
         assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
 
 
-def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path, monkeypatch):
-    import calib_dsl.strategy.tight as tight
-
+def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path):
     prog = _plane_model(tmp_path, "plane")
-    monkeypatch.setattr(tight, "MAX_CELL_COLUMNS", 0)  # as with 1000 configurations
-    res = tight.solve_tight(prog)
-    assert res.status == "contracted" and res.rounds == 1  # a second round: the same LP
+    res = solve_tight(prog, settings=replace(DEFAULT, max_cell_columns=0))  # as with 1000 rows
+    assert res.status == "contracted" and res.lp_rounds == 1  # a second round: the same LP
     for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
         i = prog.slots.names.index(name)
         assert res.lo[i] <= true <= res.hi[i] and res.hi[i] - res.lo[i] < 1e-2
@@ -365,18 +365,14 @@ def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory,
 def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, seed):
     """On the wide arm, rounds that reuse the last LPs' multipliers replace LP rounds: fewer
     LP rounds, the truth inside, every parameter below 1 % of its domain as without them."""
-    import calib_dsl.strategy.tight as tight
-
     prog, p_true = _wide_arm(tmp_path_factory.mktemp("arm"), seed)
     ind = independents(prog)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        reusing = tight.solve_tight(prog)
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(tight, "REUSE_ROUNDS", 0)  # every round solves its LPs
-            plain = tight.solve_tight(prog)
-    assert reusing.reused > 0 and plain.reused == 0
-    assert reusing.rounds < plain.rounds
+        reusing = solve_tight(prog)
+        plain = solve_tight(prog, settings=replace(DEFAULT, reuse_rounds=0))  # LPs every round
+    assert reusing.reused_rounds > 0 and plain.reused_rounds == 0
+    assert reusing.lp_rounds < plain.lp_rounds
     domain = prog.slots.hi[ind] - prog.slots.lo[ind]
     for res in (reusing, plain):
         assert res.status == "contracted"
@@ -483,24 +479,24 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
 def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
     """The pieces go to two child processes (workers.py); the result is the one the solving
     process gives when it refines them itself, bit for bit."""
-    import calib_dsl.strategy.tight as tight
+    from calib_dsl.strategy import split
 
     sim = _parallel_arm(tmp_path, 7, 0.05)
     ran = []
-    children_map = tight.Children.map
+    children_map = split.Children.map
 
     def recorded(self, *args):
         out = children_map(self, *args)
         ran.append(out is not None)
         return out
 
-    monkeypatch.setattr(tight.Children, "map", recorded)
+    monkeypatch.setattr(split.Children, "map", recorded)
     results = []
     for processes in (2, 1):
-        monkeypatch.setattr(tight, "PIECE_PROCESSES", processes)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            results.append(solve_tight(sim.prog, combinations=False))
+            results.append(solve_tight(sim.prog, combinations=False,
+                                       settings=replace(DEFAULT, piece_processes=processes)))
     assert ran == [True]  # the children ran (once: one process refines them itself)
     two, one = results
     assert two.split and two.split == one.split and len(two.pieces) == len(one.pieces)
@@ -516,7 +512,7 @@ def test_no_split_where_it_does_not_pay(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         res = solve_tight(sim.prog, combinations=False)
-    assert res.status == "contracted" and res.split == [] and res.pieces == []
+    assert res.status == "contracted" and res.split == () and res.pieces == ()
 
 
 def test_split_is_reported(tmp_path):
@@ -532,7 +528,7 @@ def test_split_is_reported(tmp_path):
     assert f"split: {res.split[0]} (not identifiable alone)" in text
     assert "guaranteed: r2 + r3 in [" in text
     data = result_json(sim.prog, res, "tight", extra)
-    assert data["split"] == {"parameters": res.split, "pieces": len(res.pieces)}
+    assert data["split"] == {"parameters": list(res.split), "pieces": len(res.pieces)}
 
 
 @settings(max_examples=300, deadline=None)
@@ -540,7 +536,7 @@ def test_split_is_reported(tmp_path):
 def test_pieces_cover_the_box(data, per):
     """The pieces of a split tile the box: along the cut slot they chain from its lower end to
     its upper end (shared float endpoints), and every other slot keeps its interval."""
-    from calib_dsl.strategy.tight import _pieces
+    from calib_dsl.strategy.split import pieces
 
     n = 4
     bound = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
@@ -548,7 +544,7 @@ def test_pieces_cover_the_box(data, per):
     width = np.array(data.draw(st.lists(st.floats(0, 1e6), min_size=n, max_size=n)))
     hi = lo + width
     s = data.draw(st.integers(0, n - 1))
-    boxes = _pieces(lo, hi, s, per)
+    boxes = pieces(lo, hi, s, per)
     assert len(boxes) == per
     rest = [i for i in range(n) if i != s]
     for plo, phi in boxes:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.ir.program import Program
-from calib_dsl.propagate.fixpoint import Result
+from calib_dsl.strategy.solution import Solution
 
 
 class Extras:
@@ -20,7 +20,7 @@ class Extras:
         self.seconds = 0.0
         self.skipped = ""
 
-    def identify(self, prog: Program, res: Result, use_lp: bool) -> None:
+    def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
         import time
 
         from calib_dsl.analysis.identify import (
@@ -43,7 +43,7 @@ class Extras:
                                                    pieces=res.pieces, known=res.combinations)
         self.seconds += time.perf_counter() - start
 
-    def least_squares(self, prog: Program, res: Result) -> None:
+    def least_squares(self, prog: Program, res: Solution) -> None:
         import time
 
         from calib_dsl.analysis.lsq import estimate
@@ -66,7 +66,7 @@ class Extras:
         return float(self.estimate.values[self.estimate.names.index(name)])
 
 
-def parameter_rows(prog: Program, res: Result) -> list[dict[str, Any]]:
+def parameter_rows(prog: Program, res: Solution) -> list[dict[str, Any]]:
     s = prog.slots
     rows = []
     variables = {v: i for i, v in enumerate(s.declared_names)}
@@ -84,7 +84,7 @@ def parameter_rows(prog: Program, res: Result) -> list[dict[str, Any]]:
     return rows
 
 
-def render_table(prog: Program, res: Result, extra: Extras | None = None) -> str:
+def render_table(prog: Program, res: Solution, extra: Extras | None = None) -> str:
     extra = extra or Extras()
     rows = parameter_rows(prog, res)
     lsq = extra.estimate is not None
@@ -109,7 +109,7 @@ def render_table(prog: Program, res: Result, extra: Extras | None = None) -> str
     return "\n".join(lines)
 
 
-def narrowed(prog: Program, res: Result) -> list[str]:
+def narrowed(prog: Program, res: Solution) -> list[str]:
     """The declared unknowns whose result is narrower than their search domain."""
     if res.status == "infeasible":
         return []
@@ -128,12 +128,12 @@ _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no
             "calibration, do contract.")
 
 
-def render_summary(prog: Program, res: Result, strategy: str,
+def render_summary(prog: Program, res: Solution, strategy: str,
                    extra: Extras | None = None) -> str:
     extra = extra or Extras()
     c = prog.counts()
     lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}"
-             + (f", LP rounds: {res.rounds} (and {res.reused} reusing their multipliers)"
+             + (f", LP rounds: {res.lp_rounds} (and {res.reused_rounds} reusing their multipliers)"
                 if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
@@ -169,7 +169,7 @@ def render_summary(prog: Program, res: Result, strategy: str,
     return "\n".join(lines)
 
 
-def _result_of(prog: Program, res: Result, name: str) -> tuple[float, float] | None:
+def _result_of(prog: Program, res: Solution, name: str) -> tuple[float, float] | None:
     s = prog.slots
     if name not in s.declared_names:
         return None
@@ -177,7 +177,7 @@ def _result_of(prog: Program, res: Result, name: str) -> tuple[float, float] | N
     return float(res.lo[slot]), float(res.hi[slot])
 
 
-def result_json(prog: Program, res: Result, strategy: str,
+def result_json(prog: Program, res: Solution, strategy: str,
                 extra: Extras | None = None) -> dict[str, Any]:
     extra = extra or Extras()
     params = {}
@@ -198,15 +198,15 @@ def result_json(prog: Program, res: Result, strategy: str,
         "status": res.status,
         "stop": res.stop,
         "sweeps": res.sweeps,
-        "lp_rounds": res.rounds,
-        "reused_rounds": res.reused,
+        "lp_rounds": res.lp_rounds,
+        "reused_rounds": res.reused_rounds,
         "seconds": res.seconds,
         "primitives": len(prog.primitives),
         "formulation": prog.formulation,
         "strategy": strategy,
         "parameters": params,
         "narrowed": narrowed(prog, res),  # the unknowns the solve made narrower
-        "split": {"parameters": res.split, "pieces": len(res.pieces)},
+        "split": {"parameters": list(res.split), "pieces": len(res.pieces)},
     }
     if extra.info is not None:
         from calib_dsl.analysis.identify import identifiability_json

@@ -1,0 +1,82 @@
+"""Every tuning constant of the solver, named once, with why it has its value.
+
+A strategy receives one frozen `Settings` (`DEFAULT` unless the caller asks otherwise) and
+hands the parts its contractors need down to them. These are choices of speed against
+tightness; none of them can make a result unsound (soundness rests on outward rounding, which
+has no knobs). Input limits that guard against runaway models live with the front end and
+the elaborator, not here.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Settings:
+    # -- propagation ---------------------------------------------------------------------
+    # Between LP rounds: a small box is enough, not a fixed point (the next relaxation
+    # contracts far more than the last sweeps would).
+    preliminary_tol: float = 1e-2
+
+    # -- rounds of LPs (strategy/rounds.py) --------------------------------------------------
+    max_rounds: int = 40  # rounds of LPs at most, a guard: real solves stop after 3-16
+    min_gain: float = 0.1  # a cell round gaining less than this (relative width) is the last
+    # Measurement errors get LP columns of their own (the hull of the linearized problem)
+    # up to this many measured values; beyond, the LP would grow too large and they stay
+    # folded into each row.
+    max_cell_columns: int = 3000
+    stalled: float = 1e-3  # an unknown that gained less in a folded round sits out the next
+    folded_until: float = 0.3  # fold the errors while some unknown gains more than this
+    # A relaxation whose remainder is below this share of its rows' widths is final: the
+    # next relaxation would be the same LP.
+    settled: float = 0.01
+    # Above this curvature (the first-order remainder over the first-order range, median
+    # over rows: about 1/7 on the RX90 from the paper's domains) first-order rounds stall,
+    # and rounds use second-order models instead.
+    wide: float = 0.06
+    wide_min_gain: float = 0.02  # a second-order round gaining less ends the search
+    # The second-order LPs are dense and one objective's optimum is far from the next's:
+    # the simplex from the previous objective's optimum beats the interior point method,
+    # each objective's own old basis (the box moved much in between), and probe LPs.
+    wide_solver: str = "simplex"
+    wide_own_bases: bool = False
+    wide_probes: bool = False
+    wide_iterations: int = 20000  # simplex pivots per objective in a second-order round
+    wide_seconds: float = 30.0
+    # After a round of LPs the next rounds reuse its multipliers on the new box (a matrix
+    # product, certified again there) while such a round narrows some unknown by this
+    # much, at most reuse_rounds in a row; then the LPs are solved again.
+    reuse_gain: float = 0.1
+    reuse_rounds: int = 20
+    # A second-order round narrows its bounds again with the same multipliers on the
+    # relaxation narrowed to them, while that narrows some unknown by narrowed_gain.
+    narrowed_rounds: int = 10
+    narrowed_gain: float = 0.01
+
+    # -- splitting (strategy/split.py) -------------------------------------------------------
+    # An unknown not identifiable alone and left wider than left_wide of its domain is cut
+    # into split_pieces pieces, each refined by at most split_rounds rounds of its own, if
+    # a piece's relaxation is narrower than the whole box's by split_worth of the rows'
+    # widths; split_tried such unknowns are tried, the widest first.
+    left_wide: float = 0.25
+    split_pieces: int = 4
+    split_rounds: int = 10
+    split_worth: float = 0.03
+    split_tried: int = 3
+    # Pieces are refined in child processes, one per core the LPs use (1: in the solving
+    # process), each with cores / processes LP threads (two threads each overcommit).
+    piece_processes: int = min(2, os.cpu_count() or 1)
+
+    # -- LPs (lp/) -----------------------------------------------------------------------------
+    lp_workers: int = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
+    lp_iterations: int = 1000  # simplex pivots per objective in a first-order round
+    lp_seconds: float = 1.0
+
+    @property
+    def piece_lp_threads(self) -> int:
+        return max(1, self.lp_workers // self.piece_processes)
+
+
+DEFAULT = Settings()

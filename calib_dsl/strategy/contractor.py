@@ -1,0 +1,101 @@
+"""Contractors as small objects with one protocol, and their composition.
+
+A contractor takes a box (lo, hi over the program's slots) and returns an `Outcome`: a box
+holding every solution of the given one, or the proof that there is none (`emptied`), with
+the work it did. Strategies compose them: `Sequence` applies its steps in order, each from
+the box the one before left, and stops at the first that proves the box empty (the way
+interval libraries compose contractors, e.g. IBEX's CtcCompo).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence as Seq
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+
+from calib_dsl.ir.program import Program
+from calib_dsl.propagate.fixpoint import Emptied, Result, propagate
+
+
+@dataclass(frozen=True)
+class Work:
+    """What a contractor spent: propagation sweeps, rounds of LPs, and rounds that reused
+    earlier LPs' multipliers instead."""
+
+    sweeps: int = 0
+    lp_rounds: int = 0
+    reused_rounds: int = 0
+
+    def __add__(self, other: Work) -> Work:
+        return Work(self.sweeps + other.sweeps, self.lp_rounds + other.lp_rounds,
+                    self.reused_rounds + other.reused_rounds)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A contracted box, or the proof that the box held no solution (`emptied` set)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    stop: str  # why the last propagation stopped: "fixed point", "tolerance", "empty", ...
+    work: Work = Work()
+    emptied: Emptied | None = None
+    # the unknowns cut into pieces (not identifiable alone), and each piece's box that holds
+    # solutions: the box is their hull
+    split: tuple[str, ...] = ()
+    pieces: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+
+    @property
+    def empty(self) -> bool:
+        return self.emptied is not None
+
+
+class Contractor(Protocol):
+    name: str
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome: ...
+
+
+def from_propagation(res: Result) -> Outcome:
+    """The outcome of one call of the propagator."""
+    emptied = res.emptied
+    if res.status == "infeasible" and emptied is None:
+        emptied = Emptied("?", None, None)
+    return Outcome(res.lo, res.hi, res.stop, Work(sweeps=res.sweeps), emptied)
+
+
+@dataclass(frozen=True)
+class Propagation:
+    """Forward-backward propagation (hc4) to the fixed point, or until a sweep contracts
+    every declared unknown by less than `tol`."""
+
+    prog: Program
+    tol: float
+    max_sweeps: int
+    name: str = "propagation"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        return from_propagation(propagate(self.prog, tol=self.tol, max_sweeps=self.max_sweeps,
+                                          lo=lo, hi=hi))
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """Each step from the box the one before left; the work of all of them. The outcome is
+    the last step's, with the `stop` of the last step that propagated (a step that did not
+    propagate says stop="")."""
+
+    steps: Seq[Contractor]
+    name: str = "sequence"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        out = Outcome(lo, hi, "")
+        work, stop = Work(), ""
+        for step in self.steps:
+            out = step.contract(out.lo, out.hi)
+            work, stop = work + out.work, out.stop or stop
+            if out.empty:
+                break
+        return replace(out, work=work, stop=stop)

@@ -1,0 +1,267 @@
+"""Rounds of certified LPs over relaxations of the whole program, each followed by propagation.
+
+Each round re-linearizes on the box the previous one left: far from the fixed point the
+model is coarse, and a round gains only part of the way, so rounds repeat while they pay.
+A round is four named steps:
+
+1. `relaxation`: second order while the box is too wide for first order (curvature above
+   `wide`), else first order, with the measurement errors folded into each row (a small LP)
+   or, near the end, as LP columns of their own (the hull of the linearized problem).
+2. `bounds`: certified bounds on every unknown, from the last LPs' multipliers on the new
+   box (a matrix product) while that pays, else from LPs solved again.
+3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
+   propagate.
+4. `next_round`: what the gains say about the next round (its phase, who sits it out), or
+   that the rounds are over.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.lpbound import Certificates, LinearRelaxation, lp_bounds, reused_bounds
+from calib_dsl.propagate.fixpoint import Emptied, propagate
+from calib_dsl.relax.linearize import independents, measured_cells, relax
+from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
+from calib_dsl.relax.taylor import Expansion
+from calib_dsl.settings import Settings
+from calib_dsl.strategy.contractor import Outcome, Work
+
+SECOND_ORDER = "second order"  # LinearRelaxation.family of quadratic.relax_quadratic's
+
+
+@dataclass(frozen=True)
+class LPRounds:
+    """The rounds of LPs from a box (a contractor). `certs` holds the multipliers and bases
+    of the LPs solved (updated in place: a split's pieces start from the whole box's). With
+    `cells` the rounds start with the errors as LP columns (a box near its end); the slots
+    `unsolved` get no LPs (a member left free by the change of unknowns: the data do not see
+    it, and propagation gives it what its combination allows)."""
+
+    prog: Program
+    settings: Settings
+    certs: Certificates
+    tol: float
+    max_sweeps: int
+    max_rounds: int
+    second_order: bool = True
+    cells: bool = False
+    threads: int | None = None  # LP threads (settings.lp_workers unless given)
+    unsolved: np.ndarray | None = None
+    name: str = "rounds of LPs"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        return _Rounds(self, lo, hi).run()
+
+
+@dataclass
+class _Round:
+    """One round's relaxation: the first-order one (None when not built), the second-order
+    one with its expansion (None on a box narrow enough for first order), and whether its
+    bounds come from LPs solved again (`fresh`) or from the last ones' multipliers."""
+
+    first: LinearRelaxation | None
+    quad: tuple[LinearRelaxation, Expansion] | None
+    fresh: bool
+
+    @property
+    def target(self) -> LinearRelaxation:
+        target = self.quad[0] if self.quad is not None else self.first
+        assert target is not None
+        return target
+
+
+@dataclass
+class _Rounds:
+    """The state the rounds carry from one to the next."""
+
+    spec: LPRounds
+    lo: np.ndarray
+    hi: np.ndarray
+    ind: np.ndarray = field(init=False)
+    cells: bool = field(init=False)
+    skip: np.ndarray = field(init=False)  # unknowns that sit out the next round's LPs
+    never: np.ndarray = field(init=False)  # unknowns that get no LPs at all
+    moved: np.ndarray = field(init=False)  # whether any round narrowed it by `stalled`
+    cellular: bool = field(init=False)  # whether cell rounds may give errors LP columns
+    reuse: bool = field(init=False)  # whether the next round tries the last multipliers
+    reused_in_a_row: int = 0
+    last_family: str = ""  # of the last round
+    last_fresh: bool = True
+    work: Work = Work()
+    stop: str = ""
+    emptied: Emptied | None = None
+
+    def __post_init__(self) -> None:
+        spec = self.spec
+        self.ind = independents(spec.prog)
+        self.cells = spec.cells
+        self.skip = np.zeros(len(self.ind), dtype=bool)
+        self.never = (np.isin(self.ind, spec.unsolved) if spec.unsolved is not None
+                      else self.skip.copy())
+        self.moved = np.zeros(len(self.ind), dtype=bool)
+        self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
+        self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
+
+    def run(self) -> Outcome:
+        while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
+            this = self.relaxation()
+            if this is None:
+                break
+            new = self.bounds(this)
+            gains = self.narrow(new, this)
+            if gains is None or not self.next_round(this, gains):
+                break
+        return Outcome(self.lo, self.hi, self.stop, self.work, self.emptied)
+
+    # -- 1. the relaxation -------------------------------------------------------------------
+    def relaxation(self) -> _Round | None:
+        """This round's relaxation, or None when none can be built."""
+        s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
+        self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
+        order2 = self.spec.second_order and not self.cells
+        # the second-order phase ends with a round of LPs (reused multipliers may have left
+        # the box just below `wide` while the LPs would still contract it much further)
+        ending = order2 and not self.last_fresh and self.last_family == SECOND_ORDER
+        first = None
+        if not ((self.reuse and certs.family == SECOND_ORDER and order2) or ending):
+            first = relax(prog, self.lo, self.hi, cell_variables=self.cells,
+                          max_cell_columns=s.max_cell_columns)
+            if first is None:
+                return None
+        wide = order2 and (first is None or first.curvature > s.wide)
+        quad = relax_quadratic(prog, self.lo, self.hi) if wide else None
+        if quad is None and first is None:  # (cannot happen: a first round built them)
+            return None
+        this = _Round(first, quad, True)
+        this.fresh = not (self.reuse and certs.usable(this.target))
+        return this
+
+    # -- 2. certified bounds -----------------------------------------------------------------
+    def bounds(self, this: _Round) -> tuple[np.ndarray, np.ndarray]:
+        """Certified bounds on the unknowns over this round's relaxation."""
+        s, certs, n = self.spec.settings, self.spec.certs, len(self.ind)
+        self.skip = self.skip | self.never
+        threads = self.spec.threads or s.lp_workers
+        if this.quad is None:
+            return _bounds(this.target, n, self.skip, certs, this.fresh, threads=threads,
+                           iterations=s.lp_iterations, seconds=s.lp_seconds)
+        rel, ex = this.quad
+        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, threads=threads,
+                         iterations=s.wide_iterations, seconds=s.wide_seconds,
+                         solver=s.wide_solver, probes=s.wide_probes,
+                         own_bases=s.wide_own_bases)
+        tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
+        return to_box(ex, tl, th)
+
+    # -- 3. narrow the box and propagate -----------------------------------------------------
+    def narrow(self, new: tuple[np.ndarray, np.ndarray], this: _Round) -> np.ndarray | None:
+        """The box narrowed to the bounds and propagated; each unknown's gain, or None when
+        that proved there is no solution."""
+        ind, (nlo, nhi) = self.ind, new
+        new_lo, new_hi = np.maximum(self.lo[ind], nlo), np.minimum(self.hi[ind], nhi)
+        if np.any(new_lo > new_hi):  # certified bounds cross: no solution at all
+            k = int(np.flatnonzero(new_lo > new_hi)[0])
+            self.emptied = Emptied(self.spec.prog.slots.names[int(ind[k])], None,
+                                   "the linear relaxation of all constraints together")
+            self.stop = "empty"
+            self.work = self.work + Work(lp_rounds=int(this.fresh))
+            return None
+        gains = _gains(self.hi[ind] - self.lo[ind], new_hi - new_lo)
+        lo, hi = self.lo.copy(), self.hi.copy()
+        lo[ind], hi[ind] = new_lo, new_hi
+        spec = self.spec
+        res = propagate(spec.prog, tol=max(spec.tol, spec.settings.preliminary_tol),
+                        max_sweeps=spec.max_sweeps, lo=lo, hi=hi)
+        self.lo, self.hi, self.stop = res.lo, res.hi, res.stop
+        self.work = self.work + Work(sweeps=res.sweeps)
+        if res.status != "contracted":
+            self.emptied = res.emptied or Emptied("?", None, None)
+        self.moved |= gains >= spec.settings.stalled
+        self.last_family, self.last_fresh = this.target.family, this.fresh
+        return gains
+
+    # -- 4. the next round -------------------------------------------------------------------
+    def next_round(self, this: _Round, gains: np.ndarray) -> bool:
+        """Whether there is a next round, and how it runs."""
+        s, best = self.spec.settings, gains.max(initial=0.0)
+        if not this.fresh:  # reused multipliers: again while they pay, else the LPs again
+            self.reused_in_a_row += 1
+            self.work = self.work + Work(reused_rounds=1)
+            self.reuse = best >= s.reuse_gain
+            return True
+        self.work = self.work + Work(lp_rounds=1)
+        # the next round first tries this round's multipliers, unless its LPs are as cheap
+        # as a relaxation (folded first-order rounds), or the second-order phase is over
+        # (a round without a first-order relaxation: the second-order one's estimate of the
+        # curvature)
+        wide = this.quad is not None
+        self.reuse = self.cells or (wide and (this.first or this.target).curvature > s.wide)
+        self.reused_in_a_row = 0
+        if wide:
+            # every unknown in the next one: rounds of LPs are rare between reused rounds,
+            # and one that did not move may move after them
+            self.skip = np.zeros_like(self.skip)
+            return best >= s.wide_min_gain  # else neither order contracts this box
+        return self._next_first_order(this, gains, best)
+
+    def _next_first_order(self, this: _Round, gains: np.ndarray, best: float) -> bool:
+        s = self.spec.settings
+        assert this.first is not None  # built in every first-order round
+        # once the model is linear over the box to within a small part of the data's
+        # errors, relaxing again gives the same LP: only the cell columns can still gain
+        settled = this.first.remainder_share < s.settled
+        if self.cells:
+            if best < s.min_gain or settled:
+                return False
+            self.skip = (gains < s.min_gain) & ~self.skip  # tried again a round later
+            return True
+        if settled and not self.cellular:
+            return False  # the next round would solve the same LP
+        if best < s.folded_until or settled:
+            # a tighter relaxation: every unknown again, but one that no round has moved
+            # (a parameter known beforehand)
+            self.cells, self.skip = True, ~self.moved
+        else:
+            self.skip = (gains < s.stalled) & ~self.skip
+        return True
+
+
+def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
+            fresh: bool, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Certified bounds on the relaxation's n main columns: from the multipliers kept in
+    `certs` (a matrix product), and unless only those are asked for, from the LPs too (the
+    tighter of each pair is kept, and the LPs' multipliers replace the old ones)."""
+    lo, hi = reused_bounds(rel, np.eye(n), certs)
+    if not fresh:
+        return lo, hi
+    tl, th = lp_bounds(rel, np.eye(n), skip=skip, certificates=certs, **lp_options)
+    return np.maximum(lo, tl), np.minimum(hi, th)
+
+
+def _narrowed_bounds(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray, th: np.ndarray,
+                     certs: Certificates, s: Settings) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds [tl, th] of a second-order round, narrowed further with the same
+    multipliers: on the relaxation narrowed to them (its product columns bounded by the
+    products of the new bounds) they certify narrower bounds, and so on while some unknown
+    narrows by `narrowed_gain` (a matrix product each, no new expansion)."""
+    n = rel.main
+    for _ in range(s.narrowed_rounds):
+        if np.any(tl > th):
+            break  # no solution: the caller says so
+        lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs)
+        lo, hi = np.maximum(lo, tl), np.minimum(hi, th)
+        gain = _gains(th - tl, hi - lo).max(initial=0.0)
+        tl, th = lo, hi
+        if gain < s.narrowed_gain:
+            break
+    return tl, th
+
+
+def _gains(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(before > 0, (before - after) / np.where(before > 0, before, 1), 0.0)

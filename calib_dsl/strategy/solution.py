@@ -1,0 +1,49 @@
+"""A strategy's result: the box, or the proof that there is none, and the work it took."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.propagate.fixpoint import Emptied
+from calib_dsl.strategy.contractor import Outcome, Work
+
+
+@dataclass(frozen=True)
+class Solution:
+    strategy: str  # "tight" | "hc4"
+    lo: np.ndarray  # the box over the program's slots (meaningless when infeasible)
+    hi: np.ndarray
+    stop: str  # why the last propagation stopped: "fixed point", "tolerance", "max sweeps", ...
+    seconds: float
+    work: Work
+    emptied: Emptied | None = None  # where the model and data were proven inconsistent
+    # the unknowns cut into pieces (not identifiable alone), and each piece's box that holds
+    # solutions: the box is their hull
+    split: tuple[str, ...] = ()
+    pieces: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    # certified bounds of the identifiable combinations solved for, as (text, lo, hi)
+    combinations: tuple[tuple[str, float, float], ...] = ()
+
+    @property
+    def status(self) -> str:
+        return "infeasible" if self.emptied is not None else "contracted"
+
+    @property
+    def sweeps(self) -> int:
+        return self.work.sweeps
+
+    @property
+    def lp_rounds(self) -> int:
+        return self.work.lp_rounds
+
+    @property
+    def reused_rounds(self) -> int:
+        return self.work.reused_rounds
+
+
+def solution(strategy: str, out: Outcome, seconds: float,
+             combinations: tuple[tuple[str, float, float], ...] = ()) -> Solution:
+    return Solution(strategy, out.lo, out.hi, out.stop, seconds, out.work, out.emptied,
+                    out.split, out.pieces, combinations)

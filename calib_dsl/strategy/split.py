@@ -1,0 +1,167 @@
+"""Splitting: cut an unknown the solve left wide into pieces, refine each, keep their hull.
+
+A parameter that is not identifiable alone keeps its whole domain (the RX90's r2 and r3 when
+solved in the original unknowns: only r2 + r3 is seen), and a first-order relaxation pays,
+in every row, its width times how much its coefficient varies over the box. On a quarter of
+r2's domain r3 follows (r3 = (r2 + r3) - r2), both are four times narrower, and so is that
+slack. The pieces cover the box, so their hull holds every solution in it; each piece starts
+from the unsplit result (near its own fixed point: a few rounds). Nothing is cut unless a
+piece's relaxation is narrower than the whole box's (`worth_splitting`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.analysis.identify import analyse_design
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.lpbound import Certificates
+from calib_dsl.relax.linearize import independents, relax
+from calib_dsl.settings import Settings
+from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
+from calib_dsl.strategy.rounds import LPRounds
+from calib_dsl.strategy.workers import Children
+
+
+@dataclass(frozen=True)
+class Split:
+    """The split as a contractor: the box unchanged when nothing is worth cutting."""
+
+    prog: Program
+    settings: Settings
+    certs: Certificates
+    tol: float
+    max_sweeps: int
+    uncut: np.ndarray | None = None  # slots never cut (members left free by reparametrize)
+    name: str = "split"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        s = self.settings
+        # the children that would refine the pieces start while the cut is chosen (their
+        # start-up overlaps worth_splitting's relaxations)
+        wide = np.any(_left(self.prog, _cuttable(self.prog, self.uncut), lo, hi) > s.left_wide)
+        children = (Children(min(s.piece_processes, s.split_pieces), __name__)
+                    if s.piece_processes > 1 and wide else None)
+        try:
+            slot = worth_splitting(self.prog, lo, hi, s, self.uncut)
+            if slot is None:
+                return Outcome(lo, hi, "")
+            refined = _refined(self.prog, pieces(lo, hi, slot, s.split_pieces), self.tol,
+                               self.max_sweeps, s, self.certs, children)
+        finally:
+            if children is not None:
+                children.close()
+        return _hull(refined, self.prog.slots.names[slot])
+
+
+def _hull(refined: list[Outcome], name: str) -> Outcome:
+    """The hull of the pieces that hold solutions, with the work of all of them."""
+    work = Work()
+    for piece in refined:
+        work = work + piece.work
+    boxes = tuple((p.lo, p.hi) for p in refined if not p.empty)
+    if not boxes:  # no piece holds a solution: neither does the box
+        last = refined[-1]
+        return Outcome(last.lo, last.hi, last.stop, work, last.emptied)
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    return Outcome(lo, hi, "", work, split=(name,), pieces=boxes)
+
+
+def refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
+                 max_sweeps: int, s: Settings, certs: Certificates) -> Outcome:
+    """One piece of a split box: propagation, then rounds of LPs of its own (starting from the
+    whole box's last multipliers and bases), then propagation to the fixed point."""
+    steps = Sequence((
+        Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
+        LPRounds(prog, s, certs, tol, max_sweeps, s.split_rounds, second_order=False,
+                 cells=True, threads=s.piece_lp_threads),
+        Propagation(prog, tol, max_sweeps),
+    ))
+    return steps.contract(plo, phi)
+
+
+def _refined(prog: Program, boxes: list[tuple[np.ndarray, np.ndarray]], tol: float,
+             max_sweeps: int, s: Settings, certs: Certificates,
+             children: Children | None = None) -> list[Outcome]:
+    """refine_piece of every piece, in order. The pieces are independent, and refining one is
+    bound by Python (the first-order relaxations), which threads cannot share out: with two
+    cores they go to `children` (child processes, workers.py; the same inputs, so the same
+    results, bit for bit). Where children cannot run, the pieces are refined here."""
+    args = [(prog, plo, phi, tol, max_sweeps, s, certs.copy()) for plo, phi in boxes]
+    done = children.map(refine_piece, args) if children is not None else None
+    if done is not None:
+        return done
+    return [refine_piece(*a) for a in args]
+
+
+def _cuttable(prog: Program, uncut: np.ndarray | None) -> np.ndarray:
+    every = independents(prog)
+    return every if uncut is None else every[~np.isin(every, uncut)]
+
+
+def worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray, s: Settings,
+                    uncut: np.ndarray | None = None) -> int | None:
+    """The unknown to cut, or None: among those not identifiable alone at the middle of the
+    search domains that the solve left wider than `left_wide` of their domain (at most
+    `split_tried`, the widest first), the one whose middle piece has the narrowest
+    relaxation, if that is narrower than the whole box's by `split_worth` of the rows'
+    widths (the remainder's share of them); else the pieces would cost their rounds for
+    nothing. The slots `uncut` are not candidates."""
+    if not np.any(_left(prog, _cuttable(prog, uncut), lo, hi) > s.left_wide):
+        return None  # nothing left wide: no need for the analysis (an SVD)
+    info = analyse_design(prog)
+    if info is None:
+        return None  # no nominal values, or a Jacobian without finite values there
+    every = independents(prog)
+    alone = {n for members, _ in info.groups for n in members}
+    group = np.array([prog.slots.names[int(k)] in alone for k in every], dtype=bool)
+    # a candidate must be wider than every unknown the data pins down (not one known
+    # beforehand to 1e-5, like 19 of Test A's, which no split would help)
+    pinned = (hi[every] - lo[every])[~group]
+    floor = float(pinned.max(initial=0.0))
+    ind = every[group & (hi[every] - lo[every] > floor)]
+    ind = np.intersect1d(ind, _cuttable(prog, uncut))
+    if len(ind) == 0:
+        return None
+    left = _left(prog, ind, lo, hi)
+    tried = [int(ind[k]) for k in np.argsort(-left, kind="stable")[:s.split_tried]
+             if left[k] > s.left_wide]
+    if not tried:
+        return None
+    whole = relax(prog, lo, hi, cell_variables=False)
+    if whole is None:
+        return None
+    best, slot = s.split_worth, None
+    for k in tried:
+        plo, phi = pieces(lo, hi, k, s.split_pieces)[s.split_pieces // 2]
+        piece = relax(prog, plo, phi, cell_variables=False)
+        if piece is not None and whole.remainder_share - piece.remainder_share > best:
+            best, slot = whole.remainder_share - piece.remainder_share, k
+    return slot
+
+
+def _left(prog: Program, slots: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Each slot's width in the box over its search domain (0 where either is not finite)."""
+    domain = prog.slots.hi[slots] - prog.slots.lo[slots]
+    width = hi[slots] - lo[slots]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(np.isfinite(domain) & (domain > 0) & np.isfinite(width),
+                        width / np.where(domain > 0, domain, 1.0), 0.0)
+
+
+def pieces(lo: np.ndarray, hi: np.ndarray, slot: int,
+           per: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The box cut into `per` pieces along one slot. Adjacent pieces share their float
+    endpoint, and the first and last keep the box's: together they cover the box."""
+    edges = lo[slot] + (hi[slot] - lo[slot]) * np.arange(per + 1) / per
+    edges[0], edges[-1] = lo[slot], hi[slot]
+    edges = np.maximum.accumulate(np.clip(edges, lo[slot], hi[slot]))
+    out = []
+    for k in range(per):
+        plo, phi = lo.copy(), hi.copy()
+        plo[slot], phi[slot] = edges[k], edges[k + 1]
+        out.append((plo, phi))
+    return out
