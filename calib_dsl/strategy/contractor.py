@@ -53,7 +53,8 @@ class Outcome:
 
 
 class Contractor(Protocol):
-    name: str
+    @property
+    def name(self) -> str: ...
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome: ...
 
