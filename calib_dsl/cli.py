@@ -113,22 +113,24 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
           identify: bool, lsq: bool, formulation: str, data: str | None) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve as run
-    from calib_dsl.report import report
+    from calib_dsl.report.as_json import result_json
+    from calib_dsl.report.extras import Extras
+    from calib_dsl.report.text import render_summary, render_table
 
     prog = _load(model, formulation, data)
     res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
-    extra = report.Extras()
+    extra = Extras()
     if res.status == "contracted":
         if identify:
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
     if json_path != "-":
-        click.echo(report.render_table(prog, res, extra))
+        click.echo(render_table(prog, res, extra))
         click.echo()
-        click.echo(report.render_summary(prog, res, strategy, extra))
+        click.echo(render_summary(prog, res, strategy, extra))
     if json_path:
-        text = json.dumps(report.result_json(prog, res, strategy, extra), indent=2)
+        text = json.dumps(result_json(prog, res, strategy, extra), indent=2)
         if json_path == "-":
             click.echo(text)
         else:

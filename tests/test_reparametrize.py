@@ -16,7 +16,8 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import compile_model
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.linearize import independents
-from calib_dsl.report.report import Extras, render_summary
+from calib_dsl.report.extras import Extras
+from calib_dsl.report.text import render_summary
 from calib_dsl.strategy.reparametrize import _echelon, _sum_enclosure, along_combinations, back
 from calib_dsl.strategy.tight import solve_tight
 

@@ -516,7 +516,9 @@ def test_no_split_where_it_does_not_pay(tmp_path):
 
 
 def test_split_is_reported(tmp_path):
-    from calib_dsl.report.report import Extras, render_summary, result_json
+    from calib_dsl.report.as_json import result_json
+    from calib_dsl.report.extras import Extras
+    from calib_dsl.report.text import render_summary
 
     sim = _parallel_arm(tmp_path, 4, 0.05)  # alpha3 = 0: only r2 + r3 is identifiable
     with warnings.catch_warnings():

@@ -1,0 +1,38 @@
+"""The rows of a report: each declared unknown's domain, result and true value."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from calib_dsl.ir.program import Program
+from calib_dsl.strategy.solution import Solution
+
+
+def parameter_rows(prog: Program, res: Solution) -> list[dict[str, Any]]:
+    s = prog.slots
+    rows = []
+    variables = {v: i for i, v in enumerate(s.declared_names)}
+    for name, i in variables.items():
+        slot = s.declared[i]
+        rows.append({
+            "name": name,
+            "kind": s.kinds[slot],
+            "domain": prog.domains[name] if prog.domains and name in prog.domains
+            else (float(s.lo[slot]), float(s.hi[slot])),
+            "result": None if res.status == "infeasible"
+            else (float(res.lo[slot]), float(res.hi[slot])),
+            "true": prog.true_values.get(name),
+        })
+    return rows
+
+
+def narrowed(prog: Program, res: Solution) -> list[str]:
+    """The declared unknowns whose result is narrower than their search domain."""
+    if res.status == "infeasible":
+        return []
+    out = []
+    for r in parameter_rows(prog, res):
+        (dlo, dhi), (lo, hi) = r["domain"], r["result"]
+        if r["kind"] in ("param", "var") and (lo > dlo or hi < dhi):
+            out.append(r["name"])
+    return out
