@@ -57,9 +57,7 @@ def child(record: str, argv: list[str]) -> None:
     """Run `calibc solve ARGV` in this process, timing its phases by wrapping the functions
     the command calls (the command itself is unchanged), and write them to `record`."""
     import calib_dsl.cli as cli
-    from calib_dsl.elaborate import elaborator as elab_mod
-    from calib_dsl.ir import program as prog_mod
-    from calib_dsl.propagate import fixpoint as prop_mod
+    import calib_dsl.pipeline as pipeline
 
     phases: dict[str, Any] = {"elaborate": 0.0, "compile": 0.0, "solve": 0.0,
                               "elaborate_cpu": 0.0, "compile_cpu": 0.0, "solve_cpu": 0.0}
@@ -79,15 +77,13 @@ def child(record: str, argv: list[str]) -> None:
         phases["primitives"] = len(p.primitives)
 
     def res_info(r: Any) -> None:
-        phases.update(sweeps=r.sweeps, status=r.status, stop=r.stop, rounds=r.rounds)
+        phases.update(sweeps=r.sweeps, status=r.status, stop=r.stop, rounds=r.lp_rounds)
 
-    if "tight" in argv:  # the command imports it only for this strategy; before the wrapping
-        from calib_dsl import tight as tight_mod  # of propagate, which it calls (not a phase)
-
-        tight_mod.solve_tight = timed("solve", tight_mod.solve_tight, res_info)
-    elab_mod.elaborate = timed("elaborate", elab_mod.elaborate)
-    prog_mod.compile_model = timed("compile", prog_mod.compile_model, prog_info)
-    prop_mod.propagate = timed("solve", prop_mod.propagate, res_info)
+    # the pipeline's stages, as the command calls them
+    pipeline.elaborate = timed("elaborate", pipeline.elaborate)
+    pipeline.compile_model = timed("compile", pipeline.compile_model, prog_info)
+    pipeline.solve_tight = timed("solve", pipeline.solve_tight, res_info)
+    pipeline.solve_hc4 = timed("solve", pipeline.solve_hc4, res_info)
     phases["import"] = time.perf_counter() - _T0
     phases["import_cpu"] = time.process_time()  # the process's CPU so far
     start, cstart = time.perf_counter(), time.process_time()
