@@ -67,8 +67,8 @@ def test_wheel_ships_grammar_where_the_loader_looks():
     force = conf["tool"]["hatch"]["build"]["targets"]["wheel"]["force-include"]
     assert force["grammars"] == "calib_dsl/grammars"
     installed = grammar.CANDIDATES[0]
-    assert installed.relative_to(Path(grammar.__file__).resolve().parent) == \
-        Path("grammars/cal.lark")
+    package = Path(grammar.__file__).resolve().parent.parent  # calib_dsl/
+    assert installed.relative_to(package) == Path("grammars/cal.lark")
 
 
 def test_grammar_installed_copy_preferred(tmp_path, monkeypatch):
