@@ -71,8 +71,21 @@ class Settings:
 
     # -- LPs (lp/) -----------------------------------------------------------------------------
     lp_workers: int = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
-    lp_iterations: int = 1000  # simplex pivots per objective in a first-order round
+    # Per objective in a first-order round: a degenerate LP near the fixed point can crawl.
+    # The pivot limit stops it the same way on every machine (results do not depend on
+    # load); the time limit is a backstop.
+    lp_iterations: int = 1000
     lp_seconds: float = 1.0
+    # Above this many rows an LP starts from a subset and adds the rows its optimum violates
+    # (row generation), at most rows_added per pass: a tall LP (9000 rows, 33 columns) is
+    # far faster so.
+    rows_at_once: int = 2000
+    rows_added: int = 500
+    lp_scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
+    probes: int = 4  # at most this many probe LPs before the objectives are shared out
+    # Above this many matrix entries (or for a sparse matrix and few objectives), certified
+    # bounds work row by row of the multipliers on the sparse matrix, not on a dense copy.
+    dense_entries: int = 4_000_000
 
     @property
     def piece_lp_threads(self) -> int:

@@ -37,7 +37,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program, compile_model
-from calib_dsl.lp.lpbound import lp_bounds
+from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.linearize import constraint_jacobian, independents, relax
 

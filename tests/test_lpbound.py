@@ -1,4 +1,4 @@
-"""lpbound.py: every certified bound is >= the true maximum, whatever the dual guess.
+"""lp/: every certified bound is >= the true maximum, whatever the dual guess.
 
 The true maximum is known exactly in two ways:
 - LPs built with a known optimal vertex and an exact KKT certificate (small integers and
@@ -10,8 +10,10 @@ Every comparison "bound >= c.x" is exact (fractions), never up to a tolerance.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
+from dataclasses import replace
 from fractions import Fraction
 
 import numpy as np
@@ -20,17 +22,17 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linprog
 
-from calib_dsl.lp.lpbound import (
+from calib_dsl import settings as tuning
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.lp.certify import (
     Certificates,
-    LinearRelaxation,
-    Rows,
     box_max_up,
     certified_max,
+    certified_maxes,
     dot_up,
-    lp_bounds,
     reused_bounds,
-    transpose_times,
 )
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows, transpose_times
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -38,6 +40,18 @@ SETTINGS = settings(max_examples=150, deadline=None,
 # strategy's wide rounds): the bounds are certified either way
 SOLVERS = st.sampled_from(["simplex", "ipm"])
 GAMMA = 1e-13  # generous float rounding budget of a short dot product (n * 2^-53, n < 100)
+
+
+@contextlib.contextmanager
+def tuned(**fields):
+    """The process-wide settings with some fields changed, for the LP internals that read
+    them (calib_dsl.tuning.DEFAULT), restored after."""
+    saved = tuning.DEFAULT
+    tuning.DEFAULT = replace(saved, **fields)
+    try:
+        yield
+    finally:
+        tuning.DEFAULT = saved
 
 
 # -- exact arithmetic ---------------------------------------------------------------------------
@@ -176,16 +190,12 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
     indptr = np.concatenate([[0], np.cumsum(2 * np.bincount(r, minlength=m))])
     halves = LinearRelaxation(Rows(np.repeat(A[r, k] / 2, 2), np.repeat(k, 2), indptr, A.shape),
                               b, lo, hi, n)
-    import calib_dsl.lp.lpbound as lpb
-    dense_limit = lpb.DENSE_ENTRIES
-    try:
-        for limit, relax in ((dense_limit, rel), (0, rel), (dense_limit, halves)):
-            lpb.DENSE_ENTRIES = limit
-            for name, bound in zip(guesses, lpb.certified_maxes(relax, C, Y), strict=True):
+    dense_limit = tuning.DEFAULT.dense_entries
+    for limit, relax in ((dense_limit, rel), (0, rel), (dense_limit, halves)):
+        with tuned(dense_entries=limit):
+            for name, bound in zip(guesses, certified_maxes(relax, C, Y), strict=True):
                 assert not math.isnan(bound), name
                 assert bound == math.inf or fr(bound) >= best, (name, limit, float(best))
-    finally:
-        lpb.DENSE_ENTRIES = dense_limit
     if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
         # The exact dual gives the optimum itself, up to the rounding pad.
         bound = certified_max(rel, c, y_hat)
@@ -331,7 +341,8 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
     they reach are not solved: every bound still holds every feasible point, equals the one
     worker's bound (no probes) to the LP's tolerance, and every objective keeps a basis to
     start from next time (its own LP's, or the reaching point's)."""
-    import calib_dsl.lp.lpbound as lpb
+    from calib_dsl.lp.bounds import _probe_points
+    from calib_dsl.lp.certify import box_bounds
 
     rng = np.random.default_rng(seed)
     A, b, lo, hi, _, x0 = random_float_lp(rng, n, m, False)
@@ -344,10 +355,10 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
     rel = rel_of(A, b, lo, hi)
     rel.keys, rel.col_keys = np.arange(m), np.arange(n)
     bounds, certs = {}, {}
-    for workers in (1, 2):  # (each case sets WORKERS anew: the fixture needs no reset)
-        monkeypatch.setattr(lpb, "WORKERS", workers)
+    for workers in (1, 2):
         certs[workers] = Certificates()
-        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers], probes=True)
+        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers], probes=True,
+                                    threads=workers)
     points = feasible_samples(rng, A, b, lo, hi, [x0], count=100)
     scale = 1.0 + np.maximum(np.abs(lo), np.abs(hi))
     for i in range(n):
@@ -358,8 +369,9 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
         assert abs(up - bounds[1][1][i]) <= 1e-6 * scale[i]
         for sign in (1.0, -1.0):
             assert (i, sign) in certs[2].basis
-    probes = np.array([p for p, _ in lpb._probe_points(rel, lpb._box_bounds(rel, np.eye(n))[2],
-                                                       lpb.LP_ITERATIONS, lpb.LP_SECONDS)])
+    tasks = box_bounds(rel, np.eye(n))[2]
+    probes = np.array([p for p, _ in _probe_points(rel, tasks, tuning.DEFAULT.lp_iterations,
+                                                   tuning.DEFAULT.lp_seconds)])
     assert len(probes) >= 2
     assert np.all(probes[:, unseen].max(axis=0) == hi[unseen])
     assert np.all(probes[:, unseen].min(axis=0) == lo[unseen])
@@ -490,7 +502,8 @@ def test_box_max_up_all_negative_overflow_is_not_nan():
 _HALF_INFINITE = """
 import numpy as np
 from scipy import sparse
-from calib_dsl.lp.lpbound import LinearRelaxation, lp_bounds
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.relax.relaxation import LinearRelaxation
 A = np.array([[0.0, -1.7321348424395848], [0.0, -1.1632259734447486e-03],
               [-6.2928809406155450e-01, 0.0], [-7.1331337163224362e+02, 5.5337847035328946e+02],
               [-6.3085971925289158e+01, 0.0], [4.0963782655711697e+02, 8.2985530706132397e+02]])
@@ -722,8 +735,6 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
 def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver):
     """(Row generation keeps to the simplex whatever solver is asked for: it re-solves after
     adding rows, from the last basis.)"""
-    import calib_dsl.lp.lpbound as lpb
-
     rng = np.random.default_rng(seed)
     x_hat = rng.uniform(-1, 1, n)  # a feasible point: every row holds it with some room
     A = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.7)
@@ -733,14 +744,10 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver)
     lo, hi = np.full(n, -3.0), np.full(n, 3.0)
     rel = LinearRelaxation(rows_of(A), b, lo, hi, n, b_lo=b_lo)
     objectives = np.vstack([np.eye(n), rng.normal(size=(2, n))])
-    saved = lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED
-    try:
-        lpb.ROWS_AT_ONCE = 10**9
+    with tuned(rows_at_once=10**9):
         full = lp_bounds(rel, objectives)
-        lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED = 4, int(rng.integers(1, 6))  # many small passes
+    with tuned(rows_at_once=4, rows_added=int(rng.integers(1, 6))):  # many small passes
         gen = lp_bounds(rel, objectives, solver=solver)
-    finally:
-        lpb.ROWS_AT_ONCE, lpb.ROWS_ADDED = saved
     scale = 1e-7 * (1 + np.abs(objectives).sum(axis=1) * 3)
     assert np.all(np.abs(gen[0] - full[0]) <= scale), (gen[0], full[0])
     assert np.all(np.abs(gen[1] - full[1]) <= scale), (gen[1], full[1])
@@ -754,25 +761,19 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver)
 
 
 def _with_row_generation(rel, objectives):
-    import calib_dsl.lp.lpbound as lpb
-
-    saved = lpb.ROWS_AT_ONCE
-    try:
-        lpb.ROWS_AT_ONCE = 4
+    with tuned(rows_at_once=4):
         return lp_bounds(rel, objectives)
-    finally:
-        lpb.ROWS_AT_ONCE = saved
 
 
 def test_row_generation_finds_a_bounding_row_left_out_at_the_start():
-    import calib_dsl.lp.lpbound as lpb
+    from calib_dsl.lp.highs import starting_rows
 
     m = 30
     A = np.full((m, 1), -1.0)  # -x <= 5: bounds x from below only
     b = np.full(m, 5.0)
     A[13, 0], b[13] = 1.0, 2.0  # x <= 2, a row the starting subset leaves out
     rel = rel_of(A, b, np.array([-1e6]), np.array([1e6]))
-    assert 13 not in lpb._starting_rows(rel)
+    assert 13 not in starting_rows(rel)
     lower, upper = _with_row_generation(rel, np.eye(1))
     # certified, with the rounding pad of a box of +- 1e6
     assert -5.01 <= lower[0] <= -5.0 and 2.0 <= upper[0] <= 2.01
@@ -795,9 +796,10 @@ def test_highs_prints_nothing_on_stdout():
     import subprocess
     import sys
 
-    code = ("from calib_dsl.lp.lpbound import _load, LinearRelaxation, Rows; import numpy as np; "
+    code = ("from calib_dsl.lp.highs import load; "
+            "from calib_dsl.relax.relaxation import LinearRelaxation, Rows; import numpy as np; "
             "rel = LinearRelaxation(Rows.join(np.ones((1, 1)), np.zeros(0, np.int64), "
             "np.zeros(0, np.int64), np.zeros(0), 0), np.ones(1), np.zeros(1), np.ones(1)); "
-            "_load(rel).run(); _load(rel).run(); print('done')")
+            "load(rel).run(); load(rel).run(); print('done')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "done\n"

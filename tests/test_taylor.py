@@ -29,10 +29,12 @@ from test_linearize import (  # the sibling test module: its model generators
 
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import Program, compile_model
-from calib_dsl.lp.lpbound import Certificates, LinearRelaxation, Rows, lp_bounds, reused_bounds
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.relax import taylor as tm
 from calib_dsl.relax.linearize import independents
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 ROOT = Path(__file__).resolve().parents[1]
 

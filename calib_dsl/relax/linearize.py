@@ -28,10 +28,9 @@ import numpy as np
 from calib_dsl.arith import interval as iv
 from calib_dsl.arith.projections import forward
 from calib_dsl.ir.program import Group, Program, derived
-from calib_dsl.lp.lpbound import LinearRelaxation, Rows
+from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 
 Iv = tuple[np.ndarray, np.ndarray]
-_REL = 1e-9  # rounding budget of right-hand sides (see lpbound)
 
 
 def independents(prog: Program) -> np.ndarray:
@@ -210,7 +209,7 @@ class _Evaluation:
         self.e = np.zeros(ncol)  # per column: a bound on |q - q^| (rounded up)
         if ncol:
             np.maximum.at(self.e, cols[cell], err[cell])
-            self.e = self.e * (1 + 4 * _REL) + 1e-300
+            self.e = self.e * (1 + 4 * RHS_REL) + 1e-300
         self.C[0][cell], self.C[1][cell] = mid[cell], mid[cell]
         self.owner = np.where(cell, rows, -1)
         self.D = [np.zeros((n, ncol)), np.zeros((n, ncol))]
@@ -377,7 +376,7 @@ def _zero_rows(d: Iv, rows: np.ndarray) -> Iv:
 def _spread(dl: np.ndarray, dh: np.ndarray, e: np.ndarray) -> np.ndarray:
     """An upper bound on |D (q - q^)| for |q - q^| <= e, rounding included."""
     mag = np.maximum(np.abs(dl), np.abs(dh))
-    return (mag @ e) * (1 + 4 * _REL) + 1e-300
+    return (mag @ e) * (1 + 4 * RHS_REL) + 1e-300
 
 
 def _widen(lo: np.ndarray, hi: np.ndarray) -> Iv:
@@ -559,7 +558,7 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
     # a row with an unbounded coefficient says nothing: make it drop out (b = +inf)
     bad = ~(np.all(np.isfinite(h), axis=1) & np.all(np.isfinite(q), axis=1))
     h[bad], q[bad], hrad[bad] = 0.0, 0.0, np.inf
-    w = np.maximum(center - plo, phi - center) * (1 + 4 * _REL)
+    w = np.maximum(center - plo, phi - center) * (1 + 4 * RHS_REL)
     slack = hrad @ w + qrad @ e
     folded = np.abs(q) @ e
     share = _remainder_share(slack, folded + 0.5 * (dhi - dlo))
@@ -572,7 +571,7 @@ def _inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarr
         slack = slack + folded  # each row bounds the cell errors alone
         q = q[:, :0]
     hc = h @ center
-    err = _REL * (hrad @ w + qrad @ e + folded + np.abs(h) @ np.abs(center)
+    err = RHS_REL * (hrad @ w + qrad @ e + folded + np.abs(h) @ np.abs(center)
                   + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
@@ -607,7 +606,7 @@ def _curvature(remainder: np.ndarray, first_order: np.ndarray) -> float:
 def _mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Midpoint and a radius covering [lo, hi] around it (rounding included)."""
     mid = 0.5 * (lo + hi)
-    rad = np.maximum(mid - lo, hi - mid) * (1 + 4 * _REL) + 1e-300
+    rad = np.maximum(mid - lo, hi - mid) * (1 + 4 * RHS_REL) + 1e-300
     return mid, rad
 
 

@@ -26,14 +26,12 @@ import numpy as np
 from calib_dsl.arith import interval as iv
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.lpbound import LinearRelaxation, Rows
+from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import Expansion, Models, expand
 
 # A product goes back into the remainders when that costs no row more than this share of its
 # width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
 PRUNE = 0.25
-_REL = 1e-9  # rounding budget of the right-hand sides (as in linearize and lpbound)
-
 
 def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = PRUNE,
                     mccormick: bool = False) -> tuple[LinearRelaxation, Expansion] | None:
@@ -56,7 +54,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     n = m.c1.shape[1]
     pairs = ex.pairs
     slack = m.r + dropped
-    err = _REL * (np.abs(m.c0) + np.abs(np.where(np.isfinite(thi), thi, 0.0))
+    err = RHS_REL * (np.abs(m.c0) + np.abs(np.where(np.isfinite(thi), thi, 0.0))
                   + np.abs(np.where(np.isfinite(tlo), tlo, 0.0)) + slack) + 1e-300
     with np.errstate(invalid="ignore"):
         b_up = up1(thi - m.c0) + slack + err

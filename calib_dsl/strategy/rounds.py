@@ -23,10 +23,12 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.lpbound import Certificates, LinearRelaxation, lp_bounds, reused_bounds
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.propagate.fixpoint import Emptied, propagate
 from calib_dsl.relax.linearize import independents, measured_cells, relax
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
+from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Work

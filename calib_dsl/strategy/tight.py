@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.lpbound import Certificates
+from calib_dsl.lp.certify import Certificates
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.reparametrize import along_combinations, back

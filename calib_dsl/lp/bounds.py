@@ -1,0 +1,209 @@
+"""Rigorous bounds from a linear program (Neumaier-Shcherbina).
+
+The LP solver (HiGHS, through its official Python binding highspy) works in floating point,
+so its optimum is never trusted. Only its dual multipliers are used, as a *certificate*: for
+any y >= 0 and any p in the box with A p <= b,
+
+    c.p = y.(A p) + (c - A'y).p  <=  y.b + max over the box of (c - A'y).p,
+
+whatever y is. Every sum is bounded with an explicit rounding-error term, so the bound holds
+in exact arithmetic. A poor y gives a poor bound, never a wrong one.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from calib_dsl import settings
+from calib_dsl.lp.certify import Certificates, box_bounds, box_max_up, certified_max, tighten
+from calib_dsl.lp.highs import (
+    RowCheck,
+    add_rows,
+    current_basis,
+    load,
+    optimal,
+    set_basis,
+    starting_rows,
+)
+from calib_dsl.relax.relaxation import LinearRelaxation
+from calib_dsl.settings import DEFAULT
+
+
+def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
+              skip: np.ndarray | None = None, iterations: int = DEFAULT.lp_iterations,
+              seconds: float = DEFAULT.lp_seconds, solver: str = "simplex",
+              certificates: Certificates | None = None,
+              probes: bool = False, own_bases: bool = True,
+              threads: int = DEFAULT.lp_workers) -> tuple[np.ndarray, np.ndarray]:
+    """Rigorous [min, max] of each objective row c.p over the relaxation.
+
+    Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
+    from the previous basis (a few pivots each); HiGHS releases the GIL, so the workers run on
+    separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
+    certify), the bound falls back to the box's own bound on c.p: never wrong, just not
+    tighter. Objectives flagged in `skip` get the box bound without an LP. `iterations` and
+    `seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
+    HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
+    starts afresh each time but costs the same few dozen iterations on any objective, which
+    pays on a large LP whose objectives are far apart (their multipliers certify all the same).
+    The multipliers of each LP solved are kept in `certificates` if given (for
+    reused_bounds on a later box). With `probes`, a few probe LPs first find points on many
+    box bounds at once (_probe_points): worth it far from the solution only. With `own_bases`
+    (and `certificates`), the simplex starts each objective from that objective's last basis
+    kept there; without, from the optimum of the objective its worker solved before.
+    `threads`: how many workers (each with its own HiGHS model) share the objectives.
+    """
+    lower, upper, signed = box_bounds(rel, objectives)
+    tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
+    workers = max(1, min(threads, len(tasks)))
+    points = _probe_points(rel, tasks, iterations, seconds) if probes and workers > 1 else []
+    # both signs of an objective in the same share: the second starts from the first's optimum
+    share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
+    shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]
+    if workers == 1:
+        results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates,
+                                own_bases=own_bases)]
+    else:
+        with ThreadPoolExecutor(workers) as pool:
+            results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
+                                                                    solver, certificates,
+                                                                    points, own_bases),
+                                    shares))
+    for share in results:
+        for i, sign, bound, y, basis in share:
+            if certificates is not None:
+                certificates.record(rel, i, sign, y, basis)
+            if y is not None:  # (None: the box bound stands, and only a basis is kept)
+                tighten(lower, upper, i, sign, bound)
+    return lower, upper
+
+
+def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.lp_iterations,
+                 seconds: float = DEFAULT.lp_seconds,
+                 solver: str = "simplex",
+                 certificates: Certificates | None = None,
+                 probes: list[tuple[np.ndarray, tuple | None]] | None = None,
+                 own_bases: bool = True) -> list[tuple]:
+    """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
+
+    A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
+    rows its optimum violates are added until none is (the optimum is then the full LP's).
+    The certificate is exact either way: rows outside the LP get multiplier 0.
+    """
+    if not share:
+        return []
+    m, n = rel.A.shape
+    rows = np.arange(m) if m <= settings.DEFAULT.rows_at_once else starting_rows(rel)
+    h = load(rel, rows, iterations)
+    # row generation re-solves after adding rows: the simplex goes on from its basis, an
+    # interior point method would start over each time
+    h.setOptionValue("solver", solver if len(rows) == m else "simplex")
+    h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
+    cols = np.arange(n, dtype=np.int32)
+    check = RowCheck(rel) if len(rows) < m else None
+    out: list[tuple] = []
+    # LP solutions found so far (feasible up to HiGHS's tolerance) and their bases, from the
+    # probes on
+    points: list[tuple[np.ndarray, tuple | None]] = list(probes or [])
+    # the simplex on the whole LP can start from this objective's basis on an earlier box
+    keep_basis = (own_bases and certificates is not None and len(rows) == m
+                  and solver == "simplex")
+    for i, sign, c in share:
+        at = _reaching(c, points, rel)
+        if at is not None:  # an LP point already lies on the box's bound: the box bound stays
+            if keep_basis:  # next time, this objective starts from that point's basis
+                out.append((i, sign, np.inf, None, points[at][1]))
+            continue
+        h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
+        start = certificates.start(rel, i, sign) if keep_basis and certificates else None
+        if start is not None:
+            set_basis(h, *start)
+        # HiGHS's time limit counts all runs of the object: extend it per solve.
+        h.setOptionValue("time_limit", h.getRunTime() + seconds)
+        h.run()
+        if solver == "ipm" and check is None and not optimal(h):
+            # without crossover the interior point method can stop short on a degenerate LP
+            # (status unknown) with multipliers far from optimal: the simplex finishes it
+            h.setOptionValue("solver", "simplex")
+            h.run()
+            h.setOptionValue("solver", solver)
+        while check is not None:
+            sol = h.getSolution()
+            if sol.value_valid:
+                more = check.violated(np.asarray(sol.col_value), rows)
+            else:  # unbounded without the rows left out (an infinite box): take them all
+                more, check = np.setdiff1d(np.arange(m), rows), None
+            if len(more) == 0:
+                break
+            add_rows(h, rel, more)
+            rows = np.concatenate([rows, more])
+            h.run()
+        # Any multipliers certify a bound, so even a solve stopped by its iteration or time
+        # limit gives a valid (if weaker) one: only a missing solution is skipped.
+        sol = h.getSolution()
+        basis = current_basis(h) if keep_basis else None
+        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
+            points.append((np.asarray(sol.col_value), basis))
+        if sol.dual_valid:
+            y = np.zeros(m)
+            y[rows] = -np.asarray(sol.row_dual)
+            out.append((i, sign, certified_max(rel, c, y), y, basis))
+    return out
+
+
+
+
+def _probe_points(rel: LinearRelaxation, tasks: list, iterations: int,
+                  seconds: float) -> list[tuple[np.ndarray, tuple | None]]:
+    """LP points that attain many of the box's own bounds at once, for every worker's
+    `_reaching`: the optima of the sum of the objectives, of its opposite, then of sums with
+    random signs (seeded: the same points on every run), while each probe adds an objective
+    that no LP needs to solve. One worker's own optima would serve only its share; far from
+    the solution (where many unknowns do not move) these serve all, for two to four LPs.
+    Only points (and their bases, where an objective they reach starts next time): no bound
+    depends on them (see `_reaching`)."""
+    if len(tasks) < 4 * settings.DEFAULT.probes or rel.A.shape[0] > settings.DEFAULT.rows_at_once:
+        return []
+    h = load(rel, None, iterations)
+    h.setOptionValue("time_limit", seconds)
+    n = rel.A.shape[1]
+    cols = np.arange(n, dtype=np.int32)
+    unsigned = np.array(list({i: sign * c for i, sign, c in tasks}.values()))
+    rng = np.random.default_rng(0)
+    points: list[tuple[np.ndarray, tuple | None]] = []
+    reached = 0
+    for k in range(settings.DEFAULT.probes):
+        signs = (rng.choice([-1.0, 1.0], len(unsigned)) if k >= 2
+                 else np.full(len(unsigned), 1.0 if k == 0 else -1.0))
+        c = signs @ unsigned
+        h.changeColsCost(n, cols, (-c).astype(float))
+        h.run()
+        sol = h.getSolution()
+        if not (sol.value_valid and h.getInfo().primal_solution_status == 2):
+            break
+        points.append((np.asarray(sol.col_value), current_basis(h)))
+        now = sum(_reaching(c_t, points, rel) is not None for _, _, c_t in tasks)
+        if now <= reached:
+            break
+        reached = now
+    return points
+
+
+def _reaching(c: np.ndarray, points: list[tuple[np.ndarray, Any]],
+              rel: LinearRelaxation) -> int | None:
+    """The first LP point (of (point, basis) pairs) that already attains the box's own bound
+    on c.p, or None: then the LP cannot tighten it, and solving it is skipped. (Skipping never
+    narrows anything, so it is sound whatever the points are; it saves most LPs of a round
+    far from the solution, where many unknowns do not move.)"""
+    if not points:
+        return None
+    box = box_max_up(c, c, rel.lo, rel.hi)
+    if not np.isfinite(box):
+        return None
+    values = np.stack([p for p, _ in points]) @ c
+    hits = np.flatnonzero(values >= box - 1e-9 * (1.0 + abs(box)))
+    return int(hits[0]) if len(hits) else None
+

@@ -1,0 +1,190 @@
+"""HiGHS: loading a relaxation into a model, its options and bases, rows added as they
+are violated, and its banner kept off standard output.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import os
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from calib_dsl import settings
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+
+LOWER, BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
+
+
+def optimal(h: Any) -> bool:
+    import highspy
+
+    return bool(h.getModelStatus() == highspy.HighsModelStatus.kOptimal)
+
+
+def current_basis(h: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    b = h.getBasis()
+    if not b.valid:
+        return None
+    return (np.array([v.value for v in b.row_status], np.int8),
+            np.array([v.value for v in b.col_status], np.int8))
+
+
+@functools.cache
+def _statuses() -> list:
+    """HiGHS's basis statuses by value (making each anew from an int cost a millisecond per
+    basis set)."""
+    import highspy
+
+    return [highspy.HighsBasisStatus(k) for k in range(5)]
+
+
+def set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
+    """Start the next solve from these statuses. HiGHS takes an "alien" basis (one with too
+    many or too few basic variables, as a mapped one may have) and completes it."""
+    import highspy
+
+    status = _statuses()
+    b = highspy.HighsBasis()
+    b.row_status = [status[v] for v in rows.tolist()]
+    b.col_status = [status[v] for v in cols.tolist()]
+    b.alien = True
+    b.valid = True
+    h.setBasis(b)
+
+
+def starting_rows(rel: LinearRelaxation) -> np.ndarray:
+    """Evenly spread rows, a few per column: enough to bound the LP well at the start."""
+    m, n = rel.A.shape
+    return np.unique(np.linspace(0, m - 1, min(m, 8 * n)).astype(np.int64))
+
+
+class RowCheck:
+    """Which rows outside the LP a point violates."""
+
+    def __init__(self, rel: LinearRelaxation) -> None:
+        A = rel.A
+        self.rel = rel
+        self.row_of = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(A.shape[0], -np.inf)
+
+    def violated(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        A, m = self.rel.A, self.rel.A.shape[0]
+        prods = A.data * x[A.indices]
+        ax = np.bincount(self.row_of, weights=prods, minlength=m)
+        scale = np.bincount(self.row_of, weights=np.abs(prods), minlength=m)
+        tol = 1e-9 * scale + 1e-12
+        with np.errstate(invalid="ignore"):
+            excess = np.maximum(ax - self.rel.b, self.b_lo - ax) - tol
+        excess[rows] = 0.0
+        bad = np.flatnonzero(excess > 0)
+        return bad[np.argsort(-excess[bad])[:settings.DEFAULT.rows_added]]
+
+
+def add_rows(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> None:
+    import highspy
+
+    inf = highspy.kHighsInf
+    part = _rows_of(rel.A).take(rows)
+    lower = (np.full(len(rows), -inf) if rel.b_lo is None
+             else np.where(np.isfinite(rel.b_lo[rows]), rel.b_lo[rows], -inf))
+    upper = np.where(np.isfinite(rel.b[rows]), rel.b[rows], inf)
+    h.addRows(len(rows), lower.astype(float), upper.astype(float), len(part.data),
+              part.indptr[:-1].astype(np.int32), part.indices.astype(np.int32),
+              part.data.astype(float))
+
+
+def _rows_of(A: Any) -> Rows:
+    """A itself, or a scipy CSR matrix's arrays as Rows."""
+    if isinstance(A, Rows):
+        return A
+    return Rows(np.asarray(A.data), np.asarray(A.indices), np.asarray(A.indptr), A.shape)
+
+
+def load(rel: LinearRelaxation, rows: np.ndarray | None = None,
+          iterations: int = settings.DEFAULT.lp_iterations) -> Any:
+    """A HiGHS model of the relaxation, with only `rows` of its rows if given."""
+    import highspy
+
+    h = _new_highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
+    # HiGHS equilibrates rows and columns by default. Our relaxations are built scaled (the
+    # second-order ones in t-units, each column in [-1, 1]), and without HiGHS's own scaling
+    # the simplex takes half the pivots from the same bases to the same bounds: on the RX90
+    # from section 4, 57 000 second-order pivots instead of 123 000 and 21 000 first-order
+    # ones instead of 39 000, widths equal to 0.1 % (docs/compiler.md).
+    h.setOptionValue("simplex_scale_strategy", settings.DEFAULT.lp_scaling)
+    if rows is not None and len(rows) < rel.A.shape[0]:
+        A = _rows_of(rel.A).take(rows)
+        rel = LinearRelaxation(A, rel.b[rows], rel.lo, rel.hi, rel.main, rel.cells,
+                               None if rel.b_lo is None else rel.b_lo[rows])
+    m, n = rel.A.shape
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = n, m
+    lp.col_cost_ = np.zeros(n)
+    lp.col_lower_ = np.where(np.isfinite(rel.lo), rel.lo, -highspy.kHighsInf)
+    lp.col_upper_ = np.where(np.isfinite(rel.hi), rel.hi, highspy.kHighsInf)
+    inf = highspy.kHighsInf
+    lp.row_lower_ = (np.full(m, -inf) if rel.b_lo is None
+                     else np.where(np.isfinite(rel.b_lo), rel.b_lo, -inf).astype(float))
+    lp.row_upper_ = np.where(np.isfinite(rel.b), rel.b, inf).astype(float)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.start_ = np.asarray(rel.A.indptr, dtype=np.int32)
+    lp.a_matrix_.index_ = np.asarray(rel.A.indices, dtype=np.int32)
+    lp.a_matrix_.value_ = np.asarray(rel.A.data, dtype=float)
+    h.passModel(lp)
+    return h
+
+
+_GREETED = threading.Lock()  # held while the process's first HiGHS object is made
+_greeted = False  # whether it was made
+
+
+def _new_highs() -> Any:
+    """A new HiGHS object. From highspy 1.16 on, the first one made in a process prints HiGHS's
+    banner on the C-level stdout, before any option can turn output off; it would corrupt
+    `calibc solve --json -` (and the pickled results of a child process, workers.py). So the
+    first one is made with file descriptor 1 pointed at /dev/null (and C's buffers flushed
+    before it is put back); later ones print nothing."""
+    import highspy
+
+    global _greeted
+    with _GREETED:
+        if not _greeted:
+            _greeted = True
+            with _stdout_silenced():
+                return highspy.Highs()
+    return highspy.Highs()
+
+
+@contextmanager
+def _stdout_silenced() -> Iterator[None]:
+    if sys.stdout is not None:
+        sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no stdout at all: nothing to protect
+        yield
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        yield
+    finally:
+        try:
+            ctypes.CDLL(None).fflush(None)  # what C wrote is still buffered: to /dev/null too
+        except (OSError, AttributeError, TypeError):  # no C library to flush here
+            pass
+        os.dup2(saved, 1)
+        os.close(null)
+        os.close(saved)
+
+
+def _finite_or_none(x: np.ndarray) -> list[float | None]:
+    return [float(v) if np.isfinite(v) else None for v in x]
