@@ -13,7 +13,7 @@ Boxes: narrow to wide (where the mean-value slack is large), the point at a face
 widths, data intervals shrunk around the true value, and boxes contracted by propagation.
 
 The LP columns of the cell errors are mapped back to cells by replaying `relax`'s own
-bookkeeping (`_Evaluation`, `_mid_rad`): that mapping is not part of the public API. The
+bookkeeping (`Evaluation`, `mid_rad`): that mapping is not part of the public API. The
 replay is checked against what is public (column count, bounds), and cell_variables=False
 (x = p only) is tested too.
 """
@@ -39,7 +39,8 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program, compile_model
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.propagate.fixpoint import propagate
-from calib_dsl.relax.linearize import constraint_jacobian, independents, relax
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import constraint_jacobian, relax
 
 ROOT = Path(__file__).resolve().parents[1]
 MARGIN = 1e-13  # float error of evaluating A x in the test (the relaxation's own pad is 1e-9)
@@ -730,7 +731,8 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
     from pathlib import Path
 
     from calib_dsl.elaborate.elaborator import elaborate
-    from calib_dsl.relax.linearize import _Evaluation, _mid_rad
+    from calib_dsl.relax.evaluation import Evaluation
+    from calib_dsl.relax.linearize import mid_rad
 
     models = Path(__file__).resolve().parent.parent / "models"
     prog = compile_model(elaborate(models / model))
@@ -743,8 +745,8 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
     center = mid + rng.uniform(-0.5, 0.5, len(ind)) * half
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        plain = _Evaluation(prog, lo, hi, ind, center).run()
-        mixed = _Evaluation(prog, lo, hi, ind, center, mixed=True).run()
+        plain = Evaluation(prog, lo, hi, ind, center).run()
+        mixed = Evaluation(prog, lo, hi, ind, center, mixed=True).run()
     gp = [np.concatenate([r[1][i] for r in plain]) for i in (0, 1)]
     gm = [np.concatenate([r[1][i] for r in mixed]) for i in (0, 1)]
     # up to rounding: the last column's box is the whole box, evaluated in another order
@@ -756,8 +758,8 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
                                           np.concatenate([r[i][k] for r in mixed]))
     w = np.maximum(center - lo[ind], hi[ind] - center)
     finite = np.all(np.isfinite(gp[0]) & np.isfinite(gp[1]), axis=1)
-    plain_slack = _mid_rad(gp[0], gp[1])[1][finite] @ w
-    mixed_slack = _mid_rad(gm[0], gm[1])[1][finite] @ w
+    plain_slack = mid_rad(gp[0], gp[1])[1][finite] @ w
+    mixed_slack = mid_rad(gm[0], gm[1])[1][finite] @ w
     assert np.all(mixed_slack <= plain_slack * (1 + 1e-12))
     if model.startswith("rx90"):
         assert np.median(mixed_slack) < 0.7 * np.median(plain_slack)
@@ -771,10 +773,10 @@ _ENDS = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, -3.0, 1e-300, -1e-300, 5e-32
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        args=st.integers(1, 3), mixed=st.booleans())
 def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, args, mixed):
-    """linearize._chain (written out for speed, not through `forward`): for members d of the
+    """linearize.chain (written out for speed, not through `forward`): for members d of the
     partials and g of the gradients, sum d * g lies in the result; where a factor is [0, 0]
     the result is exactly 0."""
-    from calib_dsl.relax.linearize import _chain
+    from calib_dsl.relax.gradients import chain
 
     def interval(shape):
         a = np.array(data.draw(st.lists(_ENDS, min_size=math.prod(shape),
@@ -787,7 +789,7 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
 
     parts = [interval((rows, cols) if mixed else (rows,)) for _ in range(args)]
     grads = [interval((rows, cols)) for _ in range(args)]
-    lo, hi = _chain(parts, grads)
+    lo, hi = chain(parts, grads)
     rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
 
     def member(x):  # a member of each interval: an end, or a point inside
@@ -830,10 +832,10 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        signs=st.lists(st.sampled_from([1.0, -1.0]), min_size=1, max_size=3))
 def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
-    """linearize._signed_sum (the chain rule of add, sub and neg, without products): for
+    """linearize.signed_sum (the chain rule of add, sub and neg, without products): for
     members g_k of the gradients, sum sign_k g_k lies in the result; a sum of [0, 0] terms is
     exactly 0 (the relaxation's rows stay sparse)."""
-    from calib_dsl.relax.linearize import _signed_sum
+    from calib_dsl.relax.gradients import signed_sum
 
     def interval():
         a, b = (np.array(data.draw(st.lists(_ENDS, min_size=rows * cols,
@@ -844,7 +846,7 @@ def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
         return np.where(both, 0.0, lo), np.where(both, 0.0, hi)
 
     grads = [interval() for _ in signs]
-    lo, hi = _signed_sum(tuple(signs), grads)
+    lo, hi = signed_sum(tuple(signs), grads)
     assert not np.any(np.isnan(lo)) and not np.any(np.isnan(hi))
     ends = [(g[0], g[1]) if s > 0 else (-g[1], -g[0]) for s, g in zip(signs, grads, strict=True)]
     for r in range(rows):

@@ -15,7 +15,7 @@ from test_tight import arm_solved_twice  # the sibling test module: an arm with 
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import compile_model
 from calib_dsl.propagate.fixpoint import propagate
-from calib_dsl.relax.linearize import independents
+from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.text import render_summary
 from calib_dsl.strategy.reparametrize import _echelon, _sum_enclosure, along_combinations, back

@@ -115,7 +115,7 @@ def test_all_33_parameters_within_twice_the_hull_near_the_solution(
     a centred domain."""
     from calib_dsl.analysis.identify import analyse, combination_enclosures
     from calib_dsl.analysis.reference import linearized_hull
-    from calib_dsl.relax.linearize import independents
+    from calib_dsl.relax.layout import independents
 
     data = tmp_path / "b.csv"
     simulate(MODELS / "rx90_recalibrate.cal", 50, seed, out_csv=data)

@@ -32,7 +32,7 @@ from calib_dsl.ir.program import Program, compile_model
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.relax import taylor as tm
-from calib_dsl.relax.linearize import independents
+from calib_dsl.relax.layout import independents
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 

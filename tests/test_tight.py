@@ -38,7 +38,7 @@ from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program, compile_model
 from calib_dsl.propagate.fixpoint import propagate
-from calib_dsl.relax.linearize import independents
+from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight

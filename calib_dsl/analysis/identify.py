@@ -15,7 +15,8 @@ import numpy as np
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.linearize import constraint_jacobian, independents
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import constraint_jacobian
 
 RANK_TOL = 1e-9  # singular values below this times the largest are structural zeros
 # The analysis differentiates the whole program w.r.t. every unknown: on large programs it

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.linearize import _Evaluation, independents
+from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.layout import independents
 
 
 @dataclass
@@ -31,7 +32,7 @@ def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = _Evaluation(prog, lo, hi, ind, p, point=True).run()
+    rows = Evaluation(prog, lo, hi, ind, p, point=True).run()
     d = np.concatenate([0.5 * (r[0][0] + r[0][1]) for r in rows])
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
     jac = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])

@@ -29,7 +29,7 @@ import numpy as np
 
 from calib_dsl.arith.interval import LIB_ABS, LIB_REL
 from calib_dsl.ir.program import Program, derived
-from calib_dsl.relax.linearize import Layout, independents, layout
+from calib_dsl.relax.layout import Layout, independents, layout
 
 U = 2.0**-53  # unit roundoff
 # an upper bound on a float sum of nonnegative terms (<= 2^12 of them, plus products):

@@ -10,7 +10,7 @@ from calib_dsl.analysis.identify import ROUTINE_MAX_PRIMITIVES, analyse, combina
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.linearize import independents
+from calib_dsl.relax.layout import independents
 from calib_dsl.strategy.solution import Solution
 
 

@@ -26,7 +26,8 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.propagate.fixpoint import Emptied, propagate
-from calib_dsl.relax.linearize import independents, measured_cells, relax
+from calib_dsl.relax.layout import independents, measured_cells
+from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion

@@ -18,7 +18,8 @@ import numpy as np
 from calib_dsl.analysis.identify import analyse_design
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
-from calib_dsl.relax.linearize import independents, relax
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import relax
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
 from calib_dsl.strategy.rounds import LPRounds
