@@ -55,6 +55,13 @@ class Settings:
     narrowed_rounds: int = 10
     narrowed_gain: float = 0.01
 
+    # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------
+    # A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its
+    # outputs' models in the unknowns they depend on only). Above it (the RX90 with 33
+    # unknowns: about 350 configurations) there are no models, and the strategies keep to
+    # first order rather than exhaust the memory.
+    max_table_bytes: float = 600e6
+
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut
     # into split_pieces pieces, each refined by at most split_rounds rounds of its own, if

@@ -31,7 +31,8 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import Program, compile_model
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
-from calib_dsl.relax import taylor as tm
+from calib_dsl.relax import models as tm
+from calib_dsl.relax import taylor
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
@@ -121,7 +122,7 @@ def check_program(prog: Program, lo: np.ndarray, hi: np.ndarray, rng: np.random.
     ind = independents(prog)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        ex = tm.expand(prog, lo, hi)
+        ex = taylor.expand(prog, lo, hi)
         if ex is None:
             return 0
         m = ex.rows.models
@@ -132,7 +133,7 @@ def check_program(prog: Program, lo: np.ndarray, hi: np.ndarray, rng: np.random.
             t = (p - ex.center) / ex.half
             plo, phi = lo.copy(), hi.copy()
             plo[ind], phi[ind] = p, p
-            at = tm.expand(prog, plo, phi)
+            at = taylor.expand(prog, plo, phi)
             assert at is not None and len(at.rows.lo) == len(m.r)
             finite = np.isfinite(m.r)
             poly = polynomial(m, ex.pairs, np.broadcast_to(t, (len(m.r), len(t))))
@@ -259,7 +260,7 @@ def test_narrowed_product_columns_hold_every_product(data, n) -> None:
                            np.concatenate([-np.ones(n), np.where(pairs.diagonal[kept], 0, -1.0)]),
                            np.ones(n + len(kept)), main=n,
                            col_keys=np.concatenate([np.arange(n), n + kept]))
-    ex = tm.Expansion(np.zeros(n), np.ones(n), pairs, None)  # (rows: not used)
+    ex = taylor.Expansion(np.zeros(n), np.ones(n), pairs, None)  # (rows: not used)
     small = narrowed(rel, ex, tl, th)
     assert np.all(rel.lo <= small.lo) and np.all(small.hi <= rel.hi)
     for _ in range(20):
@@ -278,9 +279,13 @@ def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
     """Too many slots times products: no models (first order goes on), not a MemoryError."""
     prog = compile_model(elaborate(ROOT / "models" / "examples" / "planar_arm.cal"))
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
-    assert tm.expand(prog, lo, hi) is not None
-    monkeypatch.setattr(tm, "MAX_TABLE_BYTES", 1000.0)
-    assert tm.expand(prog, lo, hi) is None
+    assert taylor.expand(prog, lo, hi) is not None
+    from dataclasses import replace
+
+    from calib_dsl import settings as tuning
+
+    monkeypatch.setattr(tuning, "DEFAULT", replace(tuning.DEFAULT, max_table_bytes=1000.0))
+    assert taylor.expand(prog, lo, hi) is None
     assert relax_quadratic(prog, lo, hi) is None
 
 
@@ -289,7 +294,8 @@ def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
 def test_pair_index_maps_a_subset_of_unknowns_into_all_pairs(n: int, data) -> None:
     """expand works on the unknowns a group depends on: the pairs of that subset must land on
     the same pairs of all the unknowns."""
-    from calib_dsl.relax.taylor import Pairs, _pair_index
+    from calib_dsl.relax.models import Pairs
+    from calib_dsl.relax.taylor import _pair_index
 
     cols = np.array(sorted(data.draw(st.sets(st.integers(0, n - 1), min_size=1))))
     at = _pair_index(cols, n)

@@ -26,8 +26,9 @@ import numpy as np
 from calib_dsl.arith import interval as iv
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.models import Models
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
-from calib_dsl.relax.taylor import Expansion, Models, expand
+from calib_dsl.relax.taylor import Expansion, expand
 
 # A product goes back into the remainders when that costs no row more than this share of its
 # width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
