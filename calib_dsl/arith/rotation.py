@@ -21,8 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.arith import interval as iv
+from calib_dsl.arith.boxes import finish_box, periodic_hull, prepare_boxes, sqr_project
 from calib_dsl.arith.interval import TWO_PI_LO, Arr, Interval
-from calib_dsl.arith.projections import finish_box, periodic_hull, prepare_boxes, sqr_project
 
 Bool = np.ndarray
 Rot = tuple[Interval, Interval, Interval, Interval, Interval]

@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from calib_dsl.arith.projections import forward
 from calib_dsl.frontend.diagnostics import Loc
 
 UNARY = ("neg", "sqr", "sqrt", "exp", "log", "sin", "cos", "tan", "abs", "pow")
@@ -244,10 +245,6 @@ class Dag:
         return None
 
     def _fold(self, op: str, args: tuple[int, ...], data: Any) -> int:
-        from calib_dsl.arith.projections import (
-            forward,  # late import: projections is the arithmetic core
-        )
-
         boxes = [(np.array([self.nodes[a].data[0]]), np.array([self.nodes[a].data[1]]))
                  for a in args]
         param = None if data is None else np.array([float(data)])

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calib_dsl.arith.projections import _BACKWARD, _FAST_BACKWARD, _FORWARD, backward, forward
+from calib_dsl.arith.projections import BACKWARD, FAST_BACKWARD, FORWARD, backward, forward
 from calib_dsl.arith.rotation import rot_contract, rot_contract_raw
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.program import Group, Program, derived
@@ -182,8 +182,8 @@ def _group_kernels(g: Group) -> tuple[Step, Step]:
     acols = [np.ascontiguousarray(c) for c in g.args.T]
     aunique = g.args_unique
     param = g.param
-    fw_fn = _FORWARD[g.op]
-    bw_fn = _FAST_BACKWARD.get(g.op, _BACKWARD[g.op])
+    fw_fn = FORWARD[g.op]
+    bw_fn = FAST_BACKWARD.get(g.op, BACKWARD[g.op])
 
     def fw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int) -> None:
         zlo, zhi = fw_fn([(lo[c], hi[c]) for c in acols], param)
