@@ -101,8 +101,8 @@ def child(record: str, argv: list[str]) -> None:
 
 def synthetic(path: str, sweeps: int, record: str) -> None:
     """Build the generated model and propagate it for a fixed number of sweeps."""
+    from calib_dsl.compile.group import compile_model
     from calib_dsl.elaborate.elaborator import elaborate
-    from calib_dsl.ir.program import compile_model
     from calib_dsl.propagate.fixpoint import propagate
 
     t = time.perf_counter()

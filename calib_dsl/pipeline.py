@@ -10,8 +10,9 @@ from __future__ import annotations
 import gc
 from pathlib import Path
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_hc4, solve_tight

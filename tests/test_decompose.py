@@ -11,12 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.compile.decompose import decompose, format_const
+from calib_dsl.compile.decompose import decompose
+from calib_dsl.compile.group import compile_model
 from calib_dsl.compile.listing import render_primitive
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.primitives import format_const
+from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"

@@ -33,10 +33,11 @@ from hypothesis import strategies as st
 
 from calib_dsl.analysis.simulate import simulate_model, write_csv
 from calib_dsl.arith.projections import forward
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
@@ -706,8 +707,8 @@ def test_too_many_cell_columns_are_folded() -> None:
     """Over max_cell_columns the measurement errors are folded, not LP columns."""
     from pathlib import Path
 
+    from calib_dsl.compile.group import compile_model
     from calib_dsl.elaborate.elaborator import elaborate
-    from calib_dsl.ir.program import compile_model
     from calib_dsl.propagate.fixpoint import propagate
 
     models = Path(__file__).resolve().parent.parent / "models"

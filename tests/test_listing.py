@@ -9,11 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from calib_dsl.compile.decompose import Primitive
+from calib_dsl.compile.group import compile_model
 from calib_dsl.compile.listing import listing_json, render_listing, render_primitive
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.frontend.diagnostics import Loc
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.primitives import Primitive
+from calib_dsl.ir.program import Program
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
 

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from calib_dsl.compile.group import compile_model, make_groups
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program, compile_model, make_groups
+from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"

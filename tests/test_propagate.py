@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
 

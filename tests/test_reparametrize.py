@@ -12,8 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_tight import arm_solved_twice  # the sibling test module: an arm with parallel axes
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import compile_model
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras

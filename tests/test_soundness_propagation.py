@@ -22,10 +22,11 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import Result, propagate
 from calib_dsl.strategy.tight import solve_tight
 

@@ -27,8 +27,9 @@ from test_linearize import (  # the sibling test module: its model generators
     truth_arrays,
 )
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.relax import models as tm

@@ -33,10 +33,11 @@ from test_linearize import (  # the sibling test module: its model generators
 )
 
 from calib_dsl.analysis.simulate import simulate
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT

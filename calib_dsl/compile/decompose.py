@@ -10,84 +10,26 @@ they are merged too, until nothing changes (congruence closure), so CSE survives
 
 from __future__ import annotations
 
-import itertools
-from dataclasses import dataclass
-from typing import Any, NamedTuple
-
 import numpy as np
 
+from calib_dsl.arith.interval import INF
+from calib_dsl.compile.merge import (
+    DagArrays,
+    UnionFind,
+    congruence_closure,
+    first_of_each,
+    live_nodes,
+    node_locations,
+)
 from calib_dsl.frontend.diagnostics import Loc
-from calib_dsl.ir.dag import Dag, Node
+from calib_dsl.ir.dag import TERNARY, Dag
 from calib_dsl.ir.model import Model
-
-INF = float("inf")
-
-
-class Primitive(NamedTuple):
-    """out = op(args); a named tuple (the compiler makes hundreds of thousands)."""
-
-    op: str  # a DAG op; "rot" joins rotu/rotv: out = (u2, v2), args = (beta, u, v)
-    out: tuple[int, ...]
-    args: tuple[int, ...]
-    param: float | None
-    loc: Loc | None
-    level: int
-
-
-@dataclass
-class Slots:
-    """The unknowns and constants of the program, one per class of merged DAG nodes."""
-
-    names: list[str]
-    kinds: list[str]  # "param" | "var" | "data" | "const" | "temp"
-    lo: np.ndarray
-    hi: np.ndarray
-    # Where each slot's initial domain was last narrowed (declaration or constraint).
-    origin: list[Loc | None]
-    declared: list[int]  # slots of declared unknowns, in declaration order
-    declared_names: list[str]
-    # Measured cells: the configuration (table row) and table column a constant slot was read
-    # from; -1 for other slots, -2 for a constant shared by several configurations.
-    cell_row: np.ndarray | None = None
-    cell_col: np.ndarray | None = None
-
-
-class _UnionFind:
-    def __init__(self, n: int) -> None:
-        self.parent = list(range(n))
-
-    def find(self, i: int) -> int:
-        root = i
-        while self.parent[root] != root:
-            root = self.parent[root]
-        while self.parent[i] != root:  # path compression
-            self.parent[i], i = root, self.parent[i]
-        return root
-
-    def union(self, a: int, b: int) -> bool:
-        ra, rb = self.find(a), self.find(b)
-        if ra == rb:
-            return False
-        self.parent[max(ra, rb)] = min(ra, rb)
-        return True
+from calib_dsl.ir.primitives import Primitive, PrimitiveArrays, Slots, format_const
 
 
 def decompose(model: Model) -> tuple[Slots, list[Primitive]]:
     slots, prims, _ = decompose_arrays(model)
     return slots, prims
-
-
-@dataclass
-class PrimitiveArrays:
-    """The primitives as arrays, in the order of the list (program.py groups them from these).
-    `out` has two columns (-1 in the second but for rot), `args` three (-1 past the arity)."""
-
-    op: list[str]
-    out: np.ndarray
-    args: np.ndarray
-    arity: np.ndarray
-    param: list[float | None]
-    level: np.ndarray
 
 
 def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArrays]:
@@ -96,12 +38,12 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     dag = model.dag
     caps, cap_owner = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
     _complete_rotations(dag)
-    g = _DagArrays(dag)
-    live = _live_nodes(dag, g, [c.lhs for c in dag.constraints]
+    g = DagArrays(dag)
+    live = live_nodes(dag, g, [c.lhs for c in dag.constraints]
                        + [c.rhs for c in dag.constraints]
                        + [c[0] for c in caps] + [v.node for v in dag.variables.values()])
-    first_root, root_locs = _node_locations(dag, g, caps, cap_owner)
-    uf = _UnionFind(g.n)
+    first_root, root_locs = node_locations(dag, g, caps, cap_owner)
+    uf = UnionFind(g.n)
     for c in dag.constraints:
         if c.rel == "==" and not (_interval_const(dag, c.lhs) or _interval_const(dag, c.rhs)):
             uf.union(c.lhs, c.rhs)
@@ -109,7 +51,7 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     for c in dag.constraints:
         for side in (c.lhs, c.rhs):
             rep[side] = uf.find(side)
-    rep = _congruence_closure(g, live, rep)
+    rep = congruence_closure(g, live, rep)
     slot_of, slots = _make_slots(dag, g, live, rep, caps)
     temp = np.array([k == "temp" for k in slots.kinds], dtype=bool)
     prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs, temp)
@@ -145,141 +87,16 @@ def _relations_to_caps(dag: Dag) -> tuple[list[tuple[int, float, float, Loc | No
     return caps, owner
 
 
-_ROT = ("rotu", "rotv")
+
 
 
 def _complete_rotations(dag: Dag) -> None:
     """A rotation is one primitive with two outputs: make sure both output nodes exist."""
-    for node in [node for node in dag.nodes if node.op in _ROT]:
+    for node in [node for node in dag.nodes if node.op in TERNARY]:
         dag.op("rotv" if node.op == "rotu" else "rotu", *node.args)
 
 
-class _DagArrays:
-    """The DAG's nodes as arrays: op codes, arguments (n, 3) padded with -1, arity, level,
-    a code for the node's data (0: None), and the other output of a rotation (-1: none);
-    plus the node ids sorted by level."""
-
-    def __init__(self, dag: Dag) -> None:
-        nodes = dag.nodes
-        n = self.n = len(nodes)
-        self.names = [node.op for node in nodes]
-        codes = self.codes = {o: k for k, o in enumerate(dict.fromkeys(self.names))}
-        self.op = np.fromiter(map(codes.__getitem__, self.names), dtype=np.int64, count=n)
-        args = [node.args for node in nodes]
-        self.arity = np.fromiter(map(len, args), dtype=np.int64, count=n)
-        flat = np.fromiter(itertools.chain.from_iterable(args), dtype=np.int64,
-                           count=int(self.arity.sum()))
-        self.args = np.full((n, 3), -1, dtype=np.int64)
-        rows = np.repeat(np.arange(n), self.arity)
-        starts = np.cumsum(self.arity) - self.arity
-        self.args[rows, np.arange(len(flat)) - starts[rows]] = flat
-        datas: dict[Any, int] = {}
-        self.data = np.zeros(n, dtype=np.int64)
-        for i in np.flatnonzero(self.arity > 0).tolist():  # operations: an exponent, or None
-            data = nodes[i].data
-            if data is not None:
-                self.data[i] = datas.setdefault(data, len(datas) + 1)
-        levels = getattr(dag, "_levels", None)
-        if levels is not None and len(levels) == n:
-            self.level = np.array(levels, dtype=np.int64)
-        else:  # a DAG whose levels were not kept: one pass (ids are topological)
-            lv = [0] * n
-            for i, a in enumerate(args):
-                if a:
-                    lv[i] = 1 + max(lv[j] for j in a)
-            self.level = np.array(lv, dtype=np.int64)
-        self.sibling = np.full(n, -1, dtype=np.int64)
-        rot = [codes[o] for o in _ROT if o in codes]
-        for i in np.flatnonzero(np.isin(self.op, rot)).tolist():
-            other = "rotv" if self.names[i] == "rotu" else "rotu"
-            self.sibling[i] = dag._table[Node(other, nodes[i].args)]
-        self.by_level = np.argsort(self.level, kind="stable")
-        self.level_start = np.searchsorted(self.level[self.by_level],
-                                           np.arange(int(self.level.max(initial=0)) + 2))
-
-    def at_level(self, level: int) -> np.ndarray:
-        return self.by_level[self.level_start[level]:self.level_start[level + 1]]
-
-    def top(self) -> int:
-        return len(self.level_start) - 2
-
-
-def _live_nodes(dag: Dag, g: _DagArrays, roots: list[int]) -> np.ndarray:
-    """The nodes the roots reach (a rotation's two outputs live together), level by level
-    from the top: a node's arguments are on lower levels."""
-    live = np.zeros(g.n, dtype=bool)
-    live[roots] = True
-    for level in range(g.top(), 0, -1):
-        idx = g.at_level(level)
-        on = idx[live[idx]]
-        sib = g.sibling[on]
-        live[sib[sib >= 0]] = True  # same arguments, so the same level
-        on = idx[live[idx]]
-        a = g.args[on].ravel()
-        live[a[a >= 0]] = True
-    return live
-
-
-def _node_locations(dag: Dag, g: _DagArrays, caps: list, cap_owner: list[int]
-                    ) -> tuple[np.ndarray, list[Loc | None]]:
-    """Each node takes the location of the first constraint in source order that reaches it
-    (either side, or its cap): per node, the index of that constraint (len: none), and the
-    constraints' locations."""
-    cons = dag.constraints
-    nodes = [c.lhs for c in cons] + [c.rhs for c in cons] + [c[0] for c in caps]
-    rank = list(range(len(cons))) * 2 + list(cap_owner)
-    none = len(cons)
-    first = np.full(g.n, none, dtype=np.int64)
-    if nodes:
-        np.minimum.at(first, np.array(nodes, dtype=np.int64), np.array(rank, dtype=np.int64))
-    for level in range(g.top(), 0, -1):
-        idx = g.at_level(level)
-        idx = idx[first[idx] < none]
-        for j in range(3):
-            a = g.args[idx, j]
-            has = a >= 0
-            np.minimum.at(first, a[has], first[idx[has]])
-    return first, [c.loc for c in cons] + [None]
-
-
-def _congruence_closure(g: _DagArrays, live: np.ndarray, rep: np.ndarray) -> np.ndarray:
-    """Merge the outputs of primitives that became identical after merging their inputs:
-    `rep` maps each node to the smallest node of its class; repeated to the fixed point."""
-    ops = np.flatnonzero(live & (g.arity > 0))
-    if len(ops) == 0:
-        return rep
-    op, data, args = g.op[ops], g.data[ops], g.args[ops]
-    commutative = np.isin(op, [g.codes[o] for o in ("add", "mul") if o in g.codes])
-    while True:
-        r = np.where(args >= 0, rep[np.maximum(args, 0)], -1)
-        a0 = np.where(commutative, np.minimum(r[:, 0], r[:, 1]), r[:, 0])
-        a1 = np.where(commutative, np.maximum(r[:, 0], r[:, 1]), r[:, 1])
-        order = np.lexsort((r[:, 2], a1, a0, data, op))
-        keys = np.stack([op, data, a0, a1, r[:, 2]])[:, order]
-        new = np.ones(len(order), dtype=bool)
-        new[1:] = (keys[:, 1:] != keys[:, :-1]).any(axis=0)
-        head = np.maximum.accumulate(np.where(new, np.arange(len(order)), 0))
-        u, v = rep[ops[order]], rep[ops[order[head]]]
-        pairs = u != v
-        if not pairs.any():
-            return rep
-        u, v = u[pairs], v[pairs]
-        label = np.arange(len(rep), dtype=np.int64)
-        while True:  # connected components of the classes joined by the pairs: min label
-            m = np.minimum(label[u], label[v])
-            np.minimum.at(label, u, m)
-            np.minimum.at(label, v, m)
-            while True:
-                jumped = label[label]
-                if np.array_equal(jumped, label):
-                    break
-                label = jumped
-            if np.array_equal(label[u], label[v]):
-                break
-        rep = label[rep]
-
-
-def _make_slots(dag: Dag, g: _DagArrays, live: np.ndarray, rep: np.ndarray, caps: list):
+def _make_slots(dag: Dag, g: DagArrays, live: np.ndarray, rep: np.ndarray, caps: list):
     declared = [v for v in dag.variables.values()]
     first: dict[int, int] = {}
     for v in declared:  # declared unknowns first, in declaration order
@@ -347,7 +164,7 @@ def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:
     lo[s], hi[s] = max(lo[s], a), min(hi[s], b)
 
 
-def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndarray,
+def _make_primitives(dag: Dag, g: DagArrays, live: np.ndarray, slot_of: np.ndarray,
                      first_root: np.ndarray, root_locs: list[Loc | None], temp: np.ndarray
                      ) -> tuple[list[Primitive], PrimitiveArrays]:
     """One primitive per live operation node, in node order; a rotation's two output nodes
@@ -371,7 +188,7 @@ def _make_primitives(dag: Dag, g: _DagArrays, live: np.ndarray, slot_of: np.ndar
     commutative = np.isin(op, [g.codes[o] for o in ("add", "mul") if o in g.codes])
     key_args = args.copy()
     key_args[commutative, :2] = np.sort(args[commutative, :2], axis=1)
-    keep = _first_of_each(np.column_stack([op, g.data[idx], out, key_args]))
+    keep = first_of_each(np.column_stack([op, g.data[idx], out, key_args]))
     if keep is not None:
         idx, rot, arity, args, out = idx[keep], rot[keep], arity[keep], args[keep], out[keep]
     level = _consistent_levels(g.level[idx], out, args, temp)
@@ -430,27 +247,6 @@ def _new_primitive(fields: tuple) -> Primitive:
     return tuple.__new__(Primitive, fields)
 
 
-def _first_of_each(keys: np.ndarray) -> np.ndarray | None:
-    """The sorted indices of the first row of each distinct row of keys (None: all distinct).
-    Rows with different outputs (column 2) differ, so only rows sharing one are compared."""
-    _, inverse, counts = np.unique(keys[:, 2], return_inverse=True, return_counts=True)
-    shared = np.flatnonzero(counts[inverse] > 1)
-    if len(shared) == 0:
-        return None
-    seen: set[tuple[int, ...]] = set()
-    drop = []
-    for k, row in zip(shared.tolist(), map(tuple, keys[shared].tolist()), strict=True):
-        if row in seen:
-            drop.append(k)
-        else:
-            seen.add(row)
-    if not drop:
-        return None
-    keep = np.ones(len(keys), dtype=bool)
-    keep[drop] = False
-    return np.flatnonzero(keep)
-
-
 def _name_temporaries(slots: Slots, arrays: PrimitiveArrays) -> None:
     """t1, t2, ... for the temporaries, in the order the primitives first output them."""
     outs = arrays.out.ravel()
@@ -467,21 +263,3 @@ def _name_temporaries(slots: Slots, arrays: PrimitiveArrays) -> None:
         if not name:
             count += 1
             slots.names[s] = f"t{count}"
-
-
-def format_const(lo: float, hi: float) -> str:
-    """A constant as the user wrote it: a decimal's enclosure prints as that decimal."""
-    if lo == hi:
-        return _short(lo)
-    if np.nextafter(lo, INF) == hi:
-        return min(_short(lo), _short(hi), key=len)
-    return f"[{_short(lo)}, {_short(hi)}]"
-
-
-def _short(x: float) -> str:
-    if x == INF:
-        return "+oo"
-    if x == -INF:
-        return "-oo"
-    text = repr(float(x))
-    return text[:-2] if text.endswith(".0") else text

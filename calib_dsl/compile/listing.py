@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from calib_dsl.compile.decompose import Primitive, format_const
+from calib_dsl.ir.primitives import Primitive, format_const
 from calib_dsl.ir.program import Program
 
 INFIX = {"add": "+", "sub": "-", "mul": "*", "div": "/"}

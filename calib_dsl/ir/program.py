@@ -1,22 +1,18 @@
-"""The flat program: plain arrays ready for a vectorized propagator.
-
-Primitives are grouped by (DAG level, operation): a group is a handful of integer arrays, and
-the propagator runs one group with a few numpy calls, whatever its size.
+"""The flat program's data types: groups of primitives as integer arrays, ready for a
+vectorized propagator (compile/group.py makes them), and what the solvers derive from a
+program once.
 """
 
 from __future__ import annotations
 
-import weakref
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
 
-from calib_dsl.compile.decompose import Primitive, PrimitiveArrays, Slots, decompose_arrays
-from calib_dsl.ir.dag import paused_gc
-from calib_dsl.ir.model import Model
+from calib_dsl.ir.primitives import Primitive, Slots
 
 T = TypeVar("T")
 
@@ -43,6 +39,14 @@ class Program:
     groups: list[Group]
     true_values: dict[str, float | None]
     domains: dict[str, tuple[float, float]] | None = None  # as declared (the search domains)
+    # What the solvers derive from the program whatever the box (propagation kernels,
+    # layouts, plans), by kind, with the groups it was made from (see `derived`).
+    derived_cache: dict[str, tuple[list[Group], Any]] = field(
+        default_factory=dict, init=False, repr=False, compare=False)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the cache holds closures, and a child process rebuilds what it needs
+        return {**self.__dict__, "derived_cache": {}}
 
     @property
     def op_counts(self) -> dict[str, int]:
@@ -62,77 +66,12 @@ class Program:
         }
 
 
-def compile_model(model: Model) -> Program:
-    with paused_gc():  # hundreds of thousands of primitives: no cycles to look for
-        slots, prims, arrays = decompose_arrays(model)
-    truth = {v.name: v.true for v in model.dag.variables.values()}
-    domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
-    return Program(model.path, model.formulation, slots, prims, _groups(arrays), truth,
-                   domains)
-
-
-def make_groups(prims: list[Primitive]) -> list[Group]:
-    buckets: dict[tuple[int, str], list[int]] = {}
-    for i, p in enumerate(prims):
-        buckets.setdefault((p.level, p.op), []).append(i)
-    return [_group(op, level, idx, prims) for (level, op), idx in sorted(buckets.items())]
-
-
-def _groups(a: PrimitiveArrays) -> list[Group]:
-    """make_groups from the primitives' arrays (the same groups, without a pass over the
-    primitive objects)."""
-    if not a.op:
-        return []
-    code = {o: k for k, o in enumerate(sorted(set(a.op)))}  # in the order of the op names
-    op = np.fromiter(map(code.__getitem__, a.op), dtype=np.int64, count=len(a.op))
-    order = np.lexsort((op, a.level))  # by (level, op name), stable: primitive order within
-    key = a.level[order] * len(code) + op[order]
-    cut = np.flatnonzero(np.diff(key)) + 1
-    groups = []
-    for idx in np.split(order, cut):
-        i0 = int(idx[0])
-        name = a.op[i0]
-        k = int(a.arity[i0])
-        out = a.out[idx, :2 if name == "rot" else 1]
-        args = a.args[idx, :k]
-        param = None
-        if a.param[i0] is not None:
-            param = np.array([a.param[i] for i in idx.tolist()], dtype=float)
-        groups.append(Group(name, int(a.level[i0]), np.ascontiguousarray(out),
-                            np.ascontiguousarray(args), param, idx.astype(np.int64),
-                            tuple(_unique(c) for c in out.T), tuple(_unique(c) for c in args.T)))
-    return groups
-
-
-def _group(op: str, level: int, idx: list[int], prims: list[Primitive]) -> Group:
-    out = np.array([prims[i].out for i in idx], dtype=np.int64)
-    args = np.array([prims[i].args for i in idx], dtype=np.int64)
-    params = [prims[i].param for i in idx]
-    param = None if params[0] is None else np.array(params, dtype=float)
-    return Group(op, level, out, args, param, np.array(idx, dtype=np.int64),
-                 tuple(_unique(c) for c in out.T), tuple(_unique(c) for c in args.T))
-
-
-def _unique(column: np.ndarray) -> bool:
-    """No slot twice in the column (a sort: np.unique hashes, many times slower here)."""
-    s = np.sort(column)
-    return bool((s[1:] != s[:-1]).all())
-
-
-# What the solvers derive from a program whatever the box (propagation kernels, layouts,
-# plans), by (id(program), kind): the tight strategy runs the same program dozens of times.
-_DERIVED: dict[tuple[int, str], tuple[list[Group], Any]] = {}
-
-
 def derived(prog: Program, kind: str, build: Callable[[], T]) -> T:
-    """build(), made once per program and `kind`: kept until the program is collected, and
-    made again if its groups were replaced."""
-    key = (id(prog), kind)
-    cached = _DERIVED.get(key)
+    """build(), made once per program and `kind` (the tight strategy runs the same program
+    dozens of times), and made again if the program's groups were replaced."""
+    cached = prog.derived_cache.get(kind)
     if cached is not None and cached[0] is prog.groups:
-        return cached[1]
+        return cached[1]  # type: ignore[no-any-return]
     value = build()
-    if key not in _DERIVED:
-        weakref.finalize(prog, _DERIVED.pop, key, None)
-    _DERIVED[key] = (prog.groups, value)
+    prog.derived_cache[kind] = (prog.groups, value)
     return value

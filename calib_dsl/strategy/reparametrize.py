@@ -21,8 +21,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from calib_dsl.arith.interval import dn1, up1
-from calib_dsl.compile.decompose import Primitive, Slots
-from calib_dsl.ir.program import Program, make_groups
+from calib_dsl.compile.group import make_groups
+from calib_dsl.ir.primitives import Primitive, Slots
+from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 
 SNAP = 1e-9  # a coefficient this close to an integer (relative) is that integer
