@@ -12,8 +12,9 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program, compile_model
+from calib_dsl.ir.program import Program
 
 # `make test` (and so CI) draws the same pseudo-random cases on every run and machine, so a run
 # that passed here passes there; `make test-random` (HYPOTHESIS_PROFILE=random) draws fresh ones.

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from calib_dsl.analysis.simulate import simulate
+from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import compile_model
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
 
