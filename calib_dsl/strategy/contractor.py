@@ -16,7 +16,8 @@ from typing import Protocol
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.propagate.fixpoint import Emptied, Result, propagate
+from calib_dsl.propagate.diagnose import Emptied
+from calib_dsl.propagate.fixpoint import Result, propagate
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,8 @@ import numpy as np
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
-from calib_dsl.propagate.fixpoint import Emptied, propagate
+from calib_dsl.propagate.diagnose import Emptied
+from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents, measured_cells
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
