@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from calib_dsl.analysis.evaluate import Array, Evaluator
+from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
@@ -34,10 +35,6 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
 
     `out_csv` receives the model's table; without it each table goes to its own path.
     """
-    from calib_dsl.elaborate.elaborator import (
-        elaborate,  # late import: the elaborator imports much more
-    )
-
     model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows)
     if not model.tables:
         raise CalError("the model has no `table` to simulate")
@@ -181,7 +178,7 @@ def _check_constraints(dag: Dag, value: Array) -> None:
         scale = max(abs(lhs[0]), abs(lhs[1]), abs(rhs[0]), abs(rhs[1]))
         if not gap <= CHECK_ATOL + CHECK_RTOL * scale:  # also catches nan
             raise CalError(f"this constraint does not hold at the true values "
-                           f"({_show(lhs)} {c.rel} {_show(rhs)}): the simulated data would "
+                           f"({show(lhs)} {c.rel} {show(rhs)}): the simulated data would "
                            "be inconsistent", c.loc)
 
 
@@ -194,5 +191,5 @@ def _side(dag: Dag, value: Array, node: int) -> tuple[float, float]:
     return x, x
 
 
-def _show(side: tuple[float, float]) -> str:
+def show(side: tuple[float, float]) -> str:
     return repr(side[0]) if side[0] == side[1] else f"[{side[0]!r}, {side[1]!r}]"
