@@ -7,8 +7,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-import numpy as np
-
+from calib_dsl.arith.exact import enclose_fraction
 from calib_dsl.elaborate.scope import BUILTINS, Scalar, Value
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
@@ -32,13 +31,10 @@ MAX_UNROLL = 10_000_000  # loop iterations / family elements: a guard against ty
 # -- helpers ----------------------------------------------------------------------------------
 def enclose(q: Fraction, loc: Loc | None) -> tuple[float, float]:
     """The tightest float interval holding the exact rational q."""
-    x = nearest(q, loc)
-    exact = Fraction(x)
-    if exact == q:
-        return x, x
-    if exact < q:
-        return x, float(np.nextafter(x, INF))
-    return float(np.nextafter(x, -INF)), x
+    try:
+        return enclose_fraction(q)
+    except OverflowError:
+        raise CalError("number too large for a float", loc) from None
 
 
 def nearest(q: Fraction, loc: Loc | None) -> float:

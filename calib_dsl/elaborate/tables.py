@@ -11,12 +11,12 @@ import csv
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from calib_dsl.arith.exact import add_rounded, enclose_decimal
 from calib_dsl.frontend.diagnostics import CalError, Loc
 
 FloatArray = NDArray[np.float64]
@@ -70,20 +70,7 @@ def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = No
 
 def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray, FloatArray]:
     """[lo - tol, hi + tol] for each cell, rounded outward (and exact when it can be)."""
-    return _sub_down(lo, tol), _add_up(hi, tol)
-
-
-def _add_up(a: FloatArray, b: float) -> FloatArray:
-    """a + b rounded up: TwoSum gives the rounding error of the float sum exactly."""
-    s = a + b
-    t = s - a
-    err = (a - (s - t)) + (b - t)
-    return np.where(err > 0, np.nextafter(s, np.inf), s)
-
-
-def _sub_down(a: FloatArray, b: float) -> FloatArray:
-    """a - b rounded down."""
-    return -_add_up(-a, b)
+    return -add_rounded(-lo, tol, 1.0), add_rounded(hi, tol, 1.0)
 
 
 # -- steps ----------------------------------------------------------------------------------
@@ -155,9 +142,4 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
     value = float(cell)
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
-    exact, near = Decimal(cell), Decimal(value)  # both exact
-    if near == exact:
-        return value, value, value
-    if near < exact:
-        return value, value, float(np.nextafter(value, np.inf))
-    return value, float(np.nextafter(value, -np.inf)), value
+    return (value, *enclose_decimal(cell))

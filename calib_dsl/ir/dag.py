@@ -11,11 +11,11 @@ import gc
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from fractions import Fraction
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from calib_dsl.arith.exact import enclose_decimal
 from calib_dsl.arith.projections import forward
 from calib_dsl.frontend.diagnostics import Loc
 
@@ -265,13 +265,3 @@ def paused_gc() -> Iterator[None]:
         if was:
             gc.enable()
 
-
-def enclose_decimal(text: str) -> tuple[float, float]:
-    """The smallest float interval holding the exact value of a decimal literal."""
-    exact = Fraction(text)
-    x = float(exact)
-    if Fraction(x) == exact:
-        return x, x
-    if Fraction(x) < exact:
-        return x, float(np.nextafter(x, np.inf))
-    return float(np.nextafter(x, -np.inf)), x

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from calib_dsl.arith.exact import add_rounded
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.group import make_groups
 from calib_dsl.ir.primitives import Primitive, Slots
@@ -179,22 +180,9 @@ def _sum_enclosure(coef: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[fl
     b = np.where(exact, b, up1(b))
     total_lo, total_hi = 0.0, 0.0
     for x, y in zip(a.tolist(), b.tolist(), strict=True):
-        total_lo = _sum_rounded(total_lo, x, -1.0)
-        total_hi = _sum_rounded(total_hi, y, 1.0)
+        total_lo = float(add_rounded(np.array(total_lo), x, -1.0))
+        total_hi = float(add_rounded(np.array(total_hi), y, 1.0))
     return total_lo, total_hi
-
-
-def _sum_rounded(x: float, y: float, way: float) -> float:
-    """x + y rounded down (way -1) or up (+1): the float sum, moved one float only where it
-    is not exact (its error, from Knuth's two-sum, is exact in floating point)."""
-    s = x + y
-    if not np.isfinite(s):
-        return float(dn1(np.array(s)) if way < 0 else up1(np.array(s)))
-    v = s - x
-    err = (x - (s - v)) + (y - v)  # x + y = s + err exactly
-    if err == 0.0 or (err > 0) == (way < 0):
-        return s  # exact, or already on the right side
-    return float(np.nextafter(s, way * np.inf))
 
 
 def _name_new_temporaries(names: list[str], start: int) -> None:
