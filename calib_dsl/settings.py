@@ -62,6 +62,21 @@ class Settings:
     # first order rather than exhaust the memory.
     max_table_bytes: float = 600e6
 
+    # A product goes back into the remainders when that costs no row more than this share of
+    # its width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
+    prune: float = 0.25
+
+    # -- the change of unknowns (strategy/reparametrize.py) -----------------------------------
+    snap: float = 1e-9  # a coefficient this close to an integer (relative) is that integer
+
+    # -- identifiability (analysis/identify.py) -----------------------------------------------
+    rank_tol: float = 1e-9  # singular values below this times the largest are structural zeros
+    # The analysis differentiates the whole program w.r.t. every unknown: on large programs it
+    # would cost more than the solve itself, and the rank does not need a thousand
+    # configurations. Above this many primitives `solve` runs it neither for its report nor
+    # for the change of unknowns; `calibc identify` always does.
+    routine_max_primitives: int = 50_000
+
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut
     # into split_pieces pieces, each refined by at most split_rounds rounds of its own, if

@@ -118,13 +118,16 @@ def test_nothing_to_change_where_all_is_identifiable(tmp_path: Path) -> None:
 
 
 def test_no_change_on_a_program_too_large_to_analyse(sum_model, monkeypatch) -> None:
-    """Above identify.ROUTINE_MAX_PRIMITIVES the analysis would cost more than it saves:
+    """Above settings.routine_max_primitives the analysis would cost more than it saves:
     the program is solved as it is (the same box as asking for no change)."""
-    import calib_dsl.analysis.identify as identify
+    from dataclasses import replace
 
-    monkeypatch.setattr(identify, "ROUTINE_MAX_PRIMITIVES", len(sum_model.primitives) - 1)
-    assert along_combinations(sum_model) is None
-    res, plain = solve_tight(sum_model), solve_tight(sum_model, combinations=False)
+    from calib_dsl.settings import DEFAULT
+
+    small = replace(DEFAULT, routine_max_primitives=len(sum_model.primitives) - 1)
+    assert along_combinations(sum_model, small) is None
+    res = solve_tight(sum_model, settings=small)
+    plain = solve_tight(sum_model, combinations=False)
     assert res.combinations == ()
     assert np.array_equal(res.lo, plain.lo) and np.array_equal(res.hi, plain.hi)
 

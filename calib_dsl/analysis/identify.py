@@ -17,13 +17,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import constraint_jacobian
-
-RANK_TOL = 1e-9  # singular values below this times the largest are structural zeros
-# The analysis differentiates the whole program w.r.t. every unknown: on large programs it
-# would cost more than the solve itself, and the rank does not need a thousand configurations.
-# Above this many primitives `solve` runs it neither for its report nor for the tight
-# strategy's change of unknowns (reparametrize.py); `calibc identify` always does.
-ROUTINE_MAX_PRIMITIVES = 50_000
+from calib_dsl.settings import DEFAULT
 
 
 @dataclass
@@ -54,12 +48,12 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     s_full = np.zeros(len(names))
     s_full[: len(s)] = s
     top = s_full.max() if len(s_full) else 0.0
-    rank = int(np.sum(s_full > RANK_TOL * top)) if top > 0 else 0
+    rank = int(np.sum(s_full > DEFAULT.rank_tol * top)) if top > 0 else 0
     null = vt[rank:].T  # (n, n - rank), in scaled coordinates
     touched = np.linalg.norm(null, axis=1) > 1e-6 if null.size else np.zeros(len(names), bool)
     ident = [n for n, t in zip(names, touched, strict=True) if not t]
     groups = _groups(names, null, touched, scale)
-    nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > RANK_TOL * top][:3]
+    nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > DEFAULT.rank_tol * top][:3]
     weakest = [(float(s_full[k]), _direction(names, vt[k], scale)) for k in nonzero]
     return Identifiability(names, rank, s_full, ident, groups, weakest)
 

@@ -15,7 +15,6 @@ multiplying by the constants 0 and 1 creates no node), so no value is ever lost.
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 from calib_dsl.ir.dag import Dag
@@ -58,21 +57,21 @@ def chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
 
 
 # The elaborator asks for each tool point of a configuration in turn: hash-consing would
-# share the matrix anyway, but rebuilding it costs 3x the dag.op calls. Nodes are immutable,
-# so a matrix stays valid for its DAG; the weak reference tells a reused id from the same DAG.
+# share the matrix anyway, but rebuilding it costs 3x the dag.op calls. Nodes never change,
+# so the DAG keeps the last few matrices, by the nodes of their frames.
 _CACHE_SIZE = 8
-_matrix_cache: dict[tuple[int, tuple[int, ...]], tuple[weakref.ref[Dag], Mat34]] = {}
 
 
 def _cached_chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
-    key = (id(dag), tuple(n for f in frames for n in (f.alpha, f.d, f.theta, f.r)))
-    hit = _matrix_cache.get(key)
-    if hit is not None and hit[0]() is dag:
-        return hit[1]
+    cache: dict[tuple[int, ...], Mat34] = dag.memo.setdefault("chain matrices", {})
+    key = tuple(n for f in frames for n in (f.alpha, f.d, f.theta, f.r))
+    hit = cache.get(key)
+    if hit is not None:
+        return hit
     m = chain_matrix(dag, frames)
-    if len(_matrix_cache) >= _CACHE_SIZE:
-        del _matrix_cache[next(iter(_matrix_cache))]  # the oldest
-    _matrix_cache[key] = (weakref.ref(dag), m)
+    if len(cache) >= _CACHE_SIZE:
+        del cache[next(iter(cache))]  # the oldest
+    cache[key] = m
     return m
 
 

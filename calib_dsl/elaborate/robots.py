@@ -60,7 +60,7 @@ class Robots(Context):
                            e.point.loc)
         where = e.point.loc
         xyz = (self.node(point[0], where), self.node(point[1], where), self.node(point[2], where))
-        key = (id(robot), args, xyz)
+        key = (robot.name, args, xyz)
         found = self._robot_calls.get(key)
         if found is None:
             frames = self._frames(robot, args)
@@ -70,7 +70,7 @@ class Robots(Context):
 
     def _frames(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The frames of a robot for these joint values (the same for every tool point)."""
-        key = (id(robot), args)
+        key = (robot.name, args)
         frames = self._robot_frames.get(key)
         if frames is None:
             inner = Scope(robot.scope)

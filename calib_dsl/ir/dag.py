@@ -79,6 +79,9 @@ class Dag:
     _points: list[float | None] = field(default_factory=list, repr=False)
     _folds: list[bool] = field(default_factory=list, repr=False)
     _levels: list[int] = field(default_factory=list, repr=False)
+    # What builders derive from the DAG and may ask for again (nodes never change, so an
+    # entry stays valid as long as the DAG): e.g. the robot layer's chain matrices.
+    memo: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for i, node in enumerate(self.nodes):  # a DAG built from given nodes

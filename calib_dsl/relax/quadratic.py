@@ -29,12 +29,10 @@ from calib_dsl.ir.program import Program
 from calib_dsl.relax.models import Models
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import Expansion, expand
+from calib_dsl.settings import DEFAULT
 
-# A product goes back into the remainders when that costs no row more than this share of its
-# width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
-PRUNE = 0.25
 
-def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = PRUNE,
+def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = DEFAULT.prune,
                     mccormick: bool = False) -> tuple[LinearRelaxation, Expansion] | None:
     """Valid inequalities over the box in the columns (t, y); None if the program has no
     second-order models (a primitive without one, or an unbounded unknown)."""

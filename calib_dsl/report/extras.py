@@ -6,11 +6,12 @@ import math
 import time
 from typing import Any
 
-from calib_dsl.analysis.identify import ROUTINE_MAX_PRIMITIVES, analyse, combination_enclosures
+from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution
 
 
@@ -26,7 +27,7 @@ class Extras:
 
     def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
         start = time.perf_counter()
-        if len(prog.primitives) > ROUTINE_MAX_PRIMITIVES:
+        if len(prog.primitives) > DEFAULT.routine_max_primitives:
             self.skipped = (f"identifiability: not analysed in solve for a program of "
                             f"{len(prog.primitives)} primitives (run `calibc identify`)")
             return

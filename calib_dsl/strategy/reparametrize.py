@@ -20,14 +20,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from calib_dsl.analysis.identify import analyse_design
 from calib_dsl.arith.exact import add_rounded
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.group import make_groups
 from calib_dsl.ir.primitives import Primitive, Slots
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-
-SNAP = 1e-9  # a coefficient this close to an integer (relative) is that integer
+from calib_dsl.settings import DEFAULT, Settings
 
 
 @dataclass
@@ -42,16 +42,14 @@ class Reparametrized:
     free: list[int] = field(default_factory=list)
 
 
-def along_combinations(prog: Program) -> Reparametrized | None:
+def along_combinations(prog: Program, s: Settings = DEFAULT) -> Reparametrized | None:
     """The program with one new unknown per identifiable combination of each group of
     parameters the data cannot separate (identify.py, at the middle of the search domains),
     each replacing one member (its pivot), which becomes computed from it. None when there
     is no such group, or no analysis (no finite domains, a Jacobian without finite values, a
-    program over identify.ROUTINE_MAX_PRIMITIVES: on Test A with 1000 configurations the
+    program over `routine_max_primitives`: on Test A with 1000 configurations the
     analysis and a second layout cost 1-1.3 s of a 8 s solve, for the same box)."""
-    from calib_dsl.analysis.identify import ROUTINE_MAX_PRIMITIVES, analyse_design
-
-    if len(prog.primitives) > ROUTINE_MAX_PRIMITIVES:
+    if len(prog.primitives) > s.routine_max_primitives:
         return None  # the analysis would cost more than it can save (Test A, 1000 configs)
     info = analyse_design(prog)
     if info is None:
@@ -62,7 +60,7 @@ def along_combinations(prog: Program) -> Reparametrized | None:
         if not rows:
             continue  # not identifiable at all: nothing to pin down
         slots = np.array([slot_of[m] for m in members], dtype=np.int64)
-        for pivot, coef in _echelon(np.array(rows, dtype=float)):
+        for pivot, coef in _echelon(np.array(rows, dtype=float), s.snap):
             if np.count_nonzero(coef) > 1:
                 combos.append((members, slots, pivot, coef))
     if not combos:
@@ -70,7 +68,7 @@ def along_combinations(prog: Program) -> Reparametrized | None:
     return _rewritten(prog, combos)
 
 
-def _echelon(rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+def _echelon(rows: np.ndarray, snap: float = DEFAULT.snap) -> list[tuple[int, np.ndarray]]:
     """The combinations as rows with a pivot each (coefficient exactly 1, 0 in the other
     rows), by Gauss-Jordan elimination with partial pivoting; coefficients next to an integer
     snapped to it (any coefficients give an exact change of unknowns; simple ones keep it
@@ -93,8 +91,8 @@ def _echelon(rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
     for r, p in enumerate(used):
         coef = a[r].copy()
         near = np.round(coef)
-        snap = np.abs(coef - near) <= SNAP * np.maximum(1.0, np.abs(coef))
-        coef[snap] = near[snap]
+        snapped = np.abs(coef - near) <= snap * np.maximum(1.0, np.abs(coef))
+        coef[snapped] = near[snapped]
         coef[p] = 1.0
         out.append((p, coef))
     return out

@@ -39,7 +39,7 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     """The tight strategy on `prog` (in unknowns along the identifiable combinations with
     `combinations`): a box of `prog`, with the bounds of each combination solved for."""
     start = time.perf_counter()
-    rep = along_combinations(prog) if combinations else None
+    rep = along_combinations(prog, settings) if combinations else None
     target = rep.prog if rep is not None else prog
     # (the members left as unknowns, like r3, are not cut: the model barely depends on them
     # in the new unknowns)
