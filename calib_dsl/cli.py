@@ -13,9 +13,11 @@ from typing import Any
 
 import click
 
+from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.strategy.tight import STRATEGIES
 
-FORMULATION = click.option("--formulation", type=click.Choice(["matrix", "rotation"]),
+FORMULATION = click.option("--formulation", type=click.Choice(FORMULATIONS),
                            default="matrix", show_default=True,
                            help="How a robot chain becomes constraints.")
 DATA = click.option("--data", type=click.Path(dir_okay=False),
@@ -99,7 +101,7 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
 @click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False),
               help="Also write the result as JSON to this file ('-' for stdout).")
-@click.option("--strategy", type=click.Choice(["tight", "hc4"]), default="tight",
+@click.option("--strategy", type=click.Choice(STRATEGIES), default=STRATEGIES[0],
               show_default=True,
               help="hc4: forward-backward propagation only (the paper's method); tight: "
                    "propagation alternated with a certified linear relaxation (LP).")

@@ -15,9 +15,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import Program
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
-from calib_dsl.strategy.tight import solve_hc4, solve_tight
-
-STRATEGIES = ("tight", "hc4")
+from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 
 
 def load(model: str | Path, formulation: str = "matrix",

@@ -116,9 +116,8 @@ def load(rel: LinearRelaxation, rows: np.ndarray | None = None,
     h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
     # HiGHS equilibrates rows and columns by default. Our relaxations are built scaled (the
     # second-order ones in t-units, each column in [-1, 1]), and without HiGHS's own scaling
-    # the simplex takes half the pivots from the same bases to the same bounds: on the RX90
-    # from section 4, 57 000 second-order pivots instead of 123 000 and 21 000 first-order
-    # ones instead of 39 000, widths equal to 0.1 % (docs/compiler.md).
+    # the simplex takes about half the pivots from the same bases to the same bounds
+    # (docs/benchmarks.md).
     h.setOptionValue("simplex_scale_strategy", settings.DEFAULT.lp_scaling)
     if rows is not None and len(rows) < rel.A.shape[0]:
         A = _rows_of(rel.A).take(rows)

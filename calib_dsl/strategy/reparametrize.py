@@ -5,8 +5,7 @@ r2 and r3 keep their whole search domains whatever the data. Every relaxation ov
 pays for that: the lever arms the model's derivatives are made of hold r2 and r3 over their
 ranges, although only their sum moves the tool. With s = r2 + r3 an unknown of its own and
 r2 = s - r3 computed from it, the relaxations see one unknown the data pins down (s) and one
-the model barely depends on (r3): on section 4 of the paper's domains the tight strategy then
-reaches widths 1.13x the hull without cutting the box into pieces (1.22x with the cut).
+the model barely depends on (r3), and the relaxations need no cut of the box into pieces.
 
 The change of unknowns is exact: the new program has the same solutions, mapped one to one
 (s takes its domain from r2's and r3's, rounded outward, and r2 keeps its own domain as a
@@ -47,8 +46,8 @@ def along_combinations(prog: Program, s: Settings = DEFAULT) -> Reparametrized |
     parameters the data cannot separate (identify.py, at the middle of the search domains),
     each replacing one member (its pivot), which becomes computed from it. None when there
     is no such group, or no analysis (no finite domains, a Jacobian without finite values, a
-    program over `routine_max_primitives`: on Test A with 1000 configurations the
-    analysis and a second layout cost 1-1.3 s of a 8 s solve, for the same box)."""
+    program over `routine_max_primitives`, where the analysis would cost more than it
+    saves)."""
     if len(prog.primitives) > s.routine_max_primitives:
         return None  # the analysis would cost more than it can save (Test A, 1000 configs)
     info = analyse_design(prog)

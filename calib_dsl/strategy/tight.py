@@ -25,6 +25,8 @@ from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.solution import Solution, solution
 from calib_dsl.strategy.split import Split
 
+STRATEGIES = ("tight", "hc4")  # the first is the default
+
 
 def solve_hc4(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000) -> Solution:
     """Forward-backward propagation to the fixed point (the paper's method)."""
