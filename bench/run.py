@@ -40,6 +40,7 @@ MODEL_B = ROOT / "models" / "rx90_recalibrate.cal"  # all 33 parameters, 1/20 of
 MODEL_FULL = ROOT / "models" / "rx90_full.cal"  # all 33 parameters, the section-4 domains
 TARGET_B = 10.0  # s of solve time, tight, all 33 parameters, 50 configurations
 OUT = ROOT / "docs" / "benchmarks.md"
+HISTORY = "## Design measurements (history)"  # kept by every new bench
 SEED = 2004
 SIZES = (50, 200, 1000)
 TIGHT_SIZES = (50, 200, 1000)
@@ -388,7 +389,14 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
         "Re-run with `make bench` (or `python bench/run.py --runs 5`).",
         "",
     ]
-    out.write_text("\n".join(lines), encoding="utf-8")
+    out.write_text("\n".join(lines) + _kept_history(out), encoding="utf-8")
+
+
+def _kept_history(out: Path) -> str:
+    """The file's measured history (from HISTORY on), which a new bench keeps as it is."""
+    old = out.read_text(encoding="utf-8") if out.exists() else ""
+    at = old.find(HISTORY)
+    return "\n" + old[at:] if at >= 0 else ""
 
 
 def main() -> None:

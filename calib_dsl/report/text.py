@@ -40,7 +40,7 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None) -> s
 _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no solution "
             "lost), but it says\nnothing the search domains did not: from domains this wide "
             "the model is too far from linear\nfor propagation and for the linear relaxation "
-            "(docs/tutorial.md, section 6). Narrower domains,\ne.g. around a first "
+            "(docs/tutorial.md, section 4). Narrower domains,\ne.g. around a first "
             "calibration, do contract.")
 
 

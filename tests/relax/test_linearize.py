@@ -43,7 +43,7 @@ from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import constraint_jacobian, relax
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MARGIN = 1e-13  # float error of evaluating A x in the test (the relaxation's own pad is 1e-9)
 
 
@@ -711,7 +711,7 @@ def test_too_many_cell_columns_are_folded() -> None:
     from calib_dsl.elaborate.elaborator import elaborate
     from calib_dsl.propagate.fixpoint import propagate
 
-    models = Path(__file__).resolve().parent.parent / "models"
+    models = Path(__file__).resolve().parents[2] / "models"
     prog = compile_model(elaborate(models / "examples" / "planar_arm.cal"))
     res = propagate(prog, tol=1e-3)
     full = relax(prog, res.lo, res.hi, cell_variables=True)
@@ -735,7 +735,7 @@ def test_mixed_gradient_lies_inside_the_plain_one(model: str, frac: float) -> No
     from calib_dsl.relax.evaluation import Evaluation
     from calib_dsl.relax.linearize import mid_rad
 
-    models = Path(__file__).resolve().parent.parent / "models"
+    models = Path(__file__).resolve().parents[2] / "models"
     prog = compile_model(elaborate(models / model))
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()

@@ -16,7 +16,7 @@ from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Column, Model, Table
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 TOL_Q, TOL_X = 1e-5, 1e-4
 Q_COLS = [f"q{j}" for j in range(1, 7)]
 X_COLS = [f"{c}{k}" for k in range(1, 4) for c in "xyz"]

@@ -16,7 +16,7 @@ from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.primitives import Primitive
 from calib_dsl.ir.program import Program
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 
 NAME = r"[A-Za-z_][\w\[\]]*"
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from test_linearize import (  # the sibling test module: its model generators
+from relax.test_linearize import (  # the sibling test module: its model generators
     build_random_model,
     clean_version,
     random_box,
@@ -38,7 +38,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def random_models(rng: np.random.Generator, k: int, n: int, scale: float) -> tm.Models:

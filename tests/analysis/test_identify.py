@@ -15,7 +15,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 
 INF = math.inf
 # The paper's propagation example: x1 = sin(x2) = x2^3 has the solutions 0 and +-(x2*, x1*).

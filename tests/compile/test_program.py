@@ -14,7 +14,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 
 MODELS = [("paper_cse.cal", "matrix"), ("paper_propagation.cal", "matrix"),
           ("circle_fit.cal", "matrix"), ("language_tour.cal", "matrix"),

@@ -14,7 +14,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 LENGTHS = ["r0", "d1", "r1", "d3", "r4", "b1x", "b1y", "b1z", "b2x", "b2y", "b2z",
            "b3x", "b3y", "b3z"]
 

@@ -14,7 +14,7 @@ from calib_dsl.frontend import ast, grammar
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.frontend.parser import parse, parse_file
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def one(src: str) -> ast.Stmt:

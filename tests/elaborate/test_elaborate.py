@@ -19,7 +19,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
 
 

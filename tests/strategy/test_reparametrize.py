@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_tight import arm_solved_twice  # the sibling test module: an arm with parallel axes
+from strategy.test_tight import (
+    arm_solved_twice,  # the sibling test module: an arm with parallel axes
+)
 
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate

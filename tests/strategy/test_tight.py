@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from test_linearize import (  # the sibling test module: its model generators
+from relax.test_linearize import (  # the sibling test module: its model generators
     build_random_model,
     clean_version,
     robot_source,
@@ -44,7 +44,7 @@ from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
 
 

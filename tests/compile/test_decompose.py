@@ -21,7 +21,7 @@ from calib_dsl.ir.primitives import format_const
 from calib_dsl.ir.program import Program
 from calib_dsl.propagate.fixpoint import propagate
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "models" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 
 INF = math.inf
 
