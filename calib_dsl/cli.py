@@ -20,8 +20,63 @@ from calib_dsl.strategy.tight import STRATEGIES
 FORMULATION = click.option("--formulation", type=click.Choice(FORMULATIONS),
                            default="matrix", show_default=True,
                            help="How a robot chain becomes constraints.")
-DATA = click.option("--data", type=click.Path(dir_okay=False),
-                    help="CSV file replacing the one the model's table names.")
+
+
+def model_inputs(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """The options that add to a model what the command line knows: data files, rows,
+    const values. TABLE= may be left out when the model has one table (it is the first)."""
+    options = [
+        click.option("--data", "data", multiple=True, metavar="[TABLE=]CSV",
+                     help="CSV file replacing the one a table of the model names."),
+        click.option("--rows", "rows", multiple=True, metavar="[TABLE=]RANGES",
+                     help="Rows of a table to use, e.g. 1..1495:15 (every 15th from 1) or "
+                          "1..100,200.. (rows count from 1, the first after the header)."),
+        click.option("--exclude", "exclude", multiple=True, metavar="[TABLE=]ROWS",
+                     help="Rows of a table to leave out, e.g. 533,856."),
+        click.option("-D", "--define", "defines", multiple=True, metavar="NAME=VALUE",
+                     help="Set a const of the model, e.g. -D e=1.2 (an error bound, a step)."),
+    ]
+    for option in reversed(options):
+        fn = option(fn)
+    return fn
+
+
+def _inputs(data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+            defines: tuple[str, ...]) -> Any:
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.elaborate.rows import Selection, parse_numbers, parse_ranges
+
+    files = dict(_named(d, "--data") for d in data)
+    selections: dict[str, Selection] = {}
+    for option, values, parse in (("--rows", rows, parse_ranges),
+                                  ("--exclude", exclude, parse_numbers)):
+        for item in values:
+            table, text = _named(item, option)
+            try:
+                parsed = parse(text)
+            except ValueError as err:
+                raise CalError(f"{option} {item}: {err}") from None
+            old = selections.get(table, Selection())
+            selections[table] = (Selection(old.ranges + parsed, old.excluded)  # type: ignore[operator]
+                                 if option == "--rows" else
+                                 Selection(old.ranges, old.excluded + parsed))  # type: ignore[operator]
+    consts = {}
+    for d in defines:
+        name, eq, value = d.partition("=")
+        if not eq or not name.strip().isidentifier():
+            raise CalError(f"-D {d}: write NAME=VALUE, e.g. -D e=1.2")
+        consts[name.strip()] = value
+    return Inputs(files, selections, consts)
+
+
+def _named(item: str, option: str) -> tuple[str, str]:
+    """`TABLE=VALUE` -> (TABLE, VALUE); a bare VALUE is for the first table ("")."""
+    name, eq, value = item.partition("=")
+    if eq and name.isidentifier():
+        if not value:
+            raise CalError(f"{option} {item}: nothing after '='")
+        return name, value
+    return "", item
 
 
 def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -52,10 +107,10 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     return run
 
 
-def _load(model: str, formulation: str, data: str | None):
+def _load(model: str, formulation: str, inputs: Any = None):
     from calib_dsl.pipeline import load
 
-    return load(model, formulation, data)
+    return load(model, formulation, inputs=inputs)
 
 
 def _write(path: str, text: str) -> None:
@@ -76,14 +131,15 @@ def main() -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="Write the listing here.")
 @click.option("--json", "as_json", is_flag=True, help="Print counts as JSON instead.")
 @FORMULATION
-@DATA
+@model_inputs
 @user_errors
 def compile(model: str, output: str | None, as_json: bool, formulation: str,
-            data: str | None) -> None:
+            data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+            defines: tuple[str, ...]) -> None:
     """Compile MODEL into its primitive-constraint listing."""
     from calib_dsl.compile.listing import listing_json, render_listing
 
-    prog = _load(model, formulation, data)
+    prog = _load(model, formulation, _inputs(data, rows, exclude, defines))
     text = render_listing(prog)
     if output:
         _write(output, text)
@@ -109,17 +165,18 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
               help="Report which parameters the data cannot separate.")
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
 @FORMULATION
-@DATA
+@model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, formulation: str, data: str | None) -> None:
+          identify: bool, lsq: bool, formulation: str, data: tuple[str, ...],
+          rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve as run
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
     from calib_dsl.report.text import render_summary, render_table
 
-    prog = _load(model, formulation, data)
+    prog = _load(model, formulation, _inputs(data, rows, exclude, defines))
     res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
     extra = Extras()
     if res.status == "contracted":
@@ -145,13 +202,14 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print the analysis as JSON.")
 @FORMULATION
-@DATA
+@model_inputs
 @user_errors
-def identify(model: str, as_json: bool, formulation: str, data: str | None) -> None:
+def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
+             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
     """Which parameters of MODEL the measurements can determine (rank of the Jacobian)."""
     from calib_dsl.analysis.identify import analyse, identifiability_json, render
 
-    info = analyse(_load(model, formulation, data))
+    info = analyse(_load(model, formulation, _inputs(data, rows, exclude, defines)))
     if as_json:
         click.echo(json.dumps(identifiability_json(info), indent=2))
     else:

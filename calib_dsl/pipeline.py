@@ -11,21 +11,23 @@ import gc
 from pathlib import Path
 
 from calib_dsl.compile.group import compile_model
-from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.ir.program import Program
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 
 
-def load(model: str | Path, formulation: str = "matrix",
-         data: str | Path | None = None) -> Program:
-    """Parse, elaborate and compile a `.cal` model (with `data` replacing its table's file)."""
+def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
+         inputs: Inputs | None = None) -> Program:
+    """Parse, elaborate and compile a `.cal` model (with `data` replacing its first table's
+    file; `inputs`: files by table, rows, const values, as on the command line)."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
     try:
-        return compile_model(elaborate(model, formulation=formulation, data=data))
+        return compile_model(elaborate(model, formulation=formulation, data=data,
+                                     inputs=inputs))
     finally:
         gc.enable()
 

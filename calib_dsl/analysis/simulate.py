@@ -74,9 +74,16 @@ def simulate_model(model: Model, seed: int) -> dict[str, Array]:
 
 
 def write_csv(path: Path, table: Table, data: Array) -> None:
-    """Header = column names; full-precision floats (repr round-trips exactly)."""
-    lines = [",".join(c.name for c in table.columns)]
-    lines += [",".join(repr(float(x)) for x in row) for row in data]
+    """The table as its declaration reads it: its separator, decimal mark, header names and
+    units (values converted from the model's units); full-precision floats (repr)."""
+    sep = table.separator
+    lines = [sep.join(c.header or c.name for c in table.columns)]
+    scale = np.array([0.5 * (c.factor[0] + c.factor[1]) for c in table.columns])
+    for row in data:
+        cells = [repr(float(x)) for x in np.asarray(row, dtype=float) / scale]
+        if table.decimal == ",":
+            cells = [c.replace(".", ",") for c in cells]
+        lines.append(sep.join(cells))
     try:
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     except OSError as err:

@@ -9,17 +9,26 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import Entity, Macro, Scalar, Scope, Value
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Table
 
+DEFAULT_UNITS = {"length": "m", "angle": "rad"}
+
 
 class Context:
     dag: Dag
     formulation: str
-    data: str | Path | None  # replaces the first table's file (--data)
+    data: dict[str, str | Path]  # files replacing tables' (--data), by table ("": the first)
+    selections: dict[str, Selection]  # rows to use (--rows), by table ("": the first)
+    overrides: dict[str, str]  # const values from the command line (-D name=value)
+    overridden: set[str]  # the consts they replaced
+    consts_seen: set[str]
+    units: dict[str, str]  # the model's unit of each dimension ("length", "angle")
+    units_loc: Loc | None  # where the model stated them
     simulate_rows: int | None  # simulation mode: this many rows, no file read
     tables: list[Table]
     globals: Scope

@@ -18,14 +18,17 @@ Names may also denote a family of unknowns, a macro, a robot or a table (the `En
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 from calib_dsl.elaborate.chains import FORMULATIONS
+from calib_dsl.elaborate.context import DEFAULT_UNITS
 from calib_dsl.elaborate.expressions import Expressions
 from calib_dsl.elaborate.robots import Robots
+from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import (
     Entity,
     Macro,
@@ -34,42 +37,78 @@ from calib_dsl.elaborate.scope import (
 from calib_dsl.elaborate.statements import Statements
 from calib_dsl.elaborate.table_decl import Tables
 from calib_dsl.frontend import ast
-from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
 
 
 # -- entry point ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Inputs:
+    """What the command line adds to a model: data files and row selections by table name
+    ("" for the first table), and values of `const`s (`-D name=value`)."""
+
+    data: Mapping[str, str | Path] = field(default_factory=dict)
+    rows: Mapping[str, Selection] = field(default_factory=dict)
+    consts: Mapping[str, str] = field(default_factory=dict)
+
+
 def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path | None = None,
-              simulate_rows: int | None = None) -> Model:
+              simulate_rows: int | None = None, inputs: Inputs | None = None) -> Model:
     """Elaborate the model file at `path` into a `Model` (DAG, unknowns, constraints, tables).
 
-    `data` replaces the CSV file of the model's first table. `simulate_rows=N` is simulation
-    mode: no CSV is read, each table has N rows, and each cell is a `data` variable of the DAG.
+    `data` replaces the CSV file of the model's first table (as `inputs.data[""]`).
+    `simulate_rows=N` is simulation mode: no CSV is read, each table has N rows, and each cell
+    is a `data` variable of the DAG.
     """
     if formulation not in FORMULATIONS:
         raise CalError(f"unknown formulation '{formulation}' (expected matrix or rotation)")
     if simulate_rows is not None and simulate_rows < 1:
         raise CalError(f"simulation needs at least one row, not {simulate_rows}")
-    run = Elaborator(formulation, data, simulate_rows)
+    inputs = inputs or Inputs()
+    if data is not None:
+        inputs = replace(inputs, data={**inputs.data, "": data})
+    run = Elaborator(formulation, inputs, simulate_rows)
     try:
         run.file(str(path))
     except RecursionError:
         raise CalError("the model nests too deeply to elaborate", None) from None
-    if data is not None and not run.tables:
-        raise CalError(f"a data file ({data}) was given, but the model declares no table")
+    _check_used(inputs, run)
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None)
+
+
+def _check_used(inputs: Inputs, run: Elaborator) -> None:
+    """Every table and const the command line named exists: a typo is an error, never
+    silently ignored."""
+    tables = [t.name for t in run.tables]
+    for what, named in (("a data file", inputs.data), ("a row selection", inputs.rows)):
+        for name, value in named.items():
+            if name == "" and not tables:
+                raise CalError(f"{what} ({value}) was given, but the model declares no table")
+            if name and name not in tables:
+                raise CalError(f"{what} was given for table '{name}', but the model has "
+                               f"{'tables ' + ', '.join(tables) if tables else 'no table'}")
+    unknown = sorted(set(inputs.consts) - run.overridden)
+    if unknown:
+        consts = sorted(run.consts_seen) or ["none"]
+        raise CalError(f"-D {unknown[0]}=...: the model has no const '{unknown[0]}' (its "
+                       f"consts: {', '.join(consts)})")
 
 
 class Elaborator(Statements, Expressions, Robots, Tables):
     """One elaboration: the shared state, and each AST node type's part."""
 
-    def __init__(self, formulation: str, data: str | Path | None,
-                 simulate_rows: int | None) -> None:
+    def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
         self.dag = Dag()
         self.formulation = formulation
-        self.data = data
+        self.data = dict(inputs.data)
+        self.selections = dict(inputs.rows)
+        self.overrides = dict(inputs.consts)
+        self.overridden: set[str] = set()
+        self.consts_seen: set[str] = set()
+        self.units = dict(DEFAULT_UNITS)
+        self.units_loc: Loc | None = None
         self.simulate_rows = simulate_rows
         self.tables: list[Table] = []
         self.globals = Scope()
@@ -84,7 +123,7 @@ class Elaborator(Statements, Expressions, Robots, Tables):
             ast.Const: self._const, ast.Let: self._let, ast.Def: self._def,
             ast.Decl: self._decl, ast.For: self._for, ast.Include: self._include,
             ast.Constraint: self._constraint, ast.Robot: self._robot,
-            ast.TableDecl: self._table,
+            ast.TableDecl: self._table, ast.Units: self._units,
         }
         self._exprs: dict[type, Callable[[Any, Scope], Entity]] = {
             ast.Number: lambda e, s: e.value, ast.Pi: lambda e, s: self.dag.pi(),

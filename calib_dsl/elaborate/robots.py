@@ -32,7 +32,13 @@ class Robots(Context):
         check_params(s.params, "joint variable")
         base = None
         joints = []
+        if s.convention is not None and s.convention.id != "mdh":
+            raise CalError(f"robot convention '{s.convention.id}' is not supported yet (mdh)",
+                           s.convention.loc)
         for i, frame in enumerate(s.frames):
+            if frame.kind == "tool":
+                raise CalError("a tool frame is not supported yet: give the tool point in "
+                               "the last joint's frame", frame.loc)
             allowed = ("theta", "r") if frame.kind == "base" else ("alpha", "d", "theta", "r")
             check_entries(frame, allowed)
             if frame.kind == "base":

@@ -23,6 +23,7 @@ from calib_dsl.elaborate.scope import (
     Macro,
     Scope,
 )
+from calib_dsl.elaborate.units import UNITS, dimension
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.frontend.parser import parse_file
@@ -51,12 +52,46 @@ class Statements(Context):
                            "a loop", loc)
 
     def _const(self, s: ast.Const, scope: Scope, top: bool) -> None:
+        if top:
+            self.consts_seen.add(s.name.id)
+        if top and s.name.id in self.overrides:  # -D name=value: the command line's value
+            scope.define(s.name, self._override(s))
+            return
         value = self.value(s.value, scope)
         items = value if isinstance(value, tuple) else (value,)
         if not all(self.is_constant(x) for x in items):
             raise CalError(f"const '{s.name.id}' depends on unknowns: a const must be a "
                            "constant expression (use let for an alias)", s.value.loc)
         scope.define(s.name, value)
+
+    def _override(self, s: ast.Const) -> Fraction:
+        text = self.overrides[s.name.id]
+        self.overridden.add(s.name.id)
+        try:
+            return Fraction(text.strip())
+        except (ValueError, ZeroDivisionError):
+            raise CalError(f"-D {s.name.id}={text}: the value must be a number (as 1.2, "
+                           "-3e-4 or 1/3)", s.loc) from None
+
+    def _units(self, s: ast.Units, scope: Scope, top: bool) -> None:
+        """`units mm, rad;`: the model's length and angle units, once, before any table."""
+        self._top_only("a units statement", s.loc, top)
+        if self.units_loc is not None:
+            raise CalError(f"the units are already stated (at {self.units_loc})", s.loc)
+        if self.tables:
+            raise CalError("state the units before the first table (its columns are "
+                           "converted to them)", s.loc)
+        seen: dict[str, str] = {}
+        for u in s.names:
+            if u.id not in UNITS:
+                raise CalError(f"unknown unit '{u.id}' (the units are {', '.join(UNITS)})",
+                               u.loc)
+            dim = dimension(u.id)
+            if dim in seen:
+                raise CalError(f"two {dim} units ('{seen[dim]}' and '{u.id}')", u.loc)
+            seen[dim] = u.id
+        self.units.update(seen)
+        self.units_loc = s.loc
 
     def _let(self, s: ast.Let, scope: Scope, top: bool) -> None:
         scope.define(s.name, self.entity(s.value, scope))

@@ -1,15 +1,18 @@
 """Measurement tables: CSV files with a header row, one configuration per row.
 
-Only the declared columns are read (extra columns are ignored, whatever they hold). Every
-problem is a `CalError` located in the CSV file itself: `Loc(csv path, line, column number)`
-where the column number is the 1-based position of the field in its row.
+A file is read as it comes: its separator and decimal mark (`Dialect`), its own header names
+(mapped to the model's column names), and only the rows selected (`rows.Selection`: a row
+left out is not parsed at all). Only the declared columns are read (extra columns are
+ignored, whatever they hold). Every problem is a `CalError` located in the CSV file itself:
+`Loc(csv path, line, column number)` where the column number is the 1-based position of the
+field in its row.
 """
 
 from __future__ import annotations
 
 import csv
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,12 +20,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib_dsl.arith.exact import add_rounded, enclose_decimal
+from calib_dsl.elaborate.rows import EVERY_ROW, Selection, select
 from calib_dsl.frontend.diagnostics import CalError, Loc
 
 FloatArray = NDArray[np.float64]
 
 _NUMBER = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?")
 _NON_FINITE = re.compile(r"[+-]?(nan|inf|infinity)", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class Dialect:
+    separator: str = ","
+    decimal: str = "."  # or ",": a decimal comma (the separator must then be another)
 
 
 @dataclass
@@ -35,37 +45,56 @@ class CsvData:
     rows: int
     columns: dict[str, FloatArray] = field(default_factory=dict)
     enclosures: dict[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
-    lines: list[int] = field(default_factory=list)  # the CSV line of each data row
+    lines: list[int] = field(default_factory=list)  # the CSV line of each row read
+    numbers: list[int] = field(default_factory=list)  # its data row number (1: after the header)
 
 
-def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = None) -> CsvData:
-    """Read the declared `columns` of the CSV file at `path`.
+def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = None, *,
+             dialect: Dialect = Dialect(), headers: Mapping[str, str] | None = None,
+             selection: Selection = EVERY_ROW, selection_loc: Loc | None = None) -> CsvData:
+    """Read the declared `columns` of the CSV file at `path`: `headers` maps a column to the
+    file's name for it (default: the same name), `selection` picks the rows.
 
-    `decl_loc` (where the model declares the table) locates a missing or unreadable file.
+    `decl_loc` (where the model declares the table) locates a missing or unreadable file;
+    `selection_loc` a selection that does not fit the file.
     """
     name = str(path)
     text = _read_text(name, decl_loc)
-    records = [(line, row) for line, row in _records(text, name) if not _blank(row)]
+    records = [(line, row) for line, row in _records(text, name, dialect) if not _blank(row)]
     if not records:
         raise CalError(f"data file '{name}' is empty: it needs a header row naming the "
                        "columns, then one row per configuration", Loc(name, 1, 1))
     (head_line, header), data = records[0], records[1:]
-    where = _column_positions(name, head_line, [h.strip() for h in header], columns)
+    shown = {c: (headers or {}).get(c, c) for c in columns}
+    where = _column_positions(name, head_line, [h.strip() for h in header], shown, dialect)
     if not data:
         raise CalError(f"data file '{name}' has a header but no data rows",
                        Loc(name, head_line + 1, 1))
-    out = CsvData(name, len(data), lines=[line for line, _ in data])
-    values = np.empty((3, len(columns), len(data)))  # nearest, lo, hi
-    for k, (line, row) in enumerate(data, start=1):
+    try:
+        keep = select(selection, len(data))
+    except ValueError as err:
+        raise CalError(f"data file '{name}': {err}", selection_loc) from None
+    out = CsvData(name, len(keep), lines=[data[k][0] for k in keep],
+                  numbers=[int(k) + 1 for k in keep])
+    values = np.empty((3, len(columns), len(keep)))  # nearest, lo, hi
+    for i, k in enumerate(keep.tolist()):
+        line, row = data[k]
         if len(row) != len(header):
-            raise CalError(f"data file '{name}', row {k}: {len(row)} fields, but the header "
-                           f"has {len(header)}",
-                           Loc(name, line, min(len(row), len(header)) + 1, field=True))
+            raise CalError(f"data file '{name}', row {k + 1}: {len(row)} fields, but the "
+                           f"header has {len(header)}",
+                           Loc(name, line, min(len(row), len(header)) + 1, field=True,
+                               sep=dialect.separator))
         for j, col in enumerate(columns):
-            values[:, j, k - 1] = _cell(row[where[col]], name, line, k, col, where[col] + 1)
+            values[:, j, i] = _cell(row[where[col]], name, line, k + 1, _named(col, shown),
+                                    where[col] + 1, dialect)
     out.columns = {col: values[0, j] for j, col in enumerate(columns)}
     out.enclosures = {col: (values[1, j], values[2, j]) for j, col in enumerate(columns)}
     return out
+
+
+def _named(col: str, shown: Mapping[str, str]) -> str:
+    """How a message names a column: 'q1', or 'q1' ("shoulder_pan_joint") when mapped."""
+    return f"'{col}'" if shown[col] == col else f"'{col}' (\"{shown[col]}\")"
 
 
 def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray, FloatArray]:
@@ -88,8 +117,8 @@ def _read_text(name: str, decl_loc: Loc | None) -> str:
         raise CalError(f"cannot read data file '{name}': {err.strerror}", decl_loc) from None
 
 
-def _records(text: str, name: str) -> list[tuple[int, list[str]]]:
-    reader = csv.reader(text.splitlines())
+def _records(text: str, name: str, dialect: Dialect) -> list[tuple[int, list[str]]]:
+    reader = csv.reader(text.splitlines(), delimiter=dialect.separator)
     out = []
     try:
         for row in reader:
@@ -104,22 +133,28 @@ def _blank(row: list[str]) -> bool:
     return not row or (len(row) == 1 and not row[0].strip())
 
 
-def _column_positions(name: str, line: int, header: list[str],
-                      columns: Sequence[str]) -> dict[str, int]:
-    """{declared column: its field index}; each must appear exactly once."""
+def _column_positions(name: str, line: int, header: list[str], columns: Mapping[str, str],
+                      dialect: Dialect) -> dict[str, int]:
+    """{declared column: its field index}, looked up by its name in the file (`columns`
+    maps each declared column to it); each must appear exactly once."""
+    wanted = {h: c for c, h in columns.items()}
     where: dict[str, int] = {}
     for j, h in enumerate(header):
-        if h in columns:
-            if h in where:
+        if h in wanted:
+            c = wanted[h]
+            if c in where:
                 raise CalError(f"data file '{name}': column '{h}' appears twice in the header "
-                               f"(fields {where[h] + 1} and {j + 1})",
-                               Loc(name, line, j + 1, field=True))
-            where[h] = j
-    missing = [c for c in columns if c not in where]
+                               f"(fields {where[c] + 1} and {j + 1})",
+                               Loc(name, line, j + 1, field=True, sep=dialect.separator))
+            where[c] = j
+    missing = [columns[c] for c in columns if c not in where]
     if missing:
         have = ", ".join(h for h in header if h) or "none"
+        hint = ""
+        if len(header) == 1 and dialect.separator == "," and ";" in header[0]:
+            hint = ' (the file looks ";"-separated: say separator = ";" in the table)'
         raise CalError(f"data file '{name}' has no column {_quoted(missing)} (its columns: "
-                       f"{have})", Loc(name, line, 1))
+                       f"{have}){hint}", Loc(name, line, 1))
     return where
 
 
@@ -128,18 +163,25 @@ def _quoted(names: list[str]) -> str:
 
 
 def _cell(text: str, name: str, line: int, row: int, col: str,
-          field_no: int) -> tuple[float, float, float]:
+          field_no: int, dialect: Dialect) -> tuple[float, float, float]:
     """(nearest float, lo, hi) of a cell: [lo, hi] holds its exact decimal value."""
     cell = text.strip()
-    where = f"data file '{name}', row {row}, column '{col}'"
-    loc = Loc(name, line, field_no, field=True)
+    where = f"data file '{name}', row {row}, column {col}"
+    loc = Loc(name, line, field_no, field=True, sep=dialect.separator)
     if not cell:
         raise CalError(f"{where}: empty cell", loc)
     if _NON_FINITE.fullmatch(cell):
         raise CalError(f"{where}: '{cell}' is not a finite number", loc)
-    if not _NUMBER.fullmatch(cell):
+    if dialect.decimal == ",":
+        if "." in cell:
+            raise CalError(f"{where}: '{cell}' has a decimal point, but the table says its "
+                           "decimal mark is a comma", loc)
+        number = cell.replace(",", ".")
+    else:
+        number = cell
+    if not _NUMBER.fullmatch(number):
         raise CalError(f"{where}: '{cell}' is not a number", loc)
-    value = float(cell)
+    value = float(number)
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
-    return (value, *enclose_decimal(cell))
+    return (value, *enclose_decimal(number))

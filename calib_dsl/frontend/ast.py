@@ -192,7 +192,7 @@ class Entry:
 
 @dataclass(frozen=True)
 class FrameDecl:
-    kind: str  # "base" | "joint"
+    kind: str  # "base" | "joint" | "tool"
     entries: tuple[Entry, ...]
     loc: Loc
 
@@ -203,13 +203,31 @@ class Robot:
     params: tuple[Ident, ...]
     frames: tuple[FrameDecl, ...]
     loc: Loc
+    convention: Ident | None = None  # of the joints: "mdh" (None) or "dh"
 
 
 @dataclass(frozen=True)
 class ColumnGroup:
-    names: tuple[Ident, ...]
+    names: tuple[Ident, ...]  # the model's names of the columns
     tol: Expr
     simulate: Expr | None
+    loc: Loc
+    headers: tuple[str | None, ...] = ()  # per name: the file's header (None: the name)
+    units: tuple[Ident | None, ...] = ()  # per name: the file's unit (None: as the model's)
+
+
+@dataclass(frozen=True)
+class RowRange:
+    first: Expr
+    last: Expr | None  # None: to the last row
+    step: Expr | None
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class TableOption:
+    name: Ident
+    value: str | Expr | RowRange
     loc: Loc
 
 
@@ -220,6 +238,13 @@ class TableDecl:
     path_loc: Loc
     groups: tuple[ColumnGroup, ...]
     loc: Loc
+    options: tuple[TableOption, ...] = ()
 
 
-Stmt = Const | Let | Def | Decl | For | Include | Constraint | Robot | TableDecl
+@dataclass(frozen=True)
+class Units:
+    names: tuple[Ident, ...]
+    loc: Loc
+
+
+Stmt = Const | Let | Def | Decl | For | Include | Constraint | Robot | TableDecl | Units

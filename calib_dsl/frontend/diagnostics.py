@@ -16,6 +16,7 @@ class Loc:
     col: int
     # `col` counts CSV fields, not characters (a data-file location); only the caret uses it
     field: bool = _attribute(default=False, compare=False)
+    sep: str = _attribute(default=",", compare=False)  # the fields' separator in that file
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.col}"
@@ -37,7 +38,7 @@ class CalError(Exception):
         line = _source_line(self.loc.file, self.loc.line)
         if line is None:
             return head
-        col = _field_start(line, self.loc.col) if self.loc.field else self.loc.col
+        col = _field_start(line, self.loc.col, self.loc.sep) if self.loc.field else self.loc.col
         caret = " " * (max(col, 1) - 1) + "^"
         return f"{head}\n    {line}\n    {caret}"
 
@@ -52,11 +53,11 @@ def _source_line(file: str, line: int) -> str | None:
     return None
 
 
-def _field_start(line: str, field: int) -> int:
+def _field_start(line: str, field: int, sep: str = ",") -> int:
     """The character column where CSV field number `field` (1-based) starts."""
     import csv
 
-    fields = next(csv.reader([line]), [])
+    fields = next(csv.reader([line], delimiter=sep), [])
     col = 1
     for text in fields[: max(field - 1, 0)]:
         col += len(text) + 1  # a quoted field is longer on the line; close enough for a caret

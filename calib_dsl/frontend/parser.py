@@ -115,7 +115,8 @@ class _Builder(Transformer[Token, Any]):
         return Loc(self.file, tok.line or 1, tok.column or 1)
 
     def robot_stmt(self, meta: Any, c: list) -> ast.Robot:
-        return ast.Robot(self._id(c[0]), c[1] or (), tuple(c[2:]), self._loc(meta))
+        convention = self._id(c[2]) if c[2] is not None else None
+        return ast.Robot(self._id(c[0]), c[1] or (), tuple(c[3:]), self._loc(meta), convention)
 
     def base_frame(self, meta: Any, c: list) -> ast.FrameDecl:
         return ast.FrameDecl("base", tuple(c), self._loc(meta))
@@ -123,16 +124,42 @@ class _Builder(Transformer[Token, Any]):
     def joint_frame(self, meta: Any, c: list) -> ast.FrameDecl:
         return ast.FrameDecl("joint", tuple(c), self._loc(meta))
 
+    def tool_frame(self, meta: Any, c: list) -> ast.FrameDecl:
+        return ast.FrameDecl("tool", tuple(c), self._loc(meta))
+
     def entry(self, meta: Any, c: list) -> ast.Entry:
         return ast.Entry(self._id(c[0]), c[1])
 
     def table_stmt(self, meta: Any, c: list) -> ast.TableDecl:
-        name, path = c[0], c[1]
-        return ast.TableDecl(self._id(name), str(path)[1:-1], self._tok_loc(path), tuple(c[2:]),
-                             self._loc(meta))
+        name, path, options = c[0], c[1], c[2] or ()
+        return ast.TableDecl(self._id(name), str(path)[1:-1], self._tok_loc(path), tuple(c[3:]),
+                             self._loc(meta), options)
+
+    def table_options(self, meta: Any, c: list) -> tuple[ast.TableOption, ...]:
+        return tuple(c)
+
+    def table_option(self, meta: Any, c: list) -> ast.TableOption:
+        value = c[1]
+        if isinstance(value, Token):  # a STRING
+            value = str(value)[1:-1]
+        return ast.TableOption(self._id(c[0]), value, self._loc(meta))
+
+    def row_range(self, meta: Any, c: list) -> ast.RowRange:
+        first, _, last, step = c
+        return ast.RowRange(first, last, step, self._loc(meta))
 
     def column_group(self, meta: Any, c: list) -> ast.ColumnGroup:
-        return ast.ColumnGroup(c[0], c[1], c[2], self._loc(meta))
+        *columns, tol, simulate = c
+        return ast.ColumnGroup(tuple(n for n, _, _ in columns), tol, simulate, self._loc(meta),
+                               tuple(h for _, h, _ in columns), tuple(u for _, _, u in columns))
+
+    def column(self, meta: Any, c: list) -> tuple[ast.Ident, str | None, ast.Ident | None]:
+        name, header, unit = c
+        return (self._id(name), None if header is None else str(header)[1:-1],
+                None if unit is None else self._id(unit))
+
+    def units_stmt(self, meta: Any, c: list) -> ast.Units:
+        return ast.Units(c[0], self._loc(meta))
 
     def names(self, meta: Any, c: list) -> tuple[ast.Ident, ...]:
         return tuple(self._id(t) for t in c)
@@ -209,7 +236,8 @@ class _Builder(Transformer[Token, Any]):
 
 # -- syntax errors ----------------------------------------------------------------------------
 _EXPR_START = {"NAME", "NUMBER", "PI", "INF", "LPAR", "LSQB", "MINUS", "PLUS"}
-_STMT_START = {"CONST", "LET", "DEF", "PARAM", "VAR", "FOR", "INCLUDE", "ROBOT", "TABLE"}
+_STMT_START = {"CONST", "LET", "DEF", "PARAM", "VAR", "FOR", "INCLUDE", "ROBOT", "TABLE",
+               "UNITS"}
 _OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "CIRCUMFLEX", "DOT", "LSQB", "PM"}
 _WORDS = {"NAME": "a name", "NUMBER": "a number", "STRING": 'a "string"', "$END": "end of file"}
 

@@ -12,8 +12,11 @@ from calib_dsl.ir.dag import Dag
 @dataclass
 class Column:
     name: str
-    tol: float  # error bound: the measured value is known to +- tol
+    tol: float  # error bound: the measured value is known to +- tol (in the model's units)
     sim: tuple[float, float] | None = None  # simulate: draw uniformly in [lo, hi] (an input)
+    header: str | None = None  # its name in the file, when not `name`
+    unit: str | None = None  # its unit in the file, when stated (converted to the model's)
+    factor: tuple[float, float] = (1.0, 1.0)  # file unit -> model unit, an enclosure
 
 
 @dataclass
@@ -23,6 +26,12 @@ class Table:
     columns: list[Column]
     rows: int
     loc: Loc | None = None
+    separator: str = ","
+    decimal: str = "."
+    # per row used: its line in the file and its data row number (1: the first after the
+    # header); empty in simulation mode
+    lines: list[int] = field(default_factory=list)
+    numbers: list[int] = field(default_factory=list)
 
 
 @dataclass
