@@ -134,11 +134,21 @@ CASES = [
     (ROBOT + "var y; (y, y, y) == r((y, y)) at (1, 2, 3);", "a joint value must be a number",
      2, 23),
     ("robot r(q) { base alpha = q; joint theta = q; }", "a base frame has entries theta, r, not "
-     "'alpha' (the base frame has alpha = d = 0)", 1, 19),
+     "'alpha' (a modified-DH base frame has alpha = d = 0; or give the base as x, y, z, rx, "
+     "ry, rz)", 1, 19),
+    ("robot r(q) { base x = q, theta = 1; joint theta = q; }", "a base frame has entries x, "
+     "y, z, rx, ry, rz, not 'theta'", 1, 26),
+    ("robot r(q) { joint theta = q; base x = 1; }", "the base frames come first", 1, 31),
+    ("robot r(q) { tool z = 1; joint theta = q; }", "the tool frames come last", 1, 26),
+    ("robot r(q) { joint theta = q; tool alpha = 1; }", "a tool frame has entries x, y, z, rx, "
+     "ry, rz, not 'alpha'", 1, 36),
+    ("robot r(q) sdh { joint theta = q; }", "unknown convention 'sdh'", 1, 12),
+    ("robot r(q) dh { joint theta = q, r = 1; }", "a joint frame has entries theta, d, a, "
+     "alpha, not 'r'", 1, 34),
     ("robot r(q) { joint theta = q, theta = 1; }", "entry 'theta' given twice", 1, 31),
     ("robot r(q) { joint phi = q; }", "a joint frame has entries alpha, d, theta, r, not 'phi'",
      1, 20),
-    ("robot r(q) { joint theta = q; base r = 1; }", "the base frame must come first", 1, 31),
+    ("robot r(q) { joint theta = q; base r = 1; }", "the base frames come first", 1, 31),
     ("robot r(q) { base theta = q; }", "robot 'r' has no joint", 1, 1),
     (ROBOT + "var y; r(y) at (1, 2, 3) == (y, y, zz);", "unknown name 'zz'", 2, 36),
     # top level only

@@ -36,7 +36,29 @@ class Frame:
     r: int
 
 
-def forward_point(dag: Dag, frames: list[Frame], point: Vec3, formulation: str) -> Vec3:
+@dataclass
+class Transform:
+    """Any other frame: elementary steps in product order, each ("Rx" | "Ry" | "Rz" | "Tx" |
+    "Ty" | "Tz", node): T = step1 . step2 . ..."""
+
+    steps: tuple[tuple[str, int], ...]
+
+
+def xyz_euler(x: int, y: int, z: int, rx: int, ry: int, rz: int) -> Transform:
+    """A 6-DOF frame: the translation (x, y, z), then the rotation Rx(rx) Ry(ry) Rz(rz)
+    (intrinsic X-Y-Z Euler angles: about x, then the new y, then the new z)."""
+    return Transform((("Tx", x), ("Ty", y), ("Tz", z), ("Rx", rx), ("Ry", ry), ("Rz", rz)))
+
+
+def standard_dh(theta: int, d: int, a: int, alpha: int) -> Transform:
+    """A standard (Denavit-Hartenberg) joint frame: Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
+    return Transform((("Rz", theta), ("Tz", d), ("Tx", a), ("Rx", alpha)))
+
+
+AnyFrame = Frame | Transform
+
+
+def forward_point(dag: Dag, frames: list[AnyFrame], point: Vec3, formulation: str) -> Vec3:
     """Workshop coordinates T0 T1 ... Tn . point as DAG nodes (`point` is in the last frame)."""
     if formulation == "matrix":
         return _apply(dag, _cached_chain_matrix(dag, frames), point)
@@ -46,7 +68,7 @@ def forward_point(dag: Dag, frames: list[Frame], point: Vec3, formulation: str) 
 
 
 # -- algorithm f: homogeneous matrices ------------------------------------------------------
-def chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
+def chain_matrix(dag: Dag, frames: list[AnyFrame]) -> Mat34:
     """The top 3x4 block of T0 T1 ... Tn, built from the last joint back as the paper does."""
     if not frames:
         return _identity(dag)
@@ -62,9 +84,10 @@ def chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
 _CACHE_SIZE = 8
 
 
-def _cached_chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
-    cache: dict[tuple[int, ...], Mat34] = dag.memo.setdefault("chain matrices", {})
-    key = tuple(n for f in frames for n in (f.alpha, f.d, f.theta, f.r))
+def _cached_chain_matrix(dag: Dag, frames: list[AnyFrame]) -> Mat34:
+    cache: dict[tuple, Mat34] = dag.memo.setdefault("chain matrices", {})
+    key = tuple((f.alpha, f.d, f.theta, f.r) if isinstance(f, Frame) else f.steps
+                for f in frames)
     hit = cache.get(key)
     if hit is not None:
         return hit
@@ -75,13 +98,16 @@ def _cached_chain_matrix(dag: Dag, frames: list[Frame]) -> Mat34:
     return m
 
 
-def frame_matrix(dag: Dag, f: Frame) -> Mat34:
-    """Rx(alpha) Tx(d) Rz(theta) Tz(r), multiplied out:
+def frame_matrix(dag: Dag, f: AnyFrame) -> Mat34:
+    """A frame's matrix; for the modified-DH Frame, Rx(alpha) Tx(d) Rz(theta) Tz(r)
+    multiplied out:
 
         [ ct      -st      0    d      ]
         [ ca st    ca ct  -sa  -sa r   ]
         [ sa st    sa ct   ca   ca r   ]
     """
+    if isinstance(f, Transform):
+        return _transform_matrix(dag, f)
     ca, sa = _cos_sin(dag, f.alpha)
     ct, st = _cos_sin(dag, f.theta)
     msa = _neg(dag, sa)  # shared by the (1,2) and (1,3) entries
@@ -95,6 +121,28 @@ def frame_matrix(dag: Dag, f: Frame) -> Mat34:
         [mul(ca, st), mul(ca, ct), msa, mul(msa, f.r)],
         [mul(sa, st), mul(sa, ct), ca, mul(ca, f.r)],
     ]
+
+
+def _transform_matrix(dag: Dag, f: Transform) -> Mat34:
+    """The product of the elementary matrices of the steps (a zero step is the identity)."""
+    m = _identity(dag)
+    for kind, node in f.steps:
+        if dag.point(node) == 0.0:
+            continue
+        m = _matmul(dag, m, _elementary(dag, kind, node))
+    return m
+
+
+def _elementary(dag: Dag, kind: str, node: int) -> Mat34:
+    m = _identity(dag)
+    if kind[0] == "T":
+        m["xyz".index(kind[1].lower())][3] = node
+        return m
+    c, s = _cos_sin(dag, node)
+    i, j = {"Rx": (1, 2), "Ry": (2, 0), "Rz": (0, 1)}[kind]  # the plane it turns: i -> j
+    m[i][i], m[j][j] = c, c
+    m[i][j], m[j][i] = _neg(dag, s), s
+    return m
 
 
 def _matmul(dag: Dag, a: Mat34, b: Mat34) -> Mat34:
@@ -135,14 +183,31 @@ def _identity(dag: Dag) -> Mat34:
 
 
 # -- algorithm g: one rotation primitive per rotation ---------------------------------------
-def _rotation_chain(dag: Dag, frames: list[Frame], point: Vec3) -> Vec3:
+def _rotation_chain(dag: Dag, frames: list[AnyFrame], point: Vec3) -> Vec3:
     c1, c2, c3 = point
     for f in reversed(frames):
+        if isinstance(f, Transform):
+            c1, c2, c3 = _rotation_steps(dag, f, (c1, c2, c3))
+            continue
         c3 = dag.op("add", c3, f.r)
         c1, c2 = _rot(dag, f.theta, c1, c2)
         c1 = dag.op("add", c1, f.d)
         c2, c3 = _rot(dag, f.alpha, c2, c3)
     return c1, c2, c3
+
+
+def _rotation_steps(dag: Dag, f: Transform, c: Vec3) -> Vec3:
+    """The steps applied to a point, the last first: a translation adds, a rotation is one
+    `rot` primitive in its plane (Rx turns (y, z), Ry (z, x), Rz (x, y))."""
+    xyz = list(c)
+    for kind, node in reversed(f.steps):
+        if kind[0] == "T":
+            k = "xyz".index(kind[1].lower())
+            xyz[k] = dag.op("add", xyz[k], node)
+            continue
+        i, j = {"Rx": (1, 2), "Ry": (2, 0), "Rz": (0, 1)}[kind]
+        xyz[i], xyz[j] = _rot(dag, node, xyz[i], xyz[j])
+    return xyz[0], xyz[1], xyz[2]
 
 
 def _rot(dag: Dag, beta: int, u: int, v: int) -> tuple[int, int]:

@@ -88,7 +88,8 @@ def check_entries(frame: ast.FrameDecl, allowed: tuple[str, ...]) -> None:
     for entry in frame.entries:
         name = entry.name.id
         if name not in allowed:
-            extra = " (the base frame has alpha = d = 0)" if frame.kind == "base" else ""
+            extra = (" (a modified-DH base frame has alpha = d = 0; or give the base as x, y, z, "
+                     "rx, ry, rz)") if frame.kind == "base" and "theta" in allowed else ""
             raise CalError(f"a {frame.kind} frame has entries {', '.join(allowed)}, not "
                            f"'{name}'{extra}", entry.name.loc)
         if name in seen:

@@ -30,26 +30,25 @@ class Robots(Context):
     def _robot(self, s: ast.Robot, scope: Scope, top: bool) -> None:
         self._top_only("a robot definition", s.loc, top)
         check_params(s.params, "joint variable")
-        base = None
-        joints = []
-        if s.convention is not None and s.convention.id != "mdh":
-            raise CalError(f"robot convention '{s.convention.id}' is not supported yet (mdh)",
-                           s.convention.loc)
-        for i, frame in enumerate(s.frames):
-            if frame.kind == "tool":
-                raise CalError("a tool frame is not supported yet: give the tool point in "
-                               "the last joint's frame", frame.loc)
-            allowed = ("theta", "r") if frame.kind == "base" else ("alpha", "d", "theta", "r")
+        convention = s.convention.id if s.convention is not None else "mdh"
+        if convention not in JOINT_ENTRIES:
+            raise CalError(f"unknown convention '{convention}' (mdh: modified DH, the default; "
+                           "dh: standard DH)", s.convention.loc if s.convention else s.loc)
+        parts: dict[str, list[ast.FrameDecl]] = {"base": [], "joint": [], "tool": []}
+        for frame in s.frames:
+            if frame.kind == "base" and (parts["joint"] or parts["tool"]):
+                raise CalError("the base frames come first, before the joints", frame.loc)
+            if frame.kind == "joint" and parts["tool"]:
+                raise CalError("the tool frames come last, after the joints", frame.loc)
+            allowed = JOINT_ENTRIES[convention] if frame.kind == "joint" else \
+                (SIX_DOF if frame.kind == "tool" or _six_dof(frame) else MDH_BASE)
             check_entries(frame, allowed)
-            if frame.kind == "base":
-                if i != 0:
-                    raise CalError("the base frame must come first, and only once", frame.loc)
-                base = frame
-            else:
-                joints.append(frame)
-        if not joints:
+            parts[frame.kind].append(frame)
+        if not parts["joint"]:
             raise CalError(f"robot '{s.name.id}' has no joint", s.loc)
-        scope.define(s.name, RobotDef(s.name.id, s.params, base, tuple(joints), scope))
+        scope.define(s.name, RobotDef(s.name.id, s.params, tuple(parts["base"]),
+                                      tuple(parts["joint"]), tuple(parts["tool"]), convention,
+                                      scope))
 
     def _robot_at(self, e: ast.RobotAt, scope: Scope) -> tuple[int, ...]:
         robot = self.lookup(e.robot, e.loc, scope)
@@ -82,16 +81,36 @@ class Robots(Context):
             inner = Scope(robot.scope)
             for p, a in zip(robot.params, args, strict=True):
                 inner.names[p.id] = (a, p.loc)
-            frames = [self._frame(robot.base, inner)]
-            frames += [self._frame(j, inner) for j in robot.joints]
+            # a robot with no base line has the identity base (the MDH frame of zeros)
+            bases = robot.base or (None,)
+            frames = [self._frame(b, inner, "mdh") for b in bases]
+            frames += [self._frame(j, inner, robot.convention) for j in robot.joints]
+            frames += [self._frame(t, inner, "mdh") for t in robot.tool]
             self._robot_frames[key] = frames
         return frames
 
-    def _frame(self, decl: ast.FrameDecl | None, scope: Scope) -> Any:
+    def _frame(self, decl: ast.FrameDecl | None, scope: Scope, convention: str) -> Any:
         values = {}
         for entry in decl.entries if decl is not None else ():
             v = self.scalar(self.value(entry.value, scope), entry.value.loc, "a frame entry")
             values[entry.name.id] = self.node(v, entry.value.loc)
         zero = self.dag.const(0.0)
-        return chains.Frame(alpha=values.get("alpha", zero), d=values.get("d", zero),
-                           theta=values.get("theta", zero), r=values.get("r", zero))
+
+        def get(name: str) -> int:
+            return values.get(name, zero)
+
+        if decl is not None and (decl.kind == "tool" or _six_dof(decl)):
+            return chains.xyz_euler(*(get(n) for n in SIX_DOF))
+        if decl is not None and decl.kind == "joint" and convention == "dh":
+            return chains.standard_dh(get("theta"), get("d"), get("a"), get("alpha"))
+        return chains.Frame(alpha=get("alpha"), d=get("d"), theta=get("theta"), r=get("r"))
+
+
+MDH_BASE = ("theta", "r")  # a modified-DH base frame (alpha = d = 0)
+SIX_DOF = ("x", "y", "z", "rx", "ry", "rz")  # translation, then X-Y-Z Euler angles
+JOINT_ENTRIES = {"mdh": ("alpha", "d", "theta", "r"), "dh": ("theta", "d", "a", "alpha")}
+
+
+def _six_dof(frame: ast.FrameDecl) -> bool:
+    """A base frame given by position and X-Y-Z Euler angles rather than (theta, r)."""
+    return any(e.name.id in SIX_DOF for e in frame.entries)

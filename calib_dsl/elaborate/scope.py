@@ -57,8 +57,10 @@ class Macro:
 class RobotDef:
     name: str
     params: tuple[ast.Ident, ...]
-    base: ast.FrameDecl | None
+    base: tuple[ast.FrameDecl, ...]  # composed in order, before the joints
     joints: tuple[ast.FrameDecl, ...]
+    tool: tuple[ast.FrameDecl, ...]  # composed in order, after the joints
+    convention: str  # of the joints: "mdh" or "dh"
     scope: Scope
 
 
