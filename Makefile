@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test test-random lint bench clean
+.PHONY: install test test-random lint bench clean fetch-ur10
 
 install: $(VENV)/.installed
 
@@ -35,6 +35,16 @@ endif
 
 bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
+
+# fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
+# CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.
+UR10_REPO ?= https://raw.githubusercontent.com/christianlandgraf/ipa-robot-accuracy/HEAD
+fetch-ur10:
+	mkdir -p data/ur10
+	for f in measurements_joint_configurations.csv calibration_handeye.csv; do \
+		curl -fsSL -o data/ur10/$$f $(UR10_REPO)/Series_B/$$f || exit 1; done
+	curl -fsSL -o data/ur10/LICENSE.md $(UR10_REPO)/LICENSE.md
+	@echo "data/ur10/: calibc solve models/ur10_tracker.cal --data m=data/ur10/measurements_joint_configurations.csv"
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info .pytest_cache .mypy_cache .ruff_cache

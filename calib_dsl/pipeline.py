@@ -10,6 +10,7 @@ from __future__ import annotations
 import gc
 from pathlib import Path
 
+from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.ir.program import Program
@@ -26,10 +27,12 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
     try:
-        return compile_model(elaborate(model, formulation=formulation, data=data,
-                                     inputs=inputs))
+        prog = compile_model(elaborate(model, formulation=formulation, data=data,
+                                       inputs=inputs))
     finally:
         gc.enable()
+    centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
+    return prog
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,

@@ -20,8 +20,9 @@ def compile_model(model: Model) -> Program:
         slots, prims, arrays = decompose_arrays(model)
     truth = {v.name: v.true for v in model.dag.variables.values()}
     domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
+    priors = {v.name: v.prior for v in model.dag.variables.values() if v.prior is not None}
     return Program(model.path, model.formulation, slots, prims, _groups(arrays), truth,
-                   domains)
+                   domains, priors)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:

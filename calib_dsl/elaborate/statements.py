@@ -136,7 +136,8 @@ class Statements(Context):
     # -- declarations of unknowns ---------------------------------------------------------
     def _decl(self, s: ast.Decl, scope: Scope, top: bool) -> None:
         self._top_only(f"a {s.kind} declaration", s.loc, top)
-        lo, hi, center = self.domain(s.domain, scope)
+        prior = self._lsq_prior(s.domain, scope)
+        lo, hi, center = (-INF, INF, None) if prior else self.domain(s.domain, scope)
         true = center if s.true is None else self.true_value(s.true, scope)
         for dn in s.names:
             scope.check_new(dn.name)
@@ -145,7 +146,29 @@ class Statements(Context):
             else:
                 t = self._check_true(true, s, dn.name.id, lo, hi)
                 node = self.dag.var(dn.name.id, lo, hi, dn.name.loc, kind=s.kind, true=t)
+                self.dag.variables[dn.name.id].prior = prior
                 scope.define(dn.name, node)
+
+    def _lsq_prior(self, e: ast.Expr | None, scope: Scope) -> tuple[float, float] | None:
+        """`lsq +- w` or `lsq(start) +- w`: (start, w), else None. The domain is centred on
+        the least-squares estimate of the data at hand once the program is compiled (for a
+        base that stands somewhere else in each measurement campaign)."""
+        if not (isinstance(e, ast.BinOp) and e.op == "+-"):
+            return None
+        left = e.left
+        if isinstance(left, ast.Name) and left.id == "lsq" and scope.lookup("lsq") is None:
+            start = 0.0
+        elif isinstance(left, ast.Call) and left.func == "lsq" and scope.lookup("lsq") is None:
+            if len(left.args) != 1:
+                raise CalError("lsq(start) takes one value: where the least-squares search "
+                               "starts", left.loc)
+            start = self._point(left.args[0], scope, "the start of lsq")
+        else:
+            return None
+        w = self._point(e.right, scope, "the half-width of an lsq domain")
+        if not (math.isfinite(w) and w > 0):
+            raise CalError("the half-width of an lsq domain must be finite and > 0", e.right.loc)
+        return start, w
 
     def _family(self, s: ast.Decl, dn: ast.DeclName, scope: Scope, dom: tuple[float, float],
                 true: float | tuple[float, ...] | None) -> Family:

@@ -39,6 +39,10 @@ class Program:
     groups: list[Group]
     true_values: dict[str, float | None]
     domains: dict[str, tuple[float, float]] | None = None  # as declared (the search domains)
+    # `lsq(start) +- w` domains: (start, w) by name; once centred (analysis/priors.py), the
+    # estimate each was centred on, and w
+    priors: dict[str, tuple[float, float]] = field(default_factory=dict)
+    centred: dict[str, tuple[float, float]] = field(default_factory=dict)
     # What the solvers derive from the program whatever the box (propagation kernels,
     # layouts, plans), by kind, with the groups it was made from (see `derived`).
     derived_cache: dict[str, tuple[list[Group], Any]] = field(

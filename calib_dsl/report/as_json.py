@@ -25,6 +25,9 @@ def result_json(prog: Program, res: Solution, strategy: str,
             "result": None if r["result"] is None else [_num(x) for x in r["result"]],
             "true": r["true"],
         }
+        if r["name"] in prog.centred:  # the domain is the data's least-squares estimate +- w
+            centre, w = prog.centred[r["name"]]
+            params[r["name"]]["prior"] = {"lsq": centre, "half_width": w}
         if extra.info is not None:
             params[r["name"]]["identifiable"] = r["name"] not in unident
         if extra.estimate is not None:

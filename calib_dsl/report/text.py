@@ -57,6 +57,11 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     if res.split:
         lines.append(f"split: {' '.join(res.split)} (not identifiable alone) cut into pieces; "
                      f"the result is the hull of the {len(res.pieces)} that hold solutions")
+    if prog.centred:
+        lines.append("prior: the domains of " + " ".join(prog.centred) + " are centred on the "
+                     "least-squares estimate of these data (lsq +- "
+                     + "/".join(sorted({f"{w:g}" for _, w in prog.centred.values()}))
+                     + "): the results hold within that prior")
     unknowns = [i for i in prog.slots.declared if prog.slots.kinds[i] in ("param", "var")]
     if res.status != "infeasible" and unknowns and not narrowed(prog, res):
         lines += ["", _NOTHING]

@@ -1,0 +1,49 @@
+"""Search domains centred on the data at hand: `param x in lsq +- w` (or `lsq(start) +- w`).
+
+A robot measured by a laser tracker stands somewhere else in every campaign, metres apart, so
+no fixed domain fits the tracker-to-base transform of every data set. Such a parameter's
+domain is centred on a least-squares estimate of the data being solved: [estimate - w,
+estimate + w]. That domain is a *prior*, a statement about where the parameter is, which the
+report states as such; the enclosures are guaranteed within it, like within any other domain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib_dsl.analysis.lsq import estimate
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+
+MAX_EVALUATIONS = 200  # of the residuals: from a far start the estimate needs more than 30
+
+
+def centre_on_least_squares(prog: Program) -> None:
+    """Give each `lsq +- w` parameter its domain around the least-squares estimate (in place:
+    the program's slots and declared domains); the other parameters keep theirs and bound
+    the estimate."""
+    if not prog.priors:
+        return
+    ind = independents(prog)
+    names = [prog.slots.names[i] for i in ind]
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    with np.errstate(invalid="ignore"):  # (the middle of an unbounded domain is not used)
+        start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
+                         np.clip(0.0, lo, hi))
+    for name, (s, _) in prog.priors.items():
+        start[names.index(name)] = s
+    est = estimate(prog, start=start, max_evaluations=MAX_EVALUATIONS)
+    values = dict(zip(names, est.values.tolist(), strict=True))
+    bad = [n for n in prog.priors if not np.isfinite(values[n])]
+    if bad or not est.converged:
+        raise CalError("the least-squares estimate that centres the lsq domains ("
+                       f"{', '.join(prog.priors)}) did not converge: give a start nearer the "
+                       "solution, as lsq(start) +- w")
+    for name, (_, w) in prog.priors.items():
+        v = values[name]
+        slot = prog.slots.names.index(name)
+        prog.slots.lo[slot], prog.slots.hi[slot] = v - w, v + w
+        if prog.domains is not None:
+            prog.domains[name] = (v - w, v + w)
+        prog.centred[name] = (v, w)
