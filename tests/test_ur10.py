@@ -75,3 +75,20 @@ def test_the_public_data_every_15th_row(calibc):
     base = data["parameters"]["base_y"]["prior"]["lsq"]
     assert -3600 < base < -3500  # the tracker stands about 3.5 m from the robot
     assert np.isfinite(data["parameters"]["tz"]["least_squares"])
+
+
+@needs_ur10
+def test_the_six_dof_model_uses_the_orientations(calibc):
+    """models/ur10_tracker6d.cal: positions and the tracker's Euler angles of every 15th row;
+    exit 0, the least-squares estimate inside, the target turned -90 degrees about z."""
+    six = ROOT / "models" / "ur10_tracker6d.cal"
+    out = subprocess.run([*calibc, "solve", str(six), "--data", f"m={UR10}", "--rows",
+                          "1..1495:15", "--lsq", "--json", "-"],
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["least_squares"]["converged"]
+    for name, p in data["parameters"].items():
+        lo, hi = p["result"]
+        assert lo <= p["least_squares"] <= hi, name
+    assert abs(data["parameters"]["tool_rz"]["least_squares"] + np.pi / 2) < 0.005

@@ -67,6 +67,37 @@ def forward_point(dag: Dag, frames: list[AnyFrame], point: Vec3, formulation: st
     raise ValueError(f"unknown formulation {formulation!r}; expected one of {FORMULATIONS}")
 
 
+def forward_axes(dag: Dag, frames: list[AnyFrame], formulation: str) -> tuple[int, ...]:
+    """The rotation part of T0 T1 ... Tn (the last frame's axes in the workshop frame), row
+    by row: 9 nodes. The rotation formulation carries each unit vector through the chain's
+    rotations alone (a direction is not translated), one `rot` primitive per rotation."""
+    if formulation == "matrix":
+        m = _cached_chain_matrix(dag, frames)
+        return tuple(m[i][k] for i in range(3) for k in range(3))
+    if formulation == "rotation":
+        zero, one = dag.const(0.0), dag.const(1.0)
+        units: list[Vec3] = [(one, zero, zero), (zero, one, zero), (zero, zero, one)]
+        columns = [_rotation_chain(dag, frames, u, translate=False) for u in units]
+        return tuple(columns[k][i] for i in range(3) for k in range(3))
+    raise ValueError(f"unknown formulation {formulation!r}; expected one of {FORMULATIONS}")
+
+
+def euler_xyz(dag: Dag, rx: int, ry: int, rz: int) -> tuple[int, ...]:
+    """Rx(rx) Ry(ry) Rz(rz) (intrinsic X-Y-Z Euler angles), row by row: 9 nodes."""
+    m = _transform_matrix(dag, Transform((("Rx", rx), ("Ry", ry), ("Rz", rz))))
+    return tuple(m[i][k] for i in range(3) for k in range(3))
+
+
+def compose(dag: Dag, a: tuple[int, ...], b: tuple[int, ...]) -> tuple[int, ...]:
+    """The product a . b of two 3x3 matrices given row by row (9 nodes each)."""
+    def rows(v: tuple[int, ...]) -> Mat34:
+        zero = dag.const(0.0)
+        return [[v[3 * i], v[3 * i + 1], v[3 * i + 2], zero] for i in range(3)]
+
+    m = _matmul(dag, rows(a), rows(b))
+    return tuple(m[i][k] for i in range(3) for k in range(3))
+
+
 # -- algorithm f: homogeneous matrices ------------------------------------------------------
 def chain_matrix(dag: Dag, frames: list[AnyFrame]) -> Mat34:
     """The top 3x4 block of T0 T1 ... Tn, built from the last joint back as the paper does."""
@@ -183,25 +214,32 @@ def _identity(dag: Dag) -> Mat34:
 
 
 # -- algorithm g: one rotation primitive per rotation ---------------------------------------
-def _rotation_chain(dag: Dag, frames: list[AnyFrame], point: Vec3) -> Vec3:
+def _rotation_chain(dag: Dag, frames: list[AnyFrame], point: Vec3,
+                    translate: bool = True) -> Vec3:
+    """The point carried through the chain, the last frame first; without `translate`, a
+    direction: the rotations alone."""
     c1, c2, c3 = point
     for f in reversed(frames):
         if isinstance(f, Transform):
-            c1, c2, c3 = _rotation_steps(dag, f, (c1, c2, c3))
+            c1, c2, c3 = _rotation_steps(dag, f, (c1, c2, c3), translate)
             continue
-        c3 = dag.op("add", c3, f.r)
+        if translate:
+            c3 = dag.op("add", c3, f.r)
         c1, c2 = _rot(dag, f.theta, c1, c2)
-        c1 = dag.op("add", c1, f.d)
+        if translate:
+            c1 = dag.op("add", c1, f.d)
         c2, c3 = _rot(dag, f.alpha, c2, c3)
     return c1, c2, c3
 
 
-def _rotation_steps(dag: Dag, f: Transform, c: Vec3) -> Vec3:
+def _rotation_steps(dag: Dag, f: Transform, c: Vec3, translate: bool = True) -> Vec3:
     """The steps applied to a point, the last first: a translation adds, a rotation is one
     `rot` primitive in its plane (Rx turns (y, z), Ry (z, x), Rz (x, y))."""
     xyz = list(c)
     for kind, node in reversed(f.steps):
         if kind[0] == "T":
+            if not translate:
+                continue
             k = "xyz".index(kind[1].lower())
             xyz[k] = dag.op("add", xyz[k], node)
             continue

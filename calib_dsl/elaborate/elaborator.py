@@ -129,6 +129,7 @@ class Elaborator(Statements, Expressions, Robots, Tables):
             ast.Number: lambda e, s: e.value, ast.Pi: lambda e, s: self.dag.pi(),
             ast.Infinity: self._infinity, ast.Name: self._name, ast.Neg: self._neg,
             ast.BinOp: self._binop, ast.Call: self._call, ast.RobotAt: self._robot_at,
+            ast.RobotAxes: self._robot_axes,
             ast.Index: self._index, ast.Field: self._field, ast.TupleLit: self._tuple,
             ast.IntervalLit: self._interval,
         }

@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from calib_dsl.elaborate import chains
 from calib_dsl.elaborate.checks import (
     ARITH_OPS,
     INF,
@@ -26,6 +27,7 @@ from calib_dsl.elaborate.context import Context
 from calib_dsl.elaborate.scope import (
     BUILTINS,
     FUNCTIONS,
+    SPECIAL,
     ColumnRef,
     Entity,
     Family,
@@ -266,6 +268,8 @@ class Expressions(Context):
         if e.func == "dot":
             check_arity(e, 2, "function")
             return self._dot(self.value(e.args[0], scope), self.value(e.args[1], scope), e.loc)
+        if e.func in ("euler_xyz", "compose"):
+            return self._rotation(e, scope)
         macro = self.lookup(e.func, e.loc, scope)
         if isinstance(macro, RobotDef):
             raise CalError(f"robot '{e.func}' gives the coordinates of a tool point: write "
@@ -287,6 +291,23 @@ class Expressions(Context):
         for x, y in pairs(u, v, "multiply", loc):
             total = self.arith("+", total, self.arith("*", x, y, loc), loc)
         return total
+
+    def _rotation(self, e: ast.Call, scope: Scope) -> tuple[int, ...]:
+        """euler_xyz(rx, ry, rz): the matrix Rx Ry Rz; compose(A, B): the product A B (3x3
+        matrices as 9-vectors, row by row)."""
+        check_arity(e, SPECIAL[e.func], "function")
+        values = [self.value(a, scope) for a in e.args]
+        if e.func == "euler_xyz":
+            angles = [self.node(self.scalar(v, a.loc, "an angle of euler_xyz"), a.loc)
+                      for v, a in zip(values, e.args, strict=True)]
+            return chains.euler_xyz(self.dag, *angles)
+        mats = []
+        for v, a in zip(values, e.args, strict=True):
+            if not (isinstance(v, tuple) and len(v) == 9):
+                raise CalError(f"compose(A, B) takes two 3x3 matrices as 9-vectors (row by "
+                               f"row), not {kind_of(v)}", a.loc)
+            mats.append(tuple(self.node(x, a.loc) for x in v))
+        return chains.compose(self.dag, mats[0], mats[1])
 
     def _expand(self, macro: Macro, e: ast.Call, scope: Scope) -> Value:
         if len(e.args) != len(macro.params):

@@ -24,7 +24,7 @@ from calib_dsl.frontend.diagnostics import CalError
 
 
 class Robots(Context):
-    """`robot` declarations and `robot(q...) at p` uses."""
+    """`robot` declarations and their uses: `robot(q...) at p`, `robot(q...) axes`."""
 
     # -- robots ---------------------------------------------------------------------------
     def _robot(self, s: ast.Robot, scope: Scope, top: bool) -> None:
@@ -51,14 +51,10 @@ class Robots(Context):
                                       scope))
 
     def _robot_at(self, e: ast.RobotAt, scope: Scope) -> tuple[int, ...]:
+        args = self._joint_values(e, scope, "'at' gives the workshop coordinates of a tool "
+                                            "point on a robot")
         robot = self.lookup(e.robot, e.loc, scope)
-        if not isinstance(robot, RobotDef):
-            raise CalError(f"'{e.robot}' is not a robot: 'at' gives the workshop coordinates "
-                           "of a tool point on a robot", e.loc)
-        if len(e.args) != len(robot.params):
-            raise CalError(f"robot '{e.robot}' takes {count(len(robot.params), 'joint value')}"
-                           f", got {len(e.args)}", e.loc)
-        args = tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
+        assert isinstance(robot, RobotDef)
         point = self.value(e.point, scope)
         if not isinstance(point, tuple) or len(point) != 3:
             raise CalError(f"a tool point is a 3-vector (x, y, z), not {kind_of(point)}",
@@ -72,6 +68,28 @@ class Robots(Context):
             found = tuple(chains.forward_point(self.dag, frames, xyz, self.formulation))
             self._robot_calls[key] = found
         return found
+
+    def _robot_axes(self, e: ast.RobotAxes, scope: Scope) -> tuple[int, ...]:
+        args = self._joint_values(e, scope, "'axes' gives the orientation of a robot's last "
+                                            "frame")
+        robot = self.lookup(e.robot, e.loc, scope)
+        assert isinstance(robot, RobotDef)
+        key = (robot.name, args, "axes")
+        found = self._robot_calls.get(key)
+        if found is None:
+            found = chains.forward_axes(self.dag, self._frames(robot, args), self.formulation)
+            self._robot_calls[key] = found
+        return found
+
+    def _joint_values(self, e: ast.RobotAt | ast.RobotAxes, scope: Scope,
+                      what: str) -> tuple[Scalar, ...]:
+        robot = self.lookup(e.robot, e.loc, scope)
+        if not isinstance(robot, RobotDef):
+            raise CalError(f"'{e.robot}' is not a robot: {what}", e.loc)
+        if len(e.args) != len(robot.params):
+            raise CalError(f"robot '{e.robot}' takes {count(len(robot.params), 'joint value')}"
+                           f", got {len(e.args)}", e.loc)
+        return tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
 
     def _frames(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The frames of a robot for these joint values (the same for every tool point)."""

@@ -22,7 +22,8 @@ FUNCTIONS = {"sqr": 1, "sqrt": 1, "exp": 1, "log": 1, "sin": 1, "cos": 1, "tan":
              "atan2": 2}
 
 
-SPECIAL = {"rows": 1, "dot": 2}
+# Functions of vectors; a rotation is a 9-vector, its matrix row by row.
+SPECIAL = {"rows": 1, "dot": 2, "euler_xyz": 3, "compose": 2}
 
 
 BUILTINS = set(FUNCTIONS) | set(SPECIAL)

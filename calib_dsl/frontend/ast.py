@@ -73,6 +73,16 @@ class RobotAt:
 
 
 @dataclass(frozen=True)
+class RobotAxes:
+    """`robot(joint values) axes`: the last frame's orientation in the workshop frame, a
+    9-vector (the rotation matrix row by row)."""
+
+    robot: str
+    args: tuple[Expr, ...]
+    loc: Loc
+
+
+@dataclass(frozen=True)
 class Index:
     base: Expr
     index: Expr
@@ -101,8 +111,8 @@ class IntervalLit:
     loc: Loc
 
 
-Expr = (Number | Pi | Infinity | Name | Neg | BinOp | Call | RobotAt | Index | Field | TupleLit
-        | IntervalLit)
+Expr = (Number | Pi | Infinity | Name | Neg | BinOp | Call | RobotAt | RobotAxes | Index | Field
+        | TupleLit | IntervalLit)
 
 # -- statements ---------------------------------------------------------------------------
 

@@ -221,6 +221,9 @@ class _Builder(Transformer[Token, Any]):
     def robot_at(self, meta: Any, c: list) -> ast.RobotAt:
         return ast.RobotAt(str(c[0]), c[1] or (), c[2], self._loc(meta))
 
+    def robot_axes(self, meta: Any, c: list) -> ast.RobotAxes:
+        return ast.RobotAxes(str(c[0]), c[1] or (), self._loc(meta))
+
     def args(self, meta: Any, c: list) -> tuple[ast.Expr, ...]:
         return tuple(c)
 
