@@ -206,12 +206,13 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
 @user_errors
 def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
              rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
-    """Which parameters of MODEL the measurements can determine (rank of the Jacobian)."""
-    from calib_dsl.analysis.identify import analyse, identifiability_json, render
+    """Which parameters of MODEL the measurements can determine, which move with which, and
+    a well-conditioned subset to calibrate (judged against the data's error bounds)."""
+    from calib_dsl.analysis.advice import advice_json, advise, render
 
-    info = analyse(_load(model, formulation, _inputs(data, rows, exclude, defines)))
+    info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines)))
     if as_json:
-        click.echo(json.dumps(identifiability_json(info), indent=2))
+        click.echo(json.dumps(advice_json(info), indent=2))
     else:
         click.echo(render(info))
 
