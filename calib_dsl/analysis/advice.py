@@ -5,8 +5,8 @@ The yardstick is the data's own error bounds. Each row of the Jacobian is divide
 measurement bound and each column multiplied by the parameter's half domain, so a singular
 value is how far, in error bounds (root-sum-square over all rows), the measurements move when
 the parameters move along that direction to the edge of their domains. A direction that moves
-them by less than SEEN of a bound is not seen at all (the rank); one under WELL_SEEN bound is
-seen so faintly that the data cannot pin it down. The analysis is made at the least-squares
+them by less than `seen` of a bound is not seen at all (the rank); one under `well_seen` bound
+is seen so faintly that the data cannot pin it down. The analysis is made at the least-squares
 estimate of the data (where the robot is, not where its drawing says), else at the middle of
 the domains. It is advice, not a guarantee: the solve's enclosures are the guarantee.
 """
@@ -20,12 +20,13 @@ import numpy as np
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import DEFAULT
 
-SEEN = 1e-4  # error bounds over the domain: fainter is below the data's rounding and the model's
-WELL_SEEN = 1.0  # error bounds: a direction fainter than one bound is left to the others
-COND_MAX = 1e3  # the suggested subset's condition number at most
-LEADS = 0.5  # share of the largest component that leads a direction
-ABSORBED = 0.05  # share of the largest coefficient that names an absorbing parameter
+SEEN = DEFAULT.seen
+WELL_SEEN = DEFAULT.well_seen
+COND_MAX = DEFAULT.subset_cond
+LEADS = DEFAULT.leads
+ABSORBED = DEFAULT.absorbs
 
 
 @dataclass(frozen=True)
