@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 import traceback
@@ -149,9 +150,29 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
         click.echo(text, nl=False)
 
 
+class _FiniteTol(click.ParamType):
+    """A non-negative finite float: click's FloatRange lets nan through (nan < 0 is false)."""
+
+    name = "float"
+
+    def convert(self, value: object, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        try:
+            x = float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not (math.isfinite(x) and x >= 0):
+            self.fail(f"{value!r} is not a finite number >= 0", param, ctx)
+        return x
+
+
+FINITE_TOL = _FiniteTol()
+MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campaign
+
+
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--tol", type=click.FloatRange(min=0.0), default=1e-5, show_default=True,
+@click.option("--tol", type=FINITE_TOL, default=1e-5, show_default=True,
               help="Stop when a sweep contracts every declared unknown by less than this "
                    "relative amount.")
 @click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True)
@@ -219,9 +240,11 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
 
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--configs", type=click.IntRange(min=1), required=True,
-              help="Number of configurations (rows) to draw.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS), required=True,
+              help=f"Number of configurations (rows) to draw, at most {MAX_CONFIGS:,}.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the random draws (a non-negative integer): the same seed gives "
+                   "the same file.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
 @FORMULATION
 @user_errors

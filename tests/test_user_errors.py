@@ -296,3 +296,34 @@ def test_mutated_examples_never_crash(tmp_path, example):
             pass
         except Exception as exc:  # pragma: no cover - the failure report
             raise AssertionError(f"mutant {k} raised {exc!r}:\n{text}") from exc
+
+
+# -- the bad inputs fuzzing found: one clear message, exit 2, at once ------------------------
+BAD_COMMANDS = [
+    (["solve", "{big}"], "number literal of 4400 digits"),
+    (["solve", "{bigexp}"], "out of range"),
+    (["solve", "{empty}"], "the model is empty"),
+    (["compile", "{empty}"], "the model is empty"),
+    (["solve", "{ok}", "--tol", "nan"], "not a finite number"),
+    (["solve", "{ok}", "--tol", "-1"], "not a finite number"),
+    (["simulate", "{ok}", "--configs", "3", "--seed", "-1", "-o", "{out}"], "x>=0"),
+    (["simulate", "{ok}", "--configs", "10000000000", "--seed", "1", "-o", "{out}"],
+     "1<=x<=1000000"),
+]
+
+
+@pytest.mark.parametrize("args, message", BAD_COMMANDS)
+def test_bad_commands_exit_2_with_one_message(tmp_path, calibc, args, message):
+    import subprocess
+
+    files = {"big": "var x in [0, " + "1" * 4400 + "];\nx == 1;\n",
+             "bigexp": "var x in [0, 1e" + "1" * 30 + "];\nx == 1;\n", "empty": "",
+             "ok": "var x in [0, 2];\nx * x == 2;\n"}
+    names = {k: str(tmp_path / f"{k}.cal") for k in files}
+    for k, text in files.items():
+        Path(names[k]).write_text(text)
+    names["out"] = str(tmp_path / "out.csv")
+    out = subprocess.run([*calibc, *(a.format(**names) for a in args)], capture_output=True,
+                         text=True, timeout=30)
+    assert out.returncode == 2, (out.returncode, out.stderr)
+    assert message in out.stderr and "Traceback" not in out.stderr

@@ -74,6 +74,9 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     except RecursionError:
         raise CalError("the model nests too deeply to elaborate", None) from None
     _check_used(inputs, run)
+    if not run.dag.variables and not run.dag.constraints:
+        raise CalError("the model is empty: it declares no unknown and states no constraint, "
+                       "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None)
 

@@ -15,6 +15,7 @@ from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.frontend.grammar import cal_parser
 
 MAX_EXPONENT = 400  # of a decimal literal: floats span about 1e-324 .. 1e308
+MAX_DIGITS = 4000  # of a decimal literal: far past a float's 17, and cheap to read exactly
 
 
 def parse(text: str, filename: str) -> tuple[ast.Stmt, ...]:
@@ -168,7 +169,10 @@ class _Builder(Transformer[Token, Any]):
     def number(self, meta: Any, c: list) -> ast.Number:
         text = str(c[0])
         mantissa, _, exponent = text.lower().partition("e")
-        if exponent and abs(int(exponent)) > MAX_EXPONENT:  # beyond floats, and costly exactly
+        if len(mantissa) > MAX_DIGITS:
+            raise CalError(f"number literal of {len(mantissa)} digits: at most {MAX_DIGITS} "
+                           "(a float keeps 17)", self._loc(meta))
+        if exponent and (len(exponent) > 6 or abs(int(exponent)) > MAX_EXPONENT):  # beyond floats, and costly exactly
             raise CalError(f"number {text} is out of range (exponent beyond "
                            f"+-{MAX_EXPONENT})", self._loc(meta))
         return ast.Number(Fraction(text), text, self._loc(meta))
