@@ -172,7 +172,8 @@ class _Builder(Transformer[Token, Any]):
         if len(mantissa) > MAX_DIGITS:
             raise CalError(f"number literal of {len(mantissa)} digits: at most {MAX_DIGITS} "
                            "(a float keeps 17)", self._loc(meta))
-        if exponent and (len(exponent) > 6 or abs(int(exponent)) > MAX_EXPONENT):  # beyond floats, and costly exactly
+        # beyond floats, and costly exactly (a long exponent is out of range unread)
+        if exponent and (len(exponent) > 6 or abs(int(exponent)) > MAX_EXPONENT):
             raise CalError(f"number {text} is out of range (exponent beyond "
                            f"+-{MAX_EXPONENT})", self._loc(meta))
         return ast.Number(Fraction(text), text, self._loc(meta))
