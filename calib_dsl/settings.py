@@ -37,6 +37,11 @@ class Settings:
     # and rounds use second-order models instead.
     wide: float = 0.06
     wide_min_gain: float = 0.02  # a second-order round gaining less ends the search
+    # When first-order rounds are over and their remainder is still above this share of the
+    # rows' widths, the error bounds are tighter than the model is linear over the box (real
+    # data from realistic priors: the UR10's is about 0.7), and fine second-order rounds
+    # follow: every product kept and tied to its factors by McCormick's inequalities.
+    remainder_wide: float = 0.5
     # The second-order LPs are dense and one objective's optimum is far from the next's:
     # the simplex from the previous objective's optimum beats the interior point method,
     # each objective's own old basis (the box moved much in between), and probe LPs.

@@ -6,7 +6,11 @@ A round is four named steps:
 
 1. `relaxation`: second order while the box is too wide for first order (curvature above
    `wide`), else first order, with the measurement errors folded into each row (a small LP)
-   or, near the end, as LP columns of their own (the hull of the linearized problem).
+   or, near the end, as LP columns of their own (the hull of the linearized problem). When
+   the first-order rounds are over but their remainder is still a large share of the rows'
+   widths (`remainder_wide`: error bounds tighter than the model is linear over the box),
+   fine second-order rounds follow: every product kept, each tied to its factors by
+   McCormick's inequalities.
 2. `bounds`: certified bounds on every unknown, from the last LPs' multipliers on the new
    box (a matrix product) while that pays, else from LPs solved again.
 3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
@@ -96,6 +100,7 @@ class _Rounds:
     reused_in_a_row: int = 0
     last_family: str = ""  # of the last round
     last_fresh: bool = True
+    fine: bool = False  # the fine second-order rounds have begun
     work: Work = Work()
     stop: str = ""
     emptied: Emptied | None = None
@@ -127,6 +132,13 @@ class _Rounds:
         """This round's relaxation, or None when none can be built."""
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
         self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
+        if self.fine:
+            fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True)
+            if fine is None:  # (beyond the models' memory bound)
+                return None
+            this = _Round(None, fine, True)
+            this.fresh = not (self.reuse and certs.usable(this.target))
+            return this
         order2 = self.spec.second_order and not self.cells
         # the second-order phase ends with a round of LPs (reused multipliers may have left
         # the box just below `wide` while the LPs would still contract it much further)
@@ -204,7 +216,8 @@ class _Rounds:
         # (a round without a first-order relaxation: the second-order one's estimate of the
         # curvature)
         wide = this.quad is not None
-        self.reuse = self.cells or (wide and (this.first or this.target).curvature > s.wide)
+        self.reuse = self.cells or (wide and (self.fine
+                                              or (this.first or this.target).curvature > s.wide))
         self.reused_in_a_row = 0
         if wide:
             # every unknown in the next one: rounds of LPs are rare between reused rounds,
@@ -221,17 +234,30 @@ class _Rounds:
         settled = this.first.remainder_share < s.settled
         if self.cells:
             if best < s.min_gain or settled:
-                return False
+                return self._fine_rounds(this)
             self.skip = (gains < s.min_gain) & ~self.skip  # tried again a round later
             return True
         if settled and not self.cellular:
-            return False  # the next round would solve the same LP
+            return self._fine_rounds(this)  # the next round would solve the same LP
         if best < s.folded_until or settled:
             # a tighter relaxation: every unknown again, but one that no round has moved
             # (a parameter known beforehand)
             self.cells, self.skip = True, ~self.moved
         else:
             self.skip = (gains < s.stalled) & ~self.skip
+        return True
+
+
+    def _fine_rounds(self, this: _Round) -> bool:
+        """The first-order rounds are over: whether fine second-order rounds follow (their
+        remainder still above `remainder_wide` of the rows' widths)."""
+        assert this.first is not None
+        s = self.spec.settings
+        if (not self.spec.second_order or self.fine
+                or this.first.remainder_share < s.remainder_wide):
+            return False
+        self.fine, self.cells, self.reuse = True, False, False
+        self.skip = np.zeros_like(self.skip)
         return True
 
 
