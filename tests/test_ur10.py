@@ -92,3 +92,67 @@ def test_the_six_dof_model_uses_the_orientations(calibc):
         lo, hi = p["result"]
         assert lo <= p["least_squares"] <= hi, name
     assert abs(data["parameters"]["tool_rz"]["least_squares"] + np.pi / 2) < 0.005
+
+
+def _noisy_simulation_model(tmp_path: Path, noise: float) -> Path:
+    """models/ur10_simulated.cal with uniform noise of `noise` mm (its includes absolute)."""
+    models = ROOT / "models"
+    text = (SIMULATED.read_text().replace("const e = 0.1;", f"const e = {noise};")
+            .replace('include "robots/ur10.cal";', f'include "{models}/robots/ur10.cal";')
+            .replace('include "ur10_cell.cal";', f'include "{models}/ur10_cell.cal";'))
+    path = tmp_path / "noisy.cal"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
+    """Few rows whose noise fills the error bound (1 mm against priors of 5 mm): first-order
+    rounds stall with a large remainder, the fine second-order rounds contract, and the
+    truth stays inside (the same priors as the real data's)."""
+    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.pipeline import load
+    from calib_dsl.relax.layout import independents
+    from calib_dsl.strategy.tight import solve_tight
+
+    table = tmp_path / "sim.csv"
+    simulate(_noisy_simulation_model(tmp_path, 1.0), 12, seed, out_csv=table)
+    prog = load(TRACKER, inputs=Inputs(data={"m": table}, consts={"e": "1.0"}))
+    ind = independents(prog)
+    width = prog.slots.hi[ind] - prog.slots.lo[ind]
+    fine = solve_tight(prog)
+    first = solve_tight(prog, second_order=False)
+    for name, t in truth().items():
+        i = prog.slots.names.index(name)
+        assert fine.lo[i] <= t <= fine.hi[i], (seed, name, fine.lo[i], t, fine.hi[i])
+    ratio = (fine.hi[ind] - fine.lo[ind]) / width
+    assert np.median(ratio) < 0.7  # first order alone: nothing narrows from these priors
+    assert np.median((first.hi[ind] - first.lo[ind]) / width) > 0.95
+
+
+@needs_ur10
+def test_the_public_data_within_1_2_of_the_yardstick():
+    """Every 15th row at e = 1.0 mm: every parameter's width within 1.2x of the linearized
+    yardstick's (the LP over the model linearized at the least-squares estimate)."""
+    from calib_dsl.analysis.lsq import estimate
+    from calib_dsl.analysis.reference import linearized_hull
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.elaborate.rows import Selection, parse_ranges
+    from calib_dsl.pipeline import load
+    from calib_dsl.relax.layout import independents
+    from calib_dsl.strategy.tight import solve_tight
+
+    inputs = Inputs(data={"m": UR10}, rows={"m": Selection(parse_ranges("1..1495:15"), ())},
+                    consts={"e": "1.0"})
+    prog = load(TRACKER, inputs=inputs)
+    sol = solve_tight(prog)
+    ind = independents(prog)
+    names = [prog.slots.names[i] for i in ind]
+    est = estimate(prog, max_evaluations=200)
+    for n, v in zip(names, est.values, strict=True):
+        prog.true_values[n] = float(v)
+    hull = linearized_hull(prog)
+    for i, n in zip(ind, names, strict=True):
+        assert sol.lo[i] <= prog.true_values[n] <= sol.hi[i], n
+        assert sol.hi[i] - sol.lo[i] <= 1.2 * (hull[n][1] - hull[n][0]), n
