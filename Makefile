@@ -25,7 +25,8 @@ lint: install
 	$(BIN)/ruff check calib_dsl tests bench
 	$(BIN)/mypy calib_dsl
 
-# bench: the venv's python once `make install` made it; else $(PY) when calibc already runs
+# bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
+# note where the data set is absent). The venv's python once `make install` made it; else $(PY) when calibc already runs
 # there (no install needed); else install first.
 ifneq ($(filter bench,$(MAKECMDGOALS)),)
 BENCH_PY := $(shell if [ -x $(BIN)/python ]; then echo $(BIN)/python; \
@@ -35,6 +36,7 @@ endif
 
 bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
+	$(or $(BENCH_PY),$(BIN)/python) bench/ur10.py
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.
