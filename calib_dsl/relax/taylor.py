@@ -68,9 +68,9 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     n = len(ind)
     pairs = Pairs.of(n)
     p = len(pairs.i)
-    if len(lo) * (1 + n + p) * 8 > settings.DEFAULT.max_table_bytes:
-        return None
     plan = _plan(prog, ind)
+    if plan.peak_bytes > settings.DEFAULT.max_table_bytes:
+        return None
     center = 0.5 * plo + 0.5 * phi
     half = up(np.maximum(center - plo, phi - center))
     temp, known = plan.layout.temp, plan.layout.const
@@ -97,6 +97,8 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
                 others = slots[nd][~known[slots[nd]]]
                 models = _global(plan, c0, r, store, half, others, n, p)
                 found.append(_constraint(whole, models, slots[nd], known, lo, hi))
+        for done in plan.freed[len(store) - 1]:  # no later group reads these models
+            store[done] = _FREED
     capped = np.flatnonzero(temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
     if len(capped):
         found.append((_global(plan, c0, r, store, half, capped, n, p), lo[capped], hi[capped]))
@@ -138,14 +140,21 @@ class _Piece:
 @dataclass
 class _Plan:
     """What expand does on every box of a program, worked out once: the program's layout
-    (each group's unknowns and defining rows), each group's pairs, and where each of its
-    arguments' models is kept."""
+    (each group's unknowns and defining rows), each group's pairs, where each of its
+    arguments' models is kept, and when a group's models are read for the last time (they
+    are dropped then: a chain reads each level's models once, so the live models are a few
+    levels' worth, not one per slot of thousands of configurations)."""
 
     layout: Layout
     at: list[np.ndarray]  # each group's pairs among all pairs
     gathers: list[list[list[_Piece]]]
     home: tuple[np.ndarray, np.ndarray, np.ndarray]  # (group, output, row) per slot, -1: none
     unknown: np.ndarray  # the column of an unknown's slot, -1 for the others
+    freed: list[list[int]]  # after each group: the groups whose models no later one reads
+    peak_bytes: float  # the most the live models hold at once
+
+
+_FREED: list[Models] = []  # a dropped group's models (reading them is a bug: IndexError)
 
 
 def _plan(prog: Program, ind: np.ndarray) -> _Plan:
@@ -165,8 +174,42 @@ def _make_plan(prog: Program, ind: np.ndarray) -> _Plan:
         for j in range(g.out.shape[1]):
             d = np.flatnonzero(masks[k][:, j])
             hg[g.out[d, j]], hj[g.out[d, j]], hr[g.out[d, j]] = k, j, d
+    freed, peak = _lifetimes(prog, lay, gathers, (hg, hj, hr))
     return _Plan(lay, [_pair_index(c, len(ind)) for c in cols], gathers, (hg, hj, hr),
-                 unknown)
+                 unknown, freed, peak)
+
+
+def _lifetimes(prog: Program, lay: Layout, gathers: list[list[list[_Piece]]],
+               home: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[list[list[int]], float]:
+    """After which group each group's models are read for the last time (by a later group's
+    arguments, or by a constraint row compared with a slot it defines), and the peak of the
+    live models' bytes (rows x (1 + unknowns + pairs) x 8 per output)."""
+    hg = home[0]
+    count = len(prog.groups)
+    last = np.arange(count)  # a group reads its own outputs' models as it makes them
+    for k, g in enumerate(prog.groups):
+        for pieces in gathers[k]:
+            for pc in pieces:
+                if pc.group >= 0:
+                    last[pc.group] = max(int(last[pc.group]), k)
+        for j in range(g.out.shape[1]):
+            others = g.out[~lay.defining[k][:, j], j]
+            src = hg[others[~lay.const[others]]]
+            for h in np.unique(src[src >= 0]):
+                last[h] = max(int(last[h]), k)
+    capped = np.flatnonzero(lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
+    for h in np.unique(hg[capped][hg[capped] >= 0]):  # read once more, after the last group
+        last[h] = count
+    freed: list[list[int]] = [[] for _ in range(count)]
+    for h, k in enumerate(last.tolist()):
+        if k < count:
+            freed[k].append(h)
+    size = np.array([g.out.size * (1 + len(c) + len(c) * (len(c) + 1) // 2) * 8.0
+                     for g, c in zip(prog.groups, lay.used, strict=True)])
+    live = np.zeros(count + 1)
+    np.add.at(live, np.arange(count), size)  # born at its own group
+    np.add.at(live, np.minimum(last, count - 1) + 1, -size)  # dead after its last reader
+    return freed, float(np.cumsum(live).max(initial=0.0))
 
 
 def _pieces(slots: np.ndarray, dest: np.ndarray, cols: list[np.ndarray],
