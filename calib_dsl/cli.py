@@ -185,19 +185,27 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--identify/--no-identify", default=True, show_default=True,
               help="Report which parameters the data cannot separate.")
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
+@click.option("--min-error", "min_error", metavar="NAME",
+              help="Instead of one solve, bracket the smallest value of the const NAME (the "
+                   "error bound) for which the data are consistent.")
 @FORMULATION
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, formulation: str, data: tuple[str, ...],
-          rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+          identify: bool, lsq: bool, min_error: str | None, formulation: str,
+          data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+          defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve as run
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
     from calib_dsl.report.text import render_summary, render_table
 
-    prog = _load(model, formulation, _inputs(data, rows, exclude, defines))
+    inputs = _inputs(data, rows, exclude, defines)
+    if min_error is not None:
+        _min_error(model, min_error, formulation, inputs, strategy, json_path)
+        return
+    prog = _load(model, formulation, inputs)
     res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
     extra = Extras()
     if res.status == "contracted":
@@ -217,6 +225,22 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
             _write(json_path, text + "\n")
     if res.status == "infeasible":
         sys.exit(1)
+
+
+def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: str,
+               json_path: str | None) -> None:
+    from calib_dsl.pipeline import min_error
+    from calib_dsl.report.min_error import min_error_json, render_min_error
+
+    found = min_error(model, name, formulation, inputs, strategy)
+    if json_path != "-":
+        click.echo(render_min_error(found))
+    if json_path:
+        text = json.dumps({"model": model, "min_error": min_error_json(found)}, indent=2)
+        if json_path == "-":
+            click.echo(text)
+        else:
+            _write(json_path, text + "\n")
 
 
 @main.command()

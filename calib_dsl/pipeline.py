@@ -10,9 +10,12 @@ from __future__ import annotations
 import gc
 from pathlib import Path
 
+from calib_dsl.analysis.min_error import MinError
+from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
@@ -23,16 +26,30 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
          inputs: Inputs | None = None) -> Program:
     """Parse, elaborate and compile a `.cal` model (with `data` replacing its first table's
     file; `inputs`: files by table, rows, const values, as on the command line)."""
+    return load_model(model, formulation, data, inputs)[1]
+
+
+def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
+               inputs: Inputs | None = None) -> tuple[Model, Program]:
+    """`load`, with the elaborated model too (its tables and consts)."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
     try:
-        prog = compile_model(elaborate(model, formulation=formulation, data=data,
-                                       inputs=inputs))
+        elaborated = elaborate(model, formulation=formulation, data=data, inputs=inputs)
+        prog = compile_model(elaborated)
     finally:
         gc.enable()
     centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
-    return prog
+    return elaborated, prog
+
+
+def min_error(model: str | Path, name: str, formulation: str = "matrix",
+              inputs: Inputs | None = None, strategy: str = "tight") -> MinError:
+    """Bracket the smallest value of the const `name` for which the data are consistent."""
+    return find_min_error(name, inputs or Inputs(),
+                          lambda i: load_model(model, formulation, inputs=i),
+                          lambda prog: solve(prog, strategy).status)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,

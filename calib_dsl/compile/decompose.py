@@ -135,12 +135,13 @@ def _make_slots(dag: Dag, g: DagArrays, live: np.ndarray, rep: np.ndarray, caps:
     for node, clo, chi, loc in caps:
         _narrow(lo, hi, origin, slot_of[node], clo, chi, loc)
     decl_slots = [int(slot_of[v.node]) for v in declared]
-    rows, cols = _cell_tags(dag, slot_of, m)
+    rows, cols, keys = _cell_tags(dag, slot_of, m)
     return slot_of, Slots(names, kinds, lo, hi, origin, decl_slots, [v.name for v in declared],
-                          rows, cols)
+                          rows, cols, keys)
 
 
-def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int
+               ) -> tuple[np.ndarray, np.ndarray, list[tuple[str, int]]]:
     row_ids: dict[tuple[str, int], int] = {}
     col_ids: dict[tuple[str, str], int] = {}
     rows, cols = np.full(m, -1, dtype=np.int64), np.full(m, -1, dtype=np.int64)
@@ -155,7 +156,7 @@ def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int) -> tuple[np.ndarray, np.nd
                 rows[s], cols[s] = r, c
             elif rows[s] != r or cols[s] != c:
                 rows[s] = -2
-    return rows, cols
+    return rows, cols, list(row_ids)
 
 
 def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:

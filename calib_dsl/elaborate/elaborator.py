@@ -78,7 +78,7 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
         raise CalError("the model is empty: it declares no unknown and states no constraint, "
                        "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
-                 simulation=simulate_rows is not None)
+                 simulation=simulate_rows is not None, consts=dict(run.const_values))
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -110,6 +110,7 @@ class Elaborator(Statements, Expressions, Robots, Tables):
         self.overrides = dict(inputs.consts)
         self.overridden: set[str] = set()
         self.consts_seen: set[str] = set()
+        self.const_values: dict[str, Fraction] = {}
         self.units = dict(DEFAULT_UNITS)
         self.units_loc: Loc | None = None
         self.simulate_rows = simulate_rows

@@ -22,6 +22,7 @@ from calib_dsl.elaborate.scope import (
     Family,
     Macro,
     Scope,
+    Value,
 )
 from calib_dsl.elaborate.units import UNITS, dimension
 from calib_dsl.frontend import ast
@@ -55,13 +56,15 @@ class Statements(Context):
         if top:
             self.consts_seen.add(s.name.id)
         if top and s.name.id in self.overrides:  # -D name=value: the command line's value
-            scope.define(s.name, self._override(s))
-            return
-        value = self.value(s.value, scope)
-        items = value if isinstance(value, tuple) else (value,)
-        if not all(self.is_constant(x) for x in items):
-            raise CalError(f"const '{s.name.id}' depends on unknowns: a const must be a "
-                           "constant expression (use let for an alias)", s.value.loc)
+            value: Value = self._override(s)
+        else:
+            value = self.value(s.value, scope)
+            items = value if isinstance(value, tuple) else (value,)
+            if not all(self.is_constant(x) for x in items):
+                raise CalError(f"const '{s.name.id}' depends on unknowns: a const must be a "
+                               "constant expression (use let for an alias)", s.value.loc)
+        if top and isinstance(value, Fraction):
+            self.const_values[s.name.id] = value
         scope.define(s.name, value)
 
     def _override(self, s: ast.Const) -> Fraction:

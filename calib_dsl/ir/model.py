@@ -4,6 +4,7 @@ plus the measurement tables the model read (or, in simulation mode, will write).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.dag import Dag
@@ -42,3 +43,4 @@ class Model:
     formulation: str = "matrix"  # "matrix" | "rotation"
     # Simulation mode only: a data cell `table.col[row]` is a `data` variable of the DAG.
     simulation: bool = False
+    consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts

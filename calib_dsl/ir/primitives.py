@@ -40,6 +40,8 @@ class Slots:
     # from; -1 for other slots, -2 for a constant shared by several configurations.
     cell_row: np.ndarray | None = None
     cell_col: np.ndarray | None = None
+    # (table name, model row k of `table.col[k]`) of each cell_row id
+    row_keys: list[tuple[str, int]] | None = None
 
 
 @dataclass

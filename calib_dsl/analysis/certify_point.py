@@ -1,0 +1,89 @@
+"""A proof that a parameter vector satisfies every constraint: interval evaluation at a point.
+
+Consistency asks for values within the bounds that satisfy every constraint. The witness:
+every declared unknown at the point, and every measured value that only enters the model
+(a joint reading: an argument, never a compared side) at its reading, the middle of its
+interval. Each primitive is then evaluated forward with outward rounding; a temporary takes
+the value its definition gives, and every other row (`f == x` with x measured, or a second
+definition of a temporary) must hold: f's enclosure inside x's interval, shrunk by the
+rounding that made it (so inside the exact one). Then some measurement errors within their
+bounds make the point satisfy every constraint: the data are consistent. Floating point is
+never trusted. Where a row compares two computed values, the test cannot prove it (an
+interval equals an interval only when both are points) and says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.arith.projections import forward
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.gradients import OUTPUTS
+from calib_dsl.relax.layout import independents, layout
+
+
+@dataclass(frozen=True)
+class PointCheck:
+    holds: bool
+    # per checked row: its slot (the measured or bounded side), the enclosure of the computed
+    # side, and how far it sticks out of the slot's interval (0: inside)
+    slots: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    excess: np.ndarray
+
+
+def check_point(prog: Program, point: np.ndarray) -> PointCheck:
+    """Whether `point` (the declared unknowns, in `independents` order) satisfies every
+    constraint of `prog` for every value of its measured intervals."""
+    ind = independents(prog)
+    lay = layout(prog, ind)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    if np.any(point < lo[ind]) or np.any(point > hi[ind]):
+        raise ValueError("the point lies outside the search domains")
+    lo[ind], hi[ind] = point, point
+    lo[lay.temp], hi[lay.temp] = -np.inf, np.inf
+    compared = np.zeros(len(lo), dtype=bool)
+    for g in prog.groups:
+        compared[g.out[g.out >= 0]] = True
+    cells = prog.slots.cell_row
+    measured = cells >= 0 if cells is not None else np.zeros(len(lo), dtype=bool)
+    readings = np.flatnonzero(measured & ~compared & np.isfinite(lo) & np.isfinite(hi))
+    lo[readings] = hi[readings] = 0.5 * lo[readings] + 0.5 * hi[readings]
+    caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
+    slots, clo, chi = [], [], []
+    for g, mask in zip(prog.groups, lay.defining, strict=True):
+        args = [(lo[c], hi[c]) for c in g.args.T]
+        for j, op in enumerate(OUTPUTS.get(g.op, (g.op,))):
+            flo, fhi = forward(op, args, g.param)
+            out, d = g.out[:, j], mask[:, j]
+            lo[out[d]], hi[out[d]] = flo[d], fhi[d]
+            slots.append(out[~d])
+            clo.append(flo[~d])
+            chi.append(fhi[~d])
+    capped = np.flatnonzero(caps)  # a bounded temporary: its value within its bounds
+    slots.append(capped)
+    clo.append(lo[capped])
+    chi.append(hi[capped])
+    s = np.concatenate(slots)
+    a, b = np.concatenate(clo), np.concatenate(chi)
+    tlo, thi = _exact_inside(prog.slots.lo[s], prog.slots.hi[s])
+    computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
+    tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
+    with np.errstate(invalid="ignore"):
+        excess = np.maximum(np.maximum(b - thi, tlo - a), 0.0)
+        ok = (a >= tlo) & (b <= thi)
+        ok[computed] &= (tlo[computed] == thi[computed])
+    excess = np.where(np.isnan(excess), np.inf, excess)
+    return PointCheck(bool(np.all(ok)), s, a, b, excess)
+
+
+def _exact_inside(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An interval inside the exact one that [lo, hi] encloses after outward rounding (a
+    few ulps in from each end; a point stays a point)."""
+    point = lo == hi
+    a = np.nextafter(np.nextafter(lo, np.inf), np.inf)
+    b = np.nextafter(np.nextafter(hi, -np.inf), -np.inf)
+    return np.where(point, lo, a), np.where(point, hi, b)

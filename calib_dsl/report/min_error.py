@@ -1,0 +1,38 @@
+"""The smallest consistent error bound as text and JSON (`solve --min-error NAME`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from calib_dsl.analysis.min_error import BINDING, MinError
+
+
+def render_min_error(r: MinError) -> str:
+    lo = "-" if r.lo is None else f"{r.lo:.6g}"
+    lines = [f"smallest consistent error bound for {r.name}: in [{lo}, {r.hi:.6g}]"
+             + ("" if r.lo is None else f" ({100 * (r.hi / r.lo - 1):.1f} % wide)")]
+    lines.append(f"  upper end {r.hi:.6g}: proven feasible: at the point below every row holds "
+                 "under interval evaluation")
+    if r.lo is None:
+        lines.append("  lower end: no tried value was proven infeasible (the data may be "
+                     "consistent with much smaller bounds)")
+    else:
+        lines.append(f"  lower end {r.lo:.6g}: proven infeasible by the solve")
+    tried = ", ".join(f"{v:.6g} {'infeasible' if s == 'infeasible' else 'not refuted'}"
+                      for v, s in r.trials)
+    lines.append(f"  values tried: {tried or 'none'}")
+    lines.append(f"rows that bind at the upper end (residual within {BINDING:.0%} of it): "
+                 f"{len(r.binding)}")
+    for b in r.binding:
+        lines.append(f"  {b.file}:{b.line} (data row {b.row}): residual {b.residual:.6g}")
+    shown = " ".join(f"{n}={v:.9g}" for n, v in r.point.items())
+    lines.append(f"point: {shown}")
+    return "\n".join(lines)
+
+
+def min_error_json(r: MinError) -> dict[str, Any]:
+    return {"name": r.name, "bracket": [r.lo, r.hi],
+            "binding": [{"file": b.file, "line": b.line, "row": b.row, "residual": b.residual}
+                        for b in r.binding],
+            "point": r.point,
+            "trials": [{"value": v, "status": s} for v, s in r.trials]}
