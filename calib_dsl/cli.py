@@ -262,6 +262,109 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
         click.echo(render(info))
 
 
+def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """The configurations to predict at: a file in the format of the model's table."""
+    options = [
+        click.option("--at", "at", required=True, type=click.Path(dir_okay=False),
+                     help="Configurations: a file in the format of the model's table (the "
+                          "measurement columns may be absent for predict)."),
+        click.option("--at-rows", metavar="RANGES",
+                     help="Rows of the --at file to use, e.g. 1..100 (all by default)."),
+        click.option("--at-skip", metavar="RANGES",
+                     help="Rows of the --at file to leave out, e.g. 1..1495:15 (the rows "
+                          "calibrated on, to validate on the others)."),
+        click.option("--strategy", type=click.Choice(STRATEGIES), default=STRATEGIES[0],
+                     show_default=True, help="The calibration's strategy."),
+        click.option("--json", "json_path", type=click.Path(dir_okay=False),
+                     help="Also write the result as JSON to this file ('-' for stdout)."),
+    ]
+    for option in reversed(options):
+        fn = option(fn)
+    return fn
+
+
+def _at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
+    from calib_dsl.elaborate.rows import Selection, parse_ranges, select
+
+    if at_rows is None and at_skip is None:
+        return None
+    try:
+        ranges = parse_ranges(at_rows) if at_rows else ()
+        skip: tuple[int, ...] = ()
+        if at_skip:
+            with open(at, encoding="utf-8") as f:
+                n = sum(1 for line in f if line.strip()) - 1
+            skip = tuple(int(k) + 1 for k in select(Selection(parse_ranges(at_skip)), n))
+        return Selection(ranges, skip)
+    except (ValueError, OSError) as err:
+        raise CalError(f"--at-rows/--at-skip: {err}") from None
+
+
+def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
+               strategy: str, formulation: str, inputs: Any) -> Any:
+    from calib_dsl.pipeline import predict_at
+
+    sol, found = predict_at(model, at, formulation, inputs, strategy,
+                            _at_selection(at, at_rows, at_skip))
+    if found is None:
+        click.echo("the data are inconsistent (the solve proved it): nothing to predict",
+                   err=True)
+        sys.exit(1)
+    return found
+
+
+def _out(json_path: str | None, text: str, data: dict) -> None:
+    if json_path != "-":
+        click.echo(text)
+    if json_path:
+        dumped = json.dumps(data, indent=2)
+        if json_path == "-":
+            click.echo(dumped)
+        else:
+            _write(json_path, dumped + "\n")
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@at_options
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+              help="Also write the boxes as CSV (row, line, then each column's lo and hi).")
+@FORMULATION
+@model_inputs
+@user_errors
+def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
+            json_path: str | None, csv_path: str | None, formulation: str,
+            data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+            defines: tuple[str, ...]) -> None:
+    """Calibrate MODEL on its data, then give for each configuration of --at a box proven to
+    hold the predicted measurement for every parameter vector consistent with the data."""
+    from calib_dsl.report.prediction import prediction_csv, prediction_json, render_prediction
+
+    found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
+                       _inputs(data, rows, exclude, defines))
+    if csv_path:
+        _write(csv_path, prediction_csv(found))
+    _out(json_path, render_prediction(found), {"model": model, **prediction_json(found)})
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@at_options
+@FORMULATION
+@model_inputs
+@user_errors
+def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
+             json_path: str | None, formulation: str, data: tuple[str, ...],
+             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+    """Calibrate MODEL on its data, predict the held-out measurements of --at and compare:
+    the share of rows inside their boxes widened by the error bound, and the boxes' widths."""
+    from calib_dsl.report.prediction import render_validation, validation_json
+
+    found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
+                       _inputs(data, rows, exclude, defines))
+    _out(json_path, render_validation(found), {"model": model, **validation_json(found)})
+
+
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS), required=True,

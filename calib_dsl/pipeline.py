@@ -12,11 +12,16 @@ from pathlib import Path
 
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
+from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.elaborate.rows import Selection
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import relax
+from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
@@ -60,3 +65,26 @@ def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps:
     if strategy != "tight":
         raise ValueError(f"unknown strategy {strategy!r} (one of {', '.join(STRATEGIES)})")
     return solve_tight(prog, tol=tol, max_sweeps=max_sweeps, settings=settings)
+
+
+def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
+               inputs: Inputs | None = None, strategy: str = "tight",
+               at_rows: Selection | None = None) -> tuple[Solution, Prediction | None]:
+    """Calibrate on the model's data, then predict its measurements at the configurations of
+    the file `at` (its rows `at_rows`) for every parameter vector consistent with the data
+    (None when the data are inconsistent)."""
+    inputs = inputs or Inputs()
+    _, prog = load_model(model, formulation, inputs=inputs)
+    sol = solve(prog, strategy)
+    if sol.status == "infeasible":
+        return sol, None
+    ind = independents(prog)
+    box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in ind}
+    # the data's second-order relaxation where it can be built (tighter where the remainder
+    # of the first order is large, as on real data), else the first-order one
+    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
+    if fine is not None:
+        return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
+                            data=fine[0], center=fine[1].center)
+    data = relax(prog, sol.lo, sol.hi, max_cell_columns=DEFAULT.max_cell_columns)
+    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows, data=data)

@@ -36,7 +36,7 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     """decompose, and the primitives as arrays too. The passes over the DAG are numpy passes
     over its nodes (one per level where a node needs its arguments done)."""
     dag = model.dag
-    caps, cap_owner = _relations_to_caps(dag)  # may add `sub` nodes for inequalities
+    caps, cap_owner, cap_cells = _relations_to_caps(dag)  # may add `sub` nodes (inequalities)
     _complete_rotations(dag)
     g = DagArrays(dag)
     live = live_nodes(dag, g, [c.lhs for c in dag.constraints]
@@ -53,6 +53,7 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
             rep[side] = uf.find(side)
     rep = congruence_closure(g, live, rep)
     slot_of, slots = _make_slots(dag, g, live, rep, caps)
+    slots.measured_sides = _measured_sides(dag, caps, cap_cells, slot_of, slots)
     temp = np.array([k == "temp" for k in slots.kinds], dtype=bool)
     prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs, temp)
     _name_temporaries(slots, arrays)
@@ -67,11 +68,11 @@ def _interval_const(dag: Dag, node: int) -> bool:
 
 
 def _relations_to_caps(dag: Dag) -> tuple[list[tuple[int, float, float, Loc | None]],
-                                            list[int]]:
+                                            list[int], list[int]]:
     """Domain caps (node, lo, hi, loc): inequalities on `lhs - rhs`, and equalities with an
-    interval constant (membership, not identity: no merging of slots through it); and the
-    index of the constraint each cap comes from."""
-    caps, owner = [], []
+    interval constant (membership, not identity: no merging of slots through it); the index
+    of the constraint each cap comes from; and the constant's node (-1 for an inequality)."""
+    caps, owner, cells = [], [], []
     for ci, c in enumerate(dag.constraints):
         if c.rel == "==":
             for side, other in ((c.lhs, c.rhs), (c.rhs, c.lhs)):
@@ -79,12 +80,34 @@ def _relations_to_caps(dag: Dag) -> tuple[list[tuple[int, float, float, Loc | No
                     lo, hi = dag.nodes[other].data[:2]
                     caps.append((side, lo, hi, c.loc))
                     owner.append(ci)
+                    cells.append(other)
                     break
         elif c.rel in ("<=", ">="):
             cap = (-INF, 0.0) if c.rel == "<=" else (0.0, INF)
             caps.append((dag.op("sub", c.lhs, c.rhs), *cap, c.loc))
             owner.append(ci)
-    return caps, owner
+            cells.append(-1)
+    return caps, owner, cells
+
+
+def _measured_sides(dag: Dag, caps: list, cells: list[int], slot_of: np.ndarray,
+                    slots: Slots) -> dict[int, tuple[int, int]]:
+    """The slots a constraint compares with a measured value (`f == m.x[k]`: f's slot, its
+    domain capped to the cell's interval), and that cell's (cell_row, cell_col) ids."""
+    row_keys, col_keys = slots.row_keys or [], slots.col_keys or []
+    rows = {k: i for i, k in enumerate(row_keys)}
+    cols = {k: i for i, k in enumerate(col_keys)}
+    out: dict[int, tuple[int, int]] = {}
+    for (node, *_), cell in zip(caps, cells, strict=True):
+        tags = dag.cells.get(cell) if cell >= 0 else None
+        if tags and slot_of[node] >= 0:
+            table, column, row = min(tags)
+            # the cell itself is no slot (its interval caps f's): new ids where none is
+            r = rows.setdefault((table, row), len(rows))
+            c = cols.setdefault((table, column), len(cols))
+            out[int(slot_of[node])] = (r, c)
+    slots.row_keys, slots.col_keys = list(rows), list(cols)
+    return out
 
 
 
@@ -135,13 +158,13 @@ def _make_slots(dag: Dag, g: DagArrays, live: np.ndarray, rep: np.ndarray, caps:
     for node, clo, chi, loc in caps:
         _narrow(lo, hi, origin, slot_of[node], clo, chi, loc)
     decl_slots = [int(slot_of[v.node]) for v in declared]
-    rows, cols, keys = _cell_tags(dag, slot_of, m)
+    rows, cols, keys, col_keys = _cell_tags(dag, slot_of, m)
     return slot_of, Slots(names, kinds, lo, hi, origin, decl_slots, [v.name for v in declared],
-                          rows, cols, keys)
+                          rows, cols, keys, col_keys)
 
 
 def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int
-               ) -> tuple[np.ndarray, np.ndarray, list[tuple[str, int]]]:
+               ) -> tuple[np.ndarray, np.ndarray, list[tuple[str, int]], list[tuple[str, str]]]:
     row_ids: dict[tuple[str, int], int] = {}
     col_ids: dict[tuple[str, str], int] = {}
     rows, cols = np.full(m, -1, dtype=np.int64), np.full(m, -1, dtype=np.int64)
@@ -156,7 +179,7 @@ def _cell_tags(dag: Dag, slot_of: np.ndarray, m: int
                 rows[s], cols[s] = r, c
             elif rows[s] != r or cols[s] != c:
                 rows[s] = -2
-    return rows, cols, list(row_ids)
+    return rows, cols, list(row_ids), list(col_ids)
 
 
 def _narrow(lo, hi, origin, s, a: float, b: float, loc: Loc | None) -> None:

@@ -42,6 +42,9 @@ class Slots:
     cell_col: np.ndarray | None = None
     # (table name, model row k of `table.col[k]`) of each cell_row id
     row_keys: list[tuple[str, int]] | None = None
+    col_keys: list[tuple[str, str]] | None = None  # (table name, column) of each cell_col id
+    # the slots whose domain a measured value caps (`f == m.x[k]`): (cell_row, cell_col) ids
+    measured_sides: dict[int, tuple[int, int]] | None = None
 
 
 @dataclass

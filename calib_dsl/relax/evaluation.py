@@ -114,6 +114,10 @@ class Evaluation:
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
+    def targets(self) -> np.ndarray:
+        """After `run`: the slot each row compares with (its measured or bounded side)."""
+        return np.concatenate([r[5] for r in self.rows]) if self.rows else np.zeros(0, int)
+
     def _group(self, g: Group, used: np.ndarray, rows: list[np.ndarray],
                takes: list[tuple]) -> list[tuple]:
         """(F, C, G, D, owner, FM) of each output of the group's primitives. `used`: the

@@ -31,6 +31,8 @@ from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import Expansion, expand
 from calib_dsl.settings import DEFAULT
 
+FAMILY = "second order"  # LinearRelaxation.family of these relaxations
+
 
 def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = DEFAULT.prune,
                     mccormick: bool = False) -> tuple[LinearRelaxation, Expansion] | None:
@@ -68,7 +70,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
         # a McCormick row is known by its product and its place among the product's 4 rows
         keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
     rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
-                           scale=ex.half, family="second order",
+                           scale=ex.half, family=FAMILY,
                            col_keys=np.concatenate([np.arange(n), n + keep]),
                            curvature=_curvature(m))
     return rel, ex

@@ -33,13 +33,13 @@ from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents, measured_cells
 from calib_dsl.relax.linearize import relax
-from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
+from calib_dsl.relax.quadratic import FAMILY, narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Work
 
-SECOND_ORDER = "second order"  # LinearRelaxation.family of quadratic.relax_quadratic's
+SECOND_ORDER = FAMILY  # LinearRelaxation.family of quadratic.relax_quadratic's
 
 
 @dataclass(frozen=True)

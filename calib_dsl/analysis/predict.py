@@ -1,0 +1,198 @@
+"""Guaranteed prediction: for configurations the calibration did not use, a box proven to
+contain the model's predicted measurement for every parameter vector consistent with the data.
+
+The model is elaborated again with the configurations as its table (columns it does not
+find, the measurements a prediction is for, read as 0: they are not used). Its parameters
+take the solve's enclosure, its measured sides are set to 0, and each constraint row
+`f(p, q) == x` gives f over the box in the mixed mean-value form of the relaxations
+(relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the gradients' midpoints and r
+their radii times the box's half-widths plus the joint readings' errors. The parameter
+vectors consistent with the data satisfy the calibration's own linear relaxation on the same
+box, so certified LP bounds of h.p over it (lp/bounds.py) bound f for every one of them: the
+parameters' correlations count, where the box alone would add every parameter's
+uncertainty. All of it rounded outward. Validation compares held-out measurements with
+these boxes widened by each column's error bound.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from calib_dsl.compile.group import compile_model
+from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.elaborate.rows import Selection
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.model import Model, Table
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.lp.certify import box_max_up
+from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import mid_rad
+from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
+from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation
+
+
+@dataclass(frozen=True)
+class Prediction:
+    file: str
+    rows: list[int]  # data row numbers of the configurations (1: the first after the header)
+    lines: list[int]  # their lines in the file
+    columns: list[str]  # the predicted measurements
+    lo: np.ndarray  # (rows, columns)
+    hi: np.ndarray
+    measured: np.ndarray  # (rows, columns) the file's values (nan where it had none)
+    bound: np.ndarray  # (columns,) each measurement's error bound
+
+    def covered(self) -> np.ndarray:
+        """Per row: every measured value within its box widened by its bound."""
+        with np.errstate(invalid="ignore"):
+            inside = (self.measured >= self.lo - self.bound) & \
+                (self.measured <= self.hi + self.bound)
+        return np.all(inside, axis=1)
+
+
+def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str | Path,
+            inputs: Inputs, formulation: str = "matrix", table: str | None = None,
+            at_rows: Selection | None = None, data: LinearRelaxation | None = None,
+            center: np.ndarray | None = None) -> Prediction:
+    """Boxes of the measurements of table `table` (the model's first) at the configurations
+    of the file `at` (its rows `at_rows`, all by default), for every parameter vector in
+    `box` (name: (lo, hi)); `inputs` as the calibration read the model (its consts). With
+    `data`, the calibration's relaxation on that box (columns: the box's parameters, in its
+    order), the vectors consistent with the data; else every vector of the box. A
+    second-order relaxation's columns are t, p = center + scale t: give its `center`."""
+    first = elaborate(model_path, formulation=formulation, inputs=inputs)
+    t = _table(first, table)
+    with tempfile.TemporaryDirectory(prefix="calibc-predict-") as tmp:
+        path, present = _completed(Path(at), t, Path(tmp))
+        model = elaborate(model_path, formulation=formulation, inputs=Inputs(
+            data={**inputs.data, t.name: path},
+            rows={t.name: at_rows} if at_rows is not None else {}, consts=inputs.consts))
+    prog = compile_model(model)
+    return _enclose(prog, _table(model, t.name), box, present, str(at), data, center)
+
+
+def _table(model: Model, name: str | None) -> Table:
+    if not model.tables:
+        raise CalError("the model has no table: there is nothing to predict")
+    for t in model.tables:
+        if name is None or t.name == name:
+            return t
+    raise CalError(f"the model has no table '{name}'")
+
+
+def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
+    """`at` as the table reads it: a copy with the columns it lacks as 0 where it lacks some
+    (the measurements a prediction is for); and which columns it has."""
+    try:
+        lines = at.read_text(encoding="utf-8").splitlines()
+    except OSError as err:
+        raise CalError(f"cannot read '{at}': {err.strerror or err}") from None
+    if not lines:
+        raise CalError(f"'{at}' is empty: it has no header")
+    header = [h.strip() for h in lines[0].split(t.separator)]
+    names = [c.header or c.name for c in t.columns]
+    missing = [n for n in names if n not in header]
+    present = {c.name for c in t.columns if (c.header or c.name) in header}
+    if not missing:
+        return at, present
+    out = tmp / at.name
+    fill = t.separator + t.separator.join("0" for _ in missing)
+    body = [ln + fill for ln in lines[1:] if ln.strip()]
+    out.write_text("\n".join([lines[0] + t.separator + t.separator.join(missing), *body])
+                   + "\n", encoding="utf-8")
+    return out, present
+
+
+def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
+             present: set[str], file: str, data: LinearRelaxation | None,
+             center_t: np.ndarray | None) -> Prediction:
+    s = prog.slots
+    ind = independents(prog)
+    lo, hi = s.lo.copy(), s.hi.copy()
+    for k in ind:
+        name = s.names[k]
+        if name not in box:
+            raise CalError(f"the enclosure has no parameter '{name}'")
+        lo[k], hi[k] = box[name]
+    sides = s.measured_sides or {}
+    measured_side = np.zeros(len(lo), dtype=bool)
+    measured_side[list(sides)] = True
+    original = (lo.copy(), hi.copy())
+    lo[measured_side], hi[measured_side] = 0.0, 0.0
+    center = 0.5 * (lo[ind] + hi[ind])
+    ev = Evaluation(prog, lo, hi, ind, center)
+    rows = ev.run()
+    targets = ev.targets()
+    dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
+    hlo, hhi = (np.concatenate([r[1][i] for r in rows]) for i in (0, 1))
+    qmax = np.concatenate([np.maximum(np.abs(r[2][0]), np.abs(r[2][1])) for r in rows])
+    h, hrad = mid_rad(hlo, hhi)
+    w = np.maximum(center - lo[ind], hi[ind] - center) * (1 + 4 * RHS_REL)
+    with np.errstate(invalid="ignore"):
+        rad = hrad @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
+    use = np.flatnonzero(measured_side[targets])
+    # h.p over the box, or over the data's relaxation (certified LP bounds)
+    lin_lo, lin_hi = _linear_range(h[use], lo[ind], hi[ind], data, center_t,
+                                   [s.names[k] for k in ind], list(box))
+    hc = h[use] @ center
+    err = RHS_REL * (rad[use] + np.abs(dlo[use]) + np.abs(dhi[use]) + np.abs(h[use])
+                     @ np.abs(center) + np.abs(lin_lo) + np.abs(lin_hi)) + 1e-300
+    plo, phi = np.full(len(dlo), -np.inf), np.full(len(dlo), np.inf)
+    plo[use] = dlo[use] - hc + lin_lo - rad[use] - err
+    phi[use] = dhi[use] - hc + lin_hi + rad[use] + err
+    return _arrange(prog, t, targets, plo, phi, original, measured_side, present, file)
+
+
+def _arrange(prog: Program, t: Table, targets: np.ndarray, plo: np.ndarray, phi: np.ndarray,
+             original: tuple[np.ndarray, np.ndarray], measured_side: np.ndarray,
+             present: set[str], file: str) -> Prediction:
+    """The rows' enclosures as a (configuration, measured column) table."""
+    s = prog.slots
+    assert s.row_keys is not None and s.col_keys is not None
+    sides = s.measured_sides or {}
+    pick = np.flatnonzero(measured_side[targets])
+    cols = sorted({s.col_keys[sides[int(targets[i])][1]][1] for i in pick},
+                  key=[c.name for c in t.columns].index)
+    n = t.rows
+    lo, hi = np.full((n, len(cols)), -np.inf), np.full((n, len(cols)), np.inf)
+    measured = np.full((n, len(cols)), np.nan)
+    for i in pick:
+        slot = int(targets[i])
+        row, col = sides[slot]
+        k = s.row_keys[row][1] - 1
+        j = cols.index(s.col_keys[col][1])
+        lo[k, j], hi[k, j] = max(lo[k, j], plo[i]), min(hi[k, j], phi[i])
+        if cols[j] in present:
+            measured[k, j] = 0.5 * original[0][slot] + 0.5 * original[1][slot]
+    bound = np.array([next(c.tol for c in t.columns if c.name == name) for name in cols])
+    return Prediction(file, list(t.numbers), list(t.lines), cols, lo, hi, measured, bound)
+
+
+def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray,
+                  data: LinearRelaxation | None, center: np.ndarray | None,
+                  names: list[str], order: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Rigorous [min, max] of each row of h . p: over the data's relaxation (its columns in
+    `order`), else over the box."""
+    if data is None:
+        lo = np.array([-box_max_up(-c, -c, plo, phi) for c in h])
+        hi = np.array([box_max_up(c, c, plo, phi) for c in h])
+        return lo, hi
+    cols = np.array([order.index(n) for n in names])
+    obj = np.zeros((len(h), data.main))
+    if data.family != SECOND_ORDER:
+        obj[:, cols] = h
+        return lp_bounds(data, obj)
+    # a second-order relaxation's columns are t (p = c + w t): h.p = h.c + (h w).t
+    assert data.scale is not None and center is not None
+    c, w = center[cols], data.scale[cols]
+    obj[:, cols] = h * w
+    err = RHS_REL * (np.abs(h * w) @ np.ones(len(w)) + np.abs(h) @ np.abs(c)) + 1e-300
+    lo, hi = lp_bounds(data, obj)
+    hc = h @ c
+    return lo + hc - err, hi + hc + err

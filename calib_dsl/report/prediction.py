@@ -1,0 +1,67 @@
+"""Predictions and their validation as text, CSV and JSON (`calibc predict`, `validate`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from calib_dsl.analysis.predict import Prediction
+
+
+def widths(p: Prediction) -> dict[str, float]:
+    w = (p.hi - p.lo).ravel()
+    return {"median": float(np.median(w)), "max": float(np.max(w))} if w.size else \
+        {"median": float("nan"), "max": float("nan")}
+
+
+def render_prediction(p: Prediction) -> str:
+    head = f"{'row':>6} {'line':>6}  " + "  ".join(f"{c + ' lo':>14} {c + ' hi':>14}"
+                                                    for c in p.columns)
+    lines = [f"predicted measurements at {p.file}: boxes proven to hold the model's "
+             "prediction for every parameter vector consistent with the data", head]
+    for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True)):
+        cells = "  ".join(f"{p.lo[k, j]:14.6f} {p.hi[k, j]:14.6f}" for j in range(len(p.columns)))
+        lines.append(f"{row:>6} {line:>6}  {cells}")
+    w = widths(p)
+    lines.append(f"widths: median {w['median']:.4g}, max {w['max']:.4g} (the model's units)")
+    return "\n".join(lines)
+
+
+def prediction_csv(p: Prediction) -> str:
+    cols = ",".join(f"{c}_lo,{c}_hi" for c in p.columns)
+    out = [f"row,line,{cols}"]
+    for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True)):
+        out.append(f"{row},{line}," + ",".join(f"{p.lo[k, j]!r},{p.hi[k, j]!r}"
+                                               for j in range(len(p.columns))))
+    return "\n".join(out) + "\n"
+
+
+def prediction_json(p: Prediction) -> dict[str, Any]:
+    return {"at": p.file, "columns": p.columns, "width": widths(p),
+            "rows": [{"row": row, "line": line,
+                      **{c: [float(p.lo[k, j]), float(p.hi[k, j])]
+                         for j, c in enumerate(p.columns)}}
+                     for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True))]}
+
+
+def validation_json(p: Prediction) -> dict[str, Any]:
+    covered = p.covered()
+    return {"at": p.file, "rows": len(covered), "coverage": float(covered.mean()),
+            "width": widths(p),
+            "not_covered": [{"row": p.rows[k], "line": p.lines[k]}
+                            for k in np.flatnonzero(~covered)]}
+
+
+def render_validation(p: Prediction) -> str:
+    v = validation_json(p)
+    lines = [f"validation on {v['rows']} held-out rows of {p.file}:",
+             f"  coverage {v['coverage']:.4f}: rows whose every measurement lies in its "
+             "predicted box widened by its error bound",
+             f"  box widths: median {v['width']['median']:.4g}, max {v['width']['max']:.4g} "
+             "(the model's units)"]
+    for r in v["not_covered"][:20]:
+        lines.append(f"  not covered: {p.file}:{r['line']} (data row {r['row']})")
+    if len(v["not_covered"]) > 20:
+        lines.append(f"  ... and {len(v['not_covered']) - 20} more")
+    return "\n".join(lines)
