@@ -75,6 +75,7 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
     hi, check_prog = _certified(name, inputs, load, point, need)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
+    del model, prog, check_prog  # each trial loads its own: one program in memory at a time
     _lower(out, inputs, load, solve)
     return out
 
