@@ -200,6 +200,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
     from calib_dsl.report.text import render_summary, render_table
+    from calib_dsl.report.warnings import solve_warnings
 
     inputs = _inputs(data, rows, exclude, defines)
     if min_error is not None:
@@ -213,12 +214,16 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
+    warnings = solve_warnings(prog, res)
+    for w in warnings:
+        click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
         click.echo(render_table(prog, res, extra))
         click.echo()
         click.echo(render_summary(prog, res, strategy, extra))
     if json_path:
-        text = json.dumps(result_json(prog, res, strategy, extra), indent=2)
+        text = json.dumps({**result_json(prog, res, strategy, extra), "warnings": warnings},
+                          indent=2)
         if json_path == "-":
             click.echo(text)
         else:

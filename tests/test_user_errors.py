@@ -327,3 +327,36 @@ def test_bad_commands_exit_2_with_one_message(tmp_path, calibc, args, message):
                          text=True, timeout=30)
     assert out.returncode == 2, (out.returncode, out.stderr)
     assert message in out.stderr and "Traceback" not in out.stderr
+
+
+# -- warnings instead of silence --------------------------------------------------------------
+@pytest.mark.parametrize("source, expected", [
+    # nothing narrows: the constraint holds over the whole box
+    ("param a in [0, 1];\nparam b in [0, 1];\na + b <= 5;\n", "no parameter was narrowed"),
+    # a narrows, b keeps its whole domain
+    ("param a in [0, 10];\nparam b in [0, 1];\na == 2 +- 0.1;\nb <= 5;\n",
+     "1 of 2 parameters kept their whole search domain"),
+])
+def test_a_solve_that_learned_little_warns(tmp_path, calibc, source, expected):
+    import json
+    import subprocess
+
+    path = tmp_path / "m.cal"
+    path.write_text(source)
+    out = subprocess.run([*calibc, "solve", str(path), "--json", "-"], capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert f"calibc: warning: {expected}" in out.stderr
+    assert any(expected in w for w in json.loads(out.stdout)["warnings"])
+
+
+def test_a_solve_that_narrowed_everything_does_not_warn(tmp_path, calibc):
+    import json
+    import subprocess
+
+    path = tmp_path / "m.cal"
+    path.write_text("param a in [0, 10];\na == 2 +- 0.1;\n")
+    out = subprocess.run([*calibc, "solve", str(path), "--json", "-"], capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 0 and "warning" not in out.stderr
+    assert json.loads(out.stdout)["warnings"] == []
