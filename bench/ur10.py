@@ -42,8 +42,7 @@ CASES = [("1..1495:15", "1.0", "<= 1.2x the yardstick, <= 10 s"),
 
 def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, float]]:
     """name: (domain width, yardstick width, least-squares value)."""
-    from calib_dsl.analysis.lsq import estimate
-    from calib_dsl.analysis.reference import linearized_hull
+    from calib_dsl.analysis.reference import yardstick as hull_at_estimate
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load
@@ -52,15 +51,13 @@ def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, fl
     inputs = Inputs(data={"m": data}, rows={"m": Selection(parse_ranges(rows), ())},
                     consts={"e": e})
     prog = load(MODEL, inputs=inputs)
-    ind = independents(prog)
-    names = [prog.slots.names[i] for i in ind]
-    est = estimate(prog, max_evaluations=200)
-    for n, v in zip(names, est.values, strict=True):
-        prog.true_values[n] = float(v)
-    hull = linearized_hull(prog)
-    width = prog.slots.hi[ind] - prog.slots.lo[ind]
-    return {n: (float(w), hull[n][1] - hull[n][0], float(v))
-            for n, w, v in zip(names, width, est.values, strict=True)}
+    hull = hull_at_estimate(prog)
+    out = {}
+    for k in independents(prog):
+        n = prog.slots.names[k]
+        out[n] = (float(prog.slots.hi[k] - prog.slots.lo[k]), hull[n][1] - hull[n][0],
+                  float(prog.true_values[n] or 0.0))
+    return out
 
 
 def solve(rows: str, e: str, data: Path, runs: int, tmp: Path) -> dict:

@@ -238,14 +238,8 @@ def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: s
     from calib_dsl.report.min_error import min_error_json, render_min_error
 
     found = min_error(model, name, formulation, inputs, strategy)
-    if json_path != "-":
-        click.echo(render_min_error(found))
-    if json_path:
-        text = json.dumps({"model": model, "min_error": min_error_json(found)}, indent=2)
-        if json_path == "-":
-            click.echo(text)
-        else:
-            _write(json_path, text + "\n")
+    _out(json_path, render_min_error(found), {"model": model,
+                                              "min_error": min_error_json(found)})
 
 
 @main.command()

@@ -22,7 +22,8 @@ EXAMPLES = ROOT / "models" / "examples"
 PAPER_CSE = EXAMPLES / "paper_cse.cal"
 PAPER_PROP = EXAMPLES / "paper_propagation.cal"
 TOP_KEYS = {"model", "status", "stop", "sweeps", "lp_rounds", "reused_rounds", "seconds",
-            "primitives", "formulation", "strategy", "parameters", "narrowed", "split"}
+            "primitives", "formulation", "strategy", "parameters", "narrowed", "split",
+            "warnings"}
 OPTIONAL_TOP = {"emptied", "identifiability", "least_squares"}
 PARAM_KEYS = {"kind", "domain", "result", "true"}
 OPTIONAL_PARAM = {"identifiable", "least_squares"}

@@ -60,10 +60,10 @@ def test_fresh_simulated_draws_hold_the_truth(tmp_path, calibc, seed):
         assert lo <= t <= hi, (seed, name, lo, t, hi)
 
 
-@needs_ur10
-def test_the_public_data_every_15th_row(calibc):
-    """As the issue runs it: exit 0, and the least-squares estimate inside the enclosure."""
-    out = subprocess.run([*calibc, "solve", str(TRACKER), "--data", f"m={UR10}", "-D", "e=1.2",
+def solved_with_lsq_inside(calibc, model: Path, *args: str) -> dict:
+    """`calibc solve MODEL` on the public data's every 15th row with --lsq: exit 0, the
+    estimate converged and inside the enclosure; the JSON."""
+    out = subprocess.run([*calibc, "solve", str(model), "--data", f"m={UR10}", *args,
                           "--rows", "1..1495:15", "--lsq", "--json", "-"],
                          capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr
@@ -72,6 +72,13 @@ def test_the_public_data_every_15th_row(calibc):
     for name, p in data["parameters"].items():
         lo, hi = p["result"]
         assert lo <= p["least_squares"] <= hi, name
+    return data
+
+
+@needs_ur10
+def test_the_public_data_every_15th_row(calibc):
+    """As the issue runs it: exit 0, and the least-squares estimate inside the enclosure."""
+    data = solved_with_lsq_inside(calibc, TRACKER, "-D", "e=1.2")
     base = data["parameters"]["base_y"]["prior"]["lsq"]
     assert -3600 < base < -3500  # the tracker stands about 3.5 m from the robot
     assert np.isfinite(data["parameters"]["tz"]["least_squares"])
@@ -81,16 +88,7 @@ def test_the_public_data_every_15th_row(calibc):
 def test_the_six_dof_model_uses_the_orientations(calibc):
     """models/ur10_tracker6d.cal: positions and the tracker's Euler angles of every 15th row;
     exit 0, the least-squares estimate inside, the target turned -90 degrees about z."""
-    six = ROOT / "models" / "ur10_tracker6d.cal"
-    out = subprocess.run([*calibc, "solve", str(six), "--data", f"m={UR10}", "--rows",
-                          "1..1495:15", "--lsq", "--json", "-"],
-                         capture_output=True, text=True, timeout=600)
-    assert out.returncode == 0, out.stderr
-    data = json.loads(out.stdout)
-    assert data["least_squares"]["converged"]
-    for name, p in data["parameters"].items():
-        lo, hi = p["result"]
-        assert lo <= p["least_squares"] <= hi, name
+    data = solved_with_lsq_inside(calibc, ROOT / "models" / "ur10_tracker6d.cal")
     assert abs(data["parameters"]["tool_rz"]["least_squares"] + np.pi / 2) < 0.005
 
 
@@ -135,8 +133,7 @@ def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
 def test_the_public_data_within_1_2_of_the_yardstick():
     """Every 15th row at e = 1.0 mm: every parameter's width within 1.2x of the linearized
     yardstick's (the LP over the model linearized at the least-squares estimate)."""
-    from calib_dsl.analysis.lsq import estimate
-    from calib_dsl.analysis.reference import linearized_hull
+    from calib_dsl.analysis.reference import yardstick
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load
@@ -149,10 +146,7 @@ def test_the_public_data_within_1_2_of_the_yardstick():
     sol = solve_tight(prog)
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
-    est = estimate(prog, max_evaluations=200)
-    for n, v in zip(names, est.values, strict=True):
-        prog.true_values[n] = float(v)
-    hull = linearized_hull(prog)
+    hull = yardstick(prog)
     for i, n in zip(ind, names, strict=True):
         assert sol.lo[i] <= prog.true_values[n] <= sol.hi[i], n
         assert sol.hi[i] - sol.lo[i] <= 1.2 * (hull[n][1] - hull[n][0]), n

@@ -51,3 +51,16 @@ def linearized_hull(prog: Program,
             raise CalError(f"the reference hull LP failed for '{n}'")
         out[n] = (float(low.fun), float(-high.fun))
     return out
+
+
+def yardstick(prog: Program) -> dict[str, tuple[float, float]]:
+    """The linearized hull at the least-squares estimate of the data (for real data, whose
+    truth is unknown: what the data hold to first order; not rigorous). Sets the program's
+    true values to the estimate."""
+    from calib_dsl.analysis.lsq import estimate
+
+    ind = independents(prog)
+    est = estimate(prog, max_evaluations=200)
+    for k, v in zip(ind, est.values, strict=True):
+        prog.true_values[prog.slots.names[k]] = float(v)
+    return linearized_hull(prog)
