@@ -185,6 +185,9 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--identify/--no-identify", default=True, show_default=True,
               help="Report which parameters the data cannot separate.")
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
+@click.option("--diagnose/--no-diagnose", default=True, show_default=True,
+              help="When the data are inconsistent, find the rows without which the rest is "
+                   "proven consistent.")
 @click.option("--min-error", "min_error", metavar="NAME",
               help="Instead of one solve, bracket the smallest value of the const NAME (the "
                    "error bound) for which the data are consistent.")
@@ -192,13 +195,14 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, min_error: str | None, formulation: str,
+          identify: bool, lsq: bool, diagnose: bool, min_error: str | None, formulation: str,
           data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve as run
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
+    from calib_dsl.report.min_error import conflict_json, render_conflict
     from calib_dsl.report.text import render_summary, render_table
     from calib_dsl.report.warnings import solve_warnings
 
@@ -214,6 +218,11 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
+    found = None
+    if res.status == "infeasible" and diagnose:
+        from calib_dsl.pipeline import conflict
+
+        found = conflict(model, formulation, inputs)
     warnings = solve_warnings(prog, res)
     for w in warnings:
         click.echo(f"calibc: warning: {w}", err=True)
@@ -221,9 +230,13 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(render_table(prog, res, extra))
         click.echo()
         click.echo(render_summary(prog, res, strategy, extra))
+        if found is not None:
+            click.echo(render_conflict(found))
     if json_path:
-        text = json.dumps({**result_json(prog, res, strategy, extra), "warnings": warnings},
-                          indent=2)
+        more: dict[str, Any] = {"warnings": warnings}
+        if found is not None:
+            more["conflict"] = conflict_json(found)
+        text = json.dumps({**result_json(prog, res, strategy, extra), **more}, indent=2)
         if json_path == "-":
             click.echo(text)
         else:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import gc
 from pathlib import Path
 
+from calib_dsl.analysis.conflict import Conflict, find_conflict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.predict import Prediction, predict
@@ -88,3 +89,10 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
                             data=fine[0], center=fine[1].center)
     data = relax(prog, sol.lo, sol.hi, max_cell_columns=DEFAULT.max_cell_columns)
     return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows, data=data)
+
+
+def conflict(model: str | Path, formulation: str = "matrix",
+             inputs: Inputs | None = None) -> Conflict | None:
+    """For data proven inconsistent: the worst rows without which the rest is proven
+    consistent (None when the model has no table)."""
+    return find_conflict(inputs or Inputs(), lambda i: load_model(model, formulation, inputs=i))

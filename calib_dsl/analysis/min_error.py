@@ -2,9 +2,8 @@
 `const` (the measurements' error bound) for which the data are consistent.
 
 - hi is *proven feasible*: a parameter vector that satisfies every row under interval
-  evaluation at that bound (certify_point.py). The vector is a Chebyshev fit: the least-squares
-  estimate, then linear programs that lower the largest residual (measured minus predicted,
-  over the rows whose bound is the const) while every other row stays within its own bound.
+  evaluation at that bound (certify_point.py). The vector is a Chebyshev fit (chebyshev.py)
+  of the rows whose bound is the const, every other row within its own bound.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
   are tried from the top down, then by bisection, within a budget of solves.
 
@@ -23,7 +22,8 @@ from fractions import Fraction
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.lsq import estimate, residuals
+from calib_dsl.analysis.chebyshev import bounds_of_rows, chebyshev
+from calib_dsl.analysis.lsq import residuals
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
@@ -34,8 +34,6 @@ from calib_dsl.relax.layout import independents
 BINDING = 0.01  # a row within this share of the bound's value binds it
 STEPS = (1.02, 1.05, 1.1, 1.25, 1.5, 2.0, 4.0)  # lower trials: hi divided by these, in turn
 MAX_SOLVES = 8  # tight solves to prove the lower end, at most
-CHEBYSHEV_ITERATIONS = 8  # linear programs lowering the largest residual
-TRUST = 0.5  # each LP step within this share of the domains
 
 
 @dataclass(frozen=True)
@@ -71,7 +69,7 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    point, need = _chebyshev(prog, rows)
+    point, need = chebyshev(prog, rows)
     hi, check_prog = _certified(name, inputs, load, point, need)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
@@ -88,65 +86,12 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     """Which constraint rows have the const as their bound: half-width e0 (to rounding)."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
-    half = _halves(prog, 0.5 * (lo + hi))
+    half = bounds_of_rows(prog, 0.5 * (lo + hi))
     rows = np.abs(half - e0) <= 1e-6 * e0
     if not np.any(rows):
         raise CalError("no measured value is stated `+- NAME` with this const: --min-error "
                        "varies the bound of those")
     return rows
-
-
-def _halves(prog: Program, p: np.ndarray) -> np.ndarray:
-    """Each constraint row's bound (the half-width of its measured side), as lsq divides by."""
-
-    ind = independents(prog)
-    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
-    lo[ind], hi[ind] = p, p
-    rows = Evaluation(prog, lo, hi, ind, p, point=True).run()
-    return np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
-
-
-def _chebyshev(prog: Program, rows: np.ndarray) -> tuple[np.ndarray, float]:
-    """A point with a small largest residual on `rows` (the others within their bounds),
-    and that residual (floating point: the proof comes after)."""
-    from scipy.optimize import linprog
-
-    ind = independents(prog)
-    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
-    p = estimate(prog, max_evaluations=200).values
-    p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
-    half = _halves(prog, p)
-    best, best_need = p, _need(prog, p, rows, half)
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    for _ in range(CHEBYSHEV_ITERATIONS):
-        d, jac = residuals(prog, p)
-        r, J = d * half, jac * half[:, None]  # absolute residuals and their Jacobian
-        n = len(p)
-        # min s  s.t.  -s <= r + J dp <= s on the bound's rows, |r + J dp| <= half elsewhere
-        A_b, r_b = J[rows], r[rows]
-        A_o, r_o, h_o = J[~rows], r[~rows], half[~rows]
-        ones = np.ones((len(r_b), 1))
-        A = np.vstack([np.hstack([A_b, -ones]), np.hstack([-A_b, -ones]),
-                       np.hstack([A_o, np.zeros((len(r_o), 1))]),
-                       np.hstack([-A_o, np.zeros((len(r_o), 1))])])
-        b = np.concatenate([-r_b, r_b, h_o - r_o, h_o + r_o])
-        step = TRUST * width
-        bounds = [(max(lo[k] - p[k], -step[k]), min(hi[k] - p[k], step[k])) for k in range(n)]
-        res = linprog(np.r_[np.zeros(n), 1.0], A_ub=A, b_ub=b, bounds=[*bounds, (0, None)],
-                      method="highs")
-        if res.status != 0:
-            break
-        q = np.clip(p + res.x[:n], lo, hi)
-        need = _need(prog, q, rows, half)
-        if need >= best_need * (1 - 1e-6):
-            break
-        p, best, best_need = q, q, need
-    return best, best_need
-
-
-def _need(prog: Program, p: np.ndarray, rows: np.ndarray, half: np.ndarray) -> float:
-    d, _ = residuals(prog, p)
-    return float(np.max(np.abs(d * half)[rows]))
 
 
 def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray,
@@ -199,10 +144,10 @@ def _binding(model: Model, prog: Program, point: np.ndarray, rows: np.ndarray,
              hi: float) -> list[Binding]:
     """The measured rows whose residual at the point is within BINDING of hi."""
     d, _ = residuals(prog, point)
-    half = _halves(prog, point)
+    half = bounds_of_rows(prog, point)
     r = np.abs(d * half)
     near = np.flatnonzero(rows & (r >= (1 - BINDING) * hi))
-    owners = _row_owners(prog)
+    owners = row_owners(prog)
     tables = {t.name: t for t in model.tables}
     seen: dict[tuple[str, int], Binding] = {}
     for k in near[np.argsort(-r[near])]:
@@ -216,7 +161,7 @@ def _binding(model: Model, prog: Program, point: np.ndarray, rows: np.ndarray,
     return list(seen.values())
 
 
-def _row_owners(prog: Program) -> list[tuple[str, int] | None]:
+def row_owners(prog: Program) -> list[tuple[str, int] | None]:
     """(table, model row) of each constraint row, in the order `residuals` gives them."""
 
     s = prog.slots

@@ -1,9 +1,11 @@
-"""The smallest consistent error bound as text and JSON (`solve --min-error NAME`)."""
+"""What `solve` says about the error bound and bad rows: the smallest consistent bound
+(`--min-error NAME`) and, for inconsistent data, the rows at fault; text and JSON."""
 
 from __future__ import annotations
 
 from typing import Any
 
+from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import BINDING, MinError
 
 
@@ -36,3 +38,25 @@ def min_error_json(r: MinError) -> dict[str, Any]:
                         for b in r.binding],
             "point": r.point,
             "trials": [{"value": v, "status": s} for v, s in r.trials]}
+
+
+def render_conflict(c: Conflict) -> str:
+    rows = ", ".join(f"{r.file}:{r.line} (data row {r.row}, {r.residual:.3g} bounds off by "
+                     "least squares)" for r in c.rows)
+    if not c.consistent:
+        return (f"the worst rows by least squares: {rows}; without them the rest was not "
+                "proven consistent (more rows may be at fault, or the model does not fit)")
+    one = len(c.rows) == 1
+    lines = [f"without {'this row' if one else 'these rows'} the rest of the data is proven "
+             f"consistent (a point satisfies every other row under interval evaluation): {rows}",
+             "every conflicting set of rows contains " + ("it" if one else "one of them")]
+    if c.needed is not None:
+        lines.append("each of them is needed (with any one back the rest was not proven "
+                     "consistent)" if c.needed else "not proven minimal: fewer of them may do")
+    return "\n".join(lines)
+
+
+def conflict_json(c: Conflict) -> dict[str, Any]:
+    return {"rows": [{"file": r.file, "line": r.line, "row": r.row, "residual": r.residual}
+                     for r in c.rows],
+            "rest_consistent": c.consistent, "each_needed": c.needed}

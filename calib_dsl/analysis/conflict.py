@@ -1,0 +1,99 @@
+"""Which data rows make the data inconsistent: the rows without which the rest is proven
+consistent.
+
+The solve proved the whole data set inconsistent. The rows are ranked by their least-squares
+residual (in units of their bounds; a configuration's rows count as one data row), and the
+k worst are left out, k = 1, 2, ... up to MAX_ROWS: once a Chebyshev fit of the rest
+satisfies every remaining row under interval evaluation (certify_point.py), the rest is
+proven consistent. Then every conflicting subset of the data contains one of the rows left
+out: they are what is wrong, or what the model does not explain. For more than one row,
+each is left in again in turn: where the rest stays unproven, that row is needed too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from calib_dsl.analysis.certify_point import check_point
+from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.lsq import estimate, residuals
+from calib_dsl.analysis.min_error import Loader, row_owners
+from calib_dsl.elaborate.elaborator import Inputs
+from calib_dsl.elaborate.rows import EVERY_ROW, Selection
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+
+MAX_ROWS = 3  # rows left out at most
+
+
+@dataclass(frozen=True)
+class DataRow:
+    table: str
+    file: str
+    line: int
+    row: int  # the data row number (1: the first after the header)
+    residual: float  # its largest least-squares residual, in error bounds
+
+
+@dataclass(frozen=True)
+class Conflict:
+    rows: list[DataRow]  # left out: the rest is proven consistent when `consistent`
+    consistent: bool
+    needed: bool | None  # each of them needed (the rest with any one back not proven); None
+    #                      for one row (removing nothing was refuted by the solve)
+
+
+def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
+    """The smallest set of worst rows (at most MAX_ROWS) without which the data are proven
+    consistent; None when the model has no table to name rows of."""
+    model, prog = load(inputs)
+    ranked = _ranked(model, prog)
+    if not ranked:
+        return None
+    del prog
+    for k in range(1, min(MAX_ROWS, len(ranked) - 1) + 1):
+        out = ranked[:k]
+        if _consistent_without(inputs, load, out):
+            needed = None if k == 1 else not any(
+                _consistent_without(inputs, load, [r for r in out if r is not back])
+                for back in out)
+            return Conflict(out, True, needed)
+    return Conflict(ranked[:MAX_ROWS], False, None)
+
+
+def _ranked(model: Model, prog: Program) -> list[DataRow]:
+    """The data rows by their largest least-squares residual (in bounds), largest first."""
+    est = estimate(prog, max_evaluations=200)
+    d, _ = residuals(prog, est.values)
+    owners = row_owners(prog)
+    tables = {t.name: t for t in model.tables}
+    worst: dict[tuple[str, int], float] = {}
+    for key, r in zip(owners, np.abs(d).tolist(), strict=False):
+        if key is not None and key[0] in tables:
+            worst[key] = max(worst.get(key, 0.0), r)
+    rows = []
+    for (table, k), r in sorted(worst.items(), key=lambda kv: -kv[1]):
+        t = tables[table]
+        if k - 1 < len(t.numbers):
+            rows.append(DataRow(table, t.path, t.lines[k - 1], t.numbers[k - 1], r))
+    return rows
+
+
+def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> bool:
+    """Whether the data less the rows `out` are proven consistent (by a certified point)."""
+    rows = dict(inputs.rows)
+    for r in out:
+        sel = rows.get(r.table, EVERY_ROW)
+        rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
+    _, prog = load(replace(inputs, rows=rows))
+    every = np.ones(len(residuals(prog, _middle(prog))[0]), dtype=bool)
+    point, need = chebyshev(prog, every, normalized=True)
+    return need <= 1.0 and check_point(prog, point).holds
+
+
+def _middle(prog: Program) -> np.ndarray:
+    ind = independents(prog)
+    return 0.5 * (prog.slots.lo[ind] + prog.slots.hi[ind])
