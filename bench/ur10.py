@@ -37,7 +37,8 @@ HISTORY = "## Design measurements (history)"
 # (rows, e in mm, what is expected): the goals
 CASES = [("1..1495:15", "1.0", "<= 1.2x the yardstick, <= 10 s"),
          ("1..1495", "1.0", "<= 1.2x the yardstick, <= 60 s, <= 2 GB"),
-         ("1..1495", "0.9", "infeasible (exit 1)")]
+         ("1..1495", "0.9", "infeasible (exit 1), <= 60 s, <= 2 GB; the solve alone"),
+         ("1..1495", "0.9", "infeasible, and the rows at fault named (the diagnosis too)")]
 
 
 def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, float]]:
@@ -60,9 +61,10 @@ def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, fl
     return out
 
 
-def solve(rows: str, e: str, data: Path, runs: int, tmp: Path) -> dict:
+def solve(rows: str, e: str, data: Path, runs: int, tmp: Path, diagnose: bool) -> dict:
     cmd = [*calibc_command(), "solve", str(MODEL), "--data", f"m={data}", "-D", f"e={e}",
            "--rows", rows, "--json", str(tmp / "out.json")]
+    cmd += [] if diagnose else ["--no-diagnose"]
     measured = [run_process(cmd) for _ in range(runs)]
     out = json.loads((tmp / "out.json").read_text())
     return {"wall": statistics.median(m["wall"] for m in measured),
@@ -80,12 +82,15 @@ def report(data: Path, runs: int) -> str:
     with tempfile.TemporaryDirectory(prefix="calibc-ur10-") as name:
         tmp = Path(name)
         for rows, e, goal in CASES:
-            r = solve(rows, e, data, runs, tmp)
+            diagnose = "diagnosis" in goal
+            r = solve(rows, e, data, 1 if diagnose else runs, tmp, diagnose)
             status = r["json"]["status"]
             head = (f"- rows `{rows}`, e = {e} mm (goal: {goal}): **{status}**, "
                     f"{r['wall']:.1f} s, peak {r['rss']:.0f} MB")
             if status != "contracted":
-                lines.append(head + ".")
+                named = r["json"].get("conflict", {}).get("rows", [])
+                lines.append(head + (f"; rows named: {', '.join(str(x['row']) for x in named)}"
+                                     if named else "") + ".")
                 continue
             yard = yardstick(rows, e, data)
             ratios = {}
