@@ -309,6 +309,9 @@ BAD_COMMANDS = [
     (["simulate", "{ok}", "--configs", "3", "--seed", "-1", "-o", "{out}"], "x>=0"),
     (["simulate", "{ok}", "--configs", "10000000000", "--seed", "1", "-o", "{out}"],
      "1<=x<=1000000"),
+    (["solve", "{nested}"], "nested loops of 100,000,000 iterations in all"),
+    (["solve", "/dev/zero"], "is over 16 MiB: not a model"),
+    (["solve", "{rx90}", "--data", "/dev/zero"], "is over 256 MiB: too large for a table"),
 ]
 
 
@@ -318,11 +321,13 @@ def test_bad_commands_exit_2_with_one_message(tmp_path, calibc, args, message):
 
     files = {"big": "var x in [0, " + "1" * 4400 + "];\nx == 1;\n",
              "bigexp": "var x in [0, 1e" + "1" * 30 + "];\nx == 1;\n", "empty": "",
-             "ok": "var x in [0, 2];\nx * x == 2;\n"}
+             "ok": "var x in [0, 2];\nx * x == 2;\n",
+             "nested": "var x in [0, 1];\nfor i in 1..10000 { for j in 1..10000 { x <= 2; } }\n"}
     names = {k: str(tmp_path / f"{k}.cal") for k in files}
     for k, text in files.items():
         Path(names[k]).write_text(text)
     names["out"] = str(tmp_path / "out.csv")
+    names["rx90"] = str(Path(__file__).resolve().parents[1] / "models" / "rx90_lengths.cal")
     out = subprocess.run([*calibc, *(a.format(**names) for a in args)], capture_output=True,
                          text=True, timeout=30)
     assert out.returncode == 2, (out.returncode, out.stderr)
@@ -360,3 +365,21 @@ def test_a_solve_that_narrowed_everything_does_not_warn(tmp_path, calibc):
                          text=True, timeout=60)
     assert out.returncode == 0 and "warning" not in out.stderr
     assert json.loads(out.stdout)["warnings"] == []
+
+
+def test_flat_sums_and_doubling_macros_elaborate(tmp_path, calibc):
+    """A sum of 5000 terms is flat, not nested; macros that call the one below twice, 40
+    levels deep, expand once per distinct call (linear, not 2^40)."""
+    import subprocess
+
+    flat = tmp_path / "flat.cal"
+    flat.write_text("var x in [0, 1];\nx * 5000 == " + " + ".join(["x"] * 5000) + ";\n")
+    doubling = tmp_path / "doubling.cal"
+    doubling.write_text("var x in [0, 1];\ndef f0(u) = u + 1;\n"
+                        + "".join(f"def f{i}(u) = f{i - 1}(u) * f{i - 1}(u);\n"
+                                  for i in range(1, 41))
+                        + "f40(x) >= 1;\n")
+    for model in (flat, doubling):  # (2^40 expansions would not end before the timeout)
+        out = subprocess.run([*calibc, "compile", str(model)], capture_output=True, text=True,
+                             timeout=300)
+        assert out.returncode == 0, out.stderr

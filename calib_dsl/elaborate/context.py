@@ -28,6 +28,8 @@ class Context:
     overridden: set[str]  # the consts they replaced
     consts_seen: set[str]
     const_values: dict[str, Fraction]  # the top-level numeric consts, as elaborated
+    loop_product: int
+    expanded: dict[tuple, tuple[Any, Any]]
     units: dict[str, str]  # the model's unit of each dimension ("length", "angle")
     units_loc: Loc | None  # where the model stated them
     simulate_rows: int | None  # simulation mode: this many rows, no file read

@@ -111,6 +111,8 @@ class Elaborator(Statements, Expressions, Robots, Tables):
         self.overridden: set[str] = set()
         self.consts_seen: set[str] = set()
         self.const_values: dict[str, Fraction] = {}
+        self.loop_product = 1  # the enclosing loops' iterations, multiplied
+        self.expanded: dict[tuple, tuple[Any, Any]] = {}  # macro calls made, by their values
         self.units = dict(DEFAULT_UNITS)
         self.units_loc: Loc | None = None
         self.simulate_rows = simulate_rows

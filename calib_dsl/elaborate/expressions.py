@@ -41,6 +41,8 @@ from calib_dsl.elaborate.scope import (
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
 
+CHAINED = ("+", "-", "*", "/")  # left-associative: long chains are walked, not recursed
+
 
 class Expressions(Context):
     """Expressions to values (exact numbers, DAG nodes, vectors) or entities."""
@@ -108,12 +110,30 @@ class Expressions(Context):
     def _binop(self, e: ast.BinOp, scope: Scope) -> Value:
         if e.op == "^":
             return self._power(e, scope)
+        if e.op in CHAINED and isinstance(e.left, ast.BinOp) and e.left.op in CHAINED:
+            return self._chain(e, scope)
         a, b = self.value(e.left, scope), self.value(e.right, scope)
         if e.op == "+-":
             return self._plusminus(a, b, e)
+        return self._combine(e, a, b)
+
+    def _combine(self, e: ast.BinOp, a: Value, b: Value) -> Value:
         if isinstance(a, tuple) or isinstance(b, tuple):
             return self._vector_arith(e.op, a, b, e.loc)
         return self.arith(e.op, a, b, e.loc)
+
+    def _chain(self, e: ast.BinOp, scope: Scope) -> Value:
+        """a + b - c + ...: the parser's left-deep tree walked down its spine, not recursed
+        into (a sum of thousands of terms is flat, not nested)."""
+        spine = []
+        node: ast.Expr = e
+        while isinstance(node, ast.BinOp) and node.op in CHAINED:
+            spine.append(node)
+            node = node.left
+        acc = self.value(node, scope)
+        for op in reversed(spine):
+            acc = self._combine(op, acc, self.value(op.right, scope))
+        return acc
 
     def arith(self, op: str, a: Scalar, b: Scalar, loc: Loc) -> Scalar:
         if isinstance(a, Fraction) and isinstance(b, Fraction):
@@ -317,14 +337,25 @@ class Expressions(Context):
             chain = " -> ".join([m.name for m in self.expanding] + [macro.name])
             raise CalError(f"macro '{macro.name}' calls itself ({chain}): macros are expanded "
                            "inline, so recursion is not allowed", e.loc)
+        args = [self.entity(a, scope) for a in e.args]
+        # A macro is a pure function of its arguments' values: the same call (the same
+        # numbers and DAG nodes) gives the same value, so it is expanded once; macros that
+        # call another twice at every level stay linear instead of doubling.
+        key = (id(macro), *args) if all(type(a) in (int, Fraction, tuple) for a in args) \
+            else None
+        if key is not None and key in self.expanded:
+            return self.expanded[key][1]
         inner = Scope(macro.scope)
-        for p, a in zip(macro.params, e.args, strict=True):
-            inner.names[p.id] = (self.entity(a, scope), p.loc)
+        for p, a in zip(macro.params, args, strict=True):
+            inner.names[p.id] = (a, p.loc)
         self.expanding.append(macro)
         try:
-            return self.value(macro.body, inner)
+            value = self.value(macro.body, inner)
         finally:
             self.expanding.pop()
+        if key is not None:
+            self.expanded[key] = (macro, value)  # (the macro kept alive: its id stays its own)
+        return value
 
     # -- conversions ----------------------------------------------------------------------
     def node(self, v: Scalar, loc: Loc) -> int:

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from calib_dsl.arith.exact import add_rounded, enclose_decimal
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection, select
 from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 
 FloatArray = NDArray[np.float64]
 
@@ -105,7 +106,9 @@ def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray,
 # -- steps ----------------------------------------------------------------------------------
 def _read_text(name: str, decl_loc: Loc | None) -> str:
     try:
-        return Path(name).read_text(encoding="utf-8-sig")
+        return read_capped(name, MAX_TABLE_BYTES, encoding="utf-8-sig")
+    except TooLarge as err:
+        raise CalError(f"data file '{name}' is {err}: too large for a table", decl_loc) from None
     except FileNotFoundError:
         raise CalError(f"data file '{name}' not found", decl_loc) from None
     except IsADirectoryError:

@@ -7,11 +7,12 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-from lark import Token, Transformer, v_args
+from lark import Token, Transformer_NonRecursive, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.frontend.files import MAX_MODEL_BYTES, TooLarge, read_capped
 from calib_dsl.frontend.grammar import cal_parser
 
 MAX_EXPONENT = 400  # of a decimal literal: floats span about 1e-324 .. 1e308
@@ -38,7 +39,10 @@ def parse_file(path: str | Path) -> tuple[ast.Stmt, ...]:
     """Read and parse a model file; an unreadable file is a user error."""
     name = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_capped(path, MAX_MODEL_BYTES)
+    except TooLarge as err:
+        raise CalError(f"model file '{name}' is {err}: not a model (data belong in a table)"
+                       ) from None
     except FileNotFoundError:
         raise CalError(f"model file '{name}' not found") from None
     except UnicodeDecodeError as err:
@@ -54,7 +58,7 @@ def _name(tok: Token, filename: str) -> ast.Ident:
 
 
 @v_args(meta=True)
-class _Builder(Transformer[Token, Any]):
+class _Builder(Transformer_NonRecursive):
     """One method per grammar rule/alias; `meta` gives the rule's first line and column."""
 
     def __init__(self, filename: str) -> None:

@@ -1,0 +1,22 @@
+"""Reading a user's files with a cap on their size: a model or a table past it is a mistake
+(a device such as /dev/zero, a wrong path), and is said so before memory runs out."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+MAX_MODEL_BYTES = 16 * 2**20  # a model's text; data belong in tables
+MAX_TABLE_BYTES = 256 * 2**20  # a table: about a million rows of a tracker's export
+
+
+class TooLarge(Exception):
+    """The file holds more than the cap."""
+
+
+def read_capped(path: str | Path, limit: int, encoding: str = "utf-8") -> str:
+    """The file's text; TooLarge past `limit` bytes (read no further than that)."""
+    with open(path, "rb") as f:
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise TooLarge(f"over {limit // 2**20} MiB")
+    return data.decode(encoding)
