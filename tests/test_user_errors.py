@@ -383,3 +383,34 @@ def test_flat_sums_and_doubling_macros_elaborate(tmp_path, calibc):
         out = subprocess.run([*calibc, "compile", str(model)], capture_output=True, text=True,
                              timeout=300)
         assert out.returncode == 0, out.stderr
+
+
+# -- fuzzing the data: whatever a table holds, a result or one clear message ----------------
+CELLS = ["0", "1.5", "-2", "1e300", "1e-320", "1e999", "nan", "NaN", "inf", "-inf", "",
+         "1,5", "abc", '"3"', "0x10", "1.2.3", "--1", " 7 ", "1e", "9" * 40, "1;2"]
+FUZZ_MODEL = """param a in [-10, 10];
+param b in [-10, 10];
+table m = "d.csv" { x : +- 0.001; y : +- 0.1; }
+for k in 1..rows(m) { a * m.x[k] + b == m.y[k]; }
+"""
+
+
+@given(st.lists(st.tuples(st.sampled_from(CELLS), st.sampled_from(CELLS)), max_size=8),
+       st.sampled_from(["x,y", "y,x", "x", "x,y,z", "", "x,,y"]))
+@settings(max_examples=200, deadline=30_000,  # a guard against hangs, not a speed test
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_any_table_gives_a_result_or_one_message(tmp_path, rows, header):
+    """Random cells (numbers, NaN, infinities, garbage, quoting, too many separators) and
+    headers: the model elaborates, compiles and solves, or says what is wrong in one
+    CalError; never another exception."""
+    from calib_dsl.compile.group import compile_model
+    from calib_dsl.pipeline import solve
+
+    (tmp_path / "d.csv").write_text(header + "\n" + "\n".join(f"{x},{y}" for x, y in rows)
+                                    + "\n")
+    (tmp_path / "m.cal").write_text(FUZZ_MODEL)
+    try:
+        prog = compile_model(elaborate(tmp_path / "m.cal"))
+    except CalError:
+        return
+    assert solve(prog).status in ("contracted", "infeasible")
