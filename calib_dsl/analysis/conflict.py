@@ -22,6 +22,7 @@ from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.analysis.min_error import Loader, row_owners
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
+from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -50,7 +51,12 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
     """The smallest set of worst rows (at most MAX_ROWS) without which the data are proven
     consistent; None when the model has no table to name rows of."""
     model, prog = load(inputs)
-    ranked = _ranked(model, prog)
+    if not model.tables:
+        return None
+    try:
+        ranked = _ranked(model, prog)
+    except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None  # no least-squares ranking here (an empty domain, say): nothing to name
     if not ranked:
         return None
     del prog
@@ -88,10 +94,13 @@ def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> boo
     for r in out:
         sel = rows.get(r.table, EVERY_ROW)
         rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
-    _, prog = load(replace(inputs, rows=rows))
-    every = np.ones(len(residuals(prog, _middle(prog))[0]), dtype=bool)
-    point, need = chebyshev(prog, every, normalized=True)
-    return need <= 1.0 and check_point(prog, point).holds
+    try:
+        _, prog = load(replace(inputs, rows=rows))
+        every = np.ones(len(residuals(prog, _middle(prog))[0]), dtype=bool)
+        point, need = chebyshev(prog, every, normalized=True)
+        return need <= 1.0 and check_point(prog, point).holds
+    except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return False  # not proven
 
 
 def _middle(prog: Program) -> np.ndarray:
