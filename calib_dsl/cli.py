@@ -175,7 +175,8 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--tol", type=FINITE_TOL, default=1e-5, show_default=True,
               help="Stop when a sweep contracts every declared unknown by less than this "
                    "relative amount.")
-@click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True)
+@click.option("--max-sweeps", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="At most this many propagation sweeps in the whole solve.")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False),
               help="Also write the result as JSON to this file ('-' for stdout).")
 @click.option("--strategy", type=click.Choice(STRATEGIES), default=STRATEGIES[0],

@@ -404,3 +404,23 @@ def test_simulate_then_solve(tmp_path):
 def test_version():
     res = run("--version")
     assert res.exit_code == 0 and "0.1.0" in res.stdout
+
+
+@pytest.mark.parametrize("cap", [1, 4, 9, 1000])
+def test_max_sweeps_caps_the_tight_strategy(cap, calibc):
+    """--max-sweeps caps the sweeps of the whole tight solve (its propagations and rounds
+    together), and a capped solve still holds the truth."""
+    import subprocess
+
+    out = subprocess.run([*calibc, "solve", str(ROOT / "models" / "rx90_lengths.cal"),
+                          "--max-sweeps", str(cap), "--json", "-"], capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["sweeps"] <= cap
+    if data["stop"] == "max sweeps":
+        assert data["sweeps"] == cap
+    for name, p in data["parameters"].items():
+        if p["true"] is not None:
+            lo, hi = p["result"]
+            assert lo <= p["true"] <= hi, (cap, name)

@@ -10,7 +10,7 @@ interval libraries compose contractors, e.g. IBEX's CtcCompo).
 from __future__ import annotations
 
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, is_dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -87,15 +87,25 @@ class Propagation:
 class Sequence:
     """Each step from the box the one before left; the work of all of them. The outcome is
     the last step's, with the `stop` of the last step that propagated (a step that did not
-    propagate says stop="")."""
+    propagate says stop=""). With `max_sweeps`, the sweeps of all the steps together are
+    capped: each step that propagates gets what the ones before left, and none runs once
+    they are spent (stop="max sweeps")."""
 
     steps: Seq[Contractor]
     name: str = "sequence"
+    max_sweeps: int | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out = Outcome(lo, hi, "")
         work, stop = Work(), ""
         for step in self.steps:
+            if self.max_sweeps is not None:
+                left = self.max_sweeps - work.sweeps
+                if left <= 0:
+                    stop = "max sweeps"
+                    break
+                if is_dataclass(step) and hasattr(step, "max_sweeps"):
+                    step = replace(step, max_sweeps=left)  # type: ignore[type-var]
             out = step.contract(out.lo, out.hi)
             work, stop = work + out.work, out.stop or stop
             if out.empty:

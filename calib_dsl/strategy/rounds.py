@@ -118,6 +118,9 @@ class _Rounds:
 
     def run(self) -> Outcome:
         while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
+            if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
+                self.stop = "max sweeps"
+                break
             this = self.relaxation()
             if this is None:
                 break
@@ -192,7 +195,7 @@ class _Rounds:
         lo[ind], hi[ind] = new_lo, new_hi
         spec = self.spec
         res = propagate(spec.prog, tol=max(spec.tol, spec.settings.preliminary_tol),
-                        max_sweeps=spec.max_sweeps, lo=lo, hi=hi)
+                        max_sweeps=max(spec.max_sweeps - self.work.sweeps, 0), lo=lo, hi=hi)
         self.lo, self.hi, self.stop = res.lo, res.hi, res.stop
         self.work = self.work + Work(sweeps=res.sweeps)
         if res.status != "contracted":

@@ -71,4 +71,4 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
     ]
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
-    return Sequence(tuple(steps))
+    return Sequence(tuple(steps), max_sweeps=max_sweeps)
