@@ -414,3 +414,28 @@ def test_any_table_gives_a_result_or_one_message(tmp_path, rows, header):
     except CalError:
         return
     assert solve(prog).status in ("contracted", "infeasible")
+
+
+# -- fuzzing the command line: exit 0, 1 or 2, never a traceback ----------------------------
+@given(st.lists(st.sampled_from(TOKENS), max_size=25),
+       st.lists(st.tuples(st.sampled_from(CELLS), st.sampled_from(CELLS)), max_size=5),
+       st.sampled_from([["solve", "--strategy", "hc4"], ["solve"], ["compile"],
+                        ["identify"], ["solve", "--min-error", "e"]]))
+@settings(max_examples=150, deadline=60_000,  # a guard against hangs, not a speed test
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_the_command_line_exits_0_1_or_2(tmp_path, tokens, rows, command):
+    """Grammar-shaped models (the fuzz tokens after a prelude with a table) and random table
+    contents through `calibc` itself: the exit code is 0, 1 or 2 and no traceback shows."""
+    from click.testing import CliRunner
+
+    from calib_dsl.cli import main
+
+    (tmp_path / "d.csv").write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in rows) + "\n")
+    (tmp_path / "m.cal").write_text("const e = 0.1;\n" + FUZZ_MODEL.replace("0.1", "e")
+                                    + " ".join(tokens) + "\n")
+    res = CliRunner().invoke(main, [*command[:1], str(tmp_path / "m.cal"), *command[1:],
+                                    "--no-diagnose"] if command[0] == "solve" else
+                             [command[0], str(tmp_path / "m.cal")])
+    assert res.exit_code in (0, 1, 2), (res.exit_code, res.output)
+    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
+    assert "Traceback" not in res.output
