@@ -8,46 +8,35 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import estimate, residuals
+from calib_dsl.analysis.lsq import estimate, rows_at
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
 
 ITERATIONS = 8  # linear programs lowering the largest residual
 TRUST = 0.5  # each LP step within this share of the domains
 
 
-def bounds_of_rows(prog: Program, p: np.ndarray) -> np.ndarray:
-    """Each constraint row's bound (the half-width of its measured side), as lsq divides by."""
-
-    ind = independents(prog)
-    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
-    lo[ind], hi[ind] = p, p
-    rows = Evaluation(prog, lo, hi, ind, p, point=True).run()
-    return np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
-
-
-def chebyshev(prog: Program, rows: np.ndarray, normalized: bool = False,
+def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
               start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """A point with a small largest residual on `rows` (the others within their bounds), and
-    that residual (floating point: the proof comes after); with `normalized`, residuals in
-    units of each row's bound. From `start`, else the least-squares estimate."""
+    """A point with a small largest residual on `rows` (all if None; the others within their
+    bounds), and that residual (floating point: the proof comes after); with `normalized`,
+    residuals in units of each row's bound. From `start`, else the least-squares estimate."""
     from scipy.optimize import linprog
 
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     p = estimate(prog, max_evaluations=200).values if start is None else start
     p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
-    half = bounds_of_rows(prog, p)
+    d, half, jac = rows_at(prog, p)
+    rows = np.ones(len(d), dtype=bool) if rows is None else rows
     unit = np.maximum(half, 1e-12) if normalized else np.ones_like(half)
-    best, best_need = p, _need(prog, p, rows, half, unit)
+    need = _largest(d, rows, unit)
     width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    n = len(p)
     for _ in range(ITERATIONS):
-        d, jac = residuals(prog, p)
-        # residuals (absolute, or in bounds) and their Jacobian
-        r, J = d * half / unit, jac * (half / unit)[:, None]
-        n = len(p)
-        # min s  s.t.  -s <= r + J dp <= s on the bound's rows, |r + J dp| <= half elsewhere
+        # min s  s.t.  -s <= r + J dp <= s on `rows`, |r + J dp| <= their bound elsewhere
+        # (r, J: the residuals and their Jacobian, absolute or in bounds)
+        r, J = d / unit, jac / unit[:, None]
         A_b, r_b = J[rows], r[rows]
         A_o, r_o, h_o = J[~rows], r[~rows], (half / unit)[~rows]
         ones = np.ones((len(r_b), 1))
@@ -62,14 +51,12 @@ def chebyshev(prog: Program, rows: np.ndarray, normalized: bool = False,
         if res.status != 0:
             break
         q = np.clip(p + res.x[:n], lo, hi)
-        need = _need(prog, q, rows, half, unit)
-        if need >= best_need * (1 - 1e-6):
+        dq, _, jq = rows_at(prog, q)
+        if _largest(dq, rows, unit) >= need * (1 - 1e-6):
             break
-        p, best, best_need = q, q, need
-    return best, best_need
+        p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
+    return p, need
 
 
-def _need(prog: Program, p: np.ndarray, rows: np.ndarray, half: np.ndarray,
-          unit: np.ndarray) -> float:
-    d, _ = residuals(prog, p)
-    return float(np.max(np.abs(d * half / unit)[rows]))
+def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
+    return float(np.max(np.abs(d / unit)[rows]))

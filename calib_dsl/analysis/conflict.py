@@ -25,7 +25,6 @@ from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.layout import independents
 
 MAX_ROWS = 3  # rows left out at most
 
@@ -96,13 +95,8 @@ def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> boo
         rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
     try:
         _, prog = load(replace(inputs, rows=rows))
-        every = np.ones(len(residuals(prog, _middle(prog))[0]), dtype=bool)
-        point, need = chebyshev(prog, every, normalized=True)
+        point, need = chebyshev(prog, normalized=True)
         return need <= 1.0 and check_point(prog, point).holds
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False  # not proven
 
-
-def _middle(prog: Program) -> np.ndarray:
-    ind = independents(prog)
-    return 0.5 * (prog.slots.lo[ind] + prog.slots.hi[ind])

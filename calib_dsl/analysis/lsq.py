@@ -27,8 +27,9 @@ class Estimate:
     converged: bool
 
 
-def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Normalized residuals of every constraint row at p, and their Jacobian."""
+def rows_at(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every constraint row at p (floating point): its residual (predicted minus measured),
+    its bound (the half-width of its measured side), and the residual's Jacobian."""
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
@@ -36,6 +37,12 @@ def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.concatenate([0.5 * (r[0][0] + r[0][1]) for r in rows])
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
     jac = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])
+    return d, half, jac
+
+
+def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized residuals of every constraint row at p, and their Jacobian."""
+    d, half, jac = rows_at(prog, p)
     scale = np.maximum(half, 1e-12)
     return d / scale, jac / scale[:, None]
 

@@ -22,8 +22,8 @@ from fractions import Fraction
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import bounds_of_rows, chebyshev
-from calib_dsl.analysis.lsq import residuals
+from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.lsq import rows_at
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
@@ -86,7 +86,7 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     """Which constraint rows have the const as their bound: half-width e0 (to rounding)."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
-    half = bounds_of_rows(prog, 0.5 * (lo + hi))
+    _, half, _ = rows_at(prog, 0.5 * (lo + hi))
     rows = np.abs(half - e0) <= 1e-6 * e0
     if not np.any(rows):
         raise CalError("no measured value is stated `+- NAME` with this const: --min-error "
@@ -143,9 +143,8 @@ def _with(inputs: Inputs, name: str, value: float) -> Inputs:
 def _binding(model: Model, prog: Program, point: np.ndarray, rows: np.ndarray,
              hi: float) -> list[Binding]:
     """The measured rows whose residual at the point is within BINDING of hi."""
-    d, _ = residuals(prog, point)
-    half = bounds_of_rows(prog, point)
-    r = np.abs(d * half)
+    d, _, _ = rows_at(prog, point)
+    r = np.abs(d)
     near = np.flatnonzero(rows & (r >= (1 - BINDING) * hi))
     owners = row_owners(prog)
     tables = {t.name: t for t in model.tables}

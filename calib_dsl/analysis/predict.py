@@ -26,6 +26,7 @@ from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 from calib_dsl.ir.model import Model, Table
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
@@ -90,9 +91,11 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
     """`at` as the table reads it: a copy with the columns it lacks as 0 where it lacks some
     (the measurements a prediction is for); and which columns it has."""
     try:
-        lines = at.read_text(encoding="utf-8").splitlines()
-    except OSError as err:
-        raise CalError(f"cannot read '{at}': {err.strerror or err}") from None
+        lines = read_capped(at, MAX_TABLE_BYTES, encoding="utf-8-sig").splitlines()
+    except TooLarge as err:
+        raise CalError(f"'{at}' is {err}: too large for a table") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise CalError(f"cannot read '{at}': {err}") from None
     if not lines:
         raise CalError(f"'{at}' is empty: it has no header")
     header = [h.strip() for h in lines[0].split(t.separator)]
