@@ -98,3 +98,35 @@ def test_the_public_data_every_50th_row():
     found = min_error(root / "models" / "ur10_tracker.cal", "e", inputs=inputs)
     assert found.lo is not None and found.lo < found.hi < 1.0
     assert found.binding and all(b.line == b.row + 1 for b in found.binding)
+
+
+# -- soundness of the point proof: what check_point accepts holds in exact arithmetic -------
+from fractions import Fraction  # noqa: E402
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+small = st.floats(-5, 5, allow_nan=False, width=32)
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.lists(st.tuples(small, small), min_size=1, max_size=6), small, small,
+       st.floats(0.5, 1.5))
+def test_an_accepted_point_satisfies_every_row_exactly(tmp_path_factory, rows, a, b, scale):
+    """Points at and around the edge of the bound (its largest residual times 0.5..1.5): when
+    check_point accepts one, every row holds in exact rational arithmetic, the data as the
+    file writes them."""
+    tmp = tmp_path_factory.mktemp("exact")
+    cells = [(repr(float(x)), repr(float(y))) for x, y in rows]
+    (tmp / "d.csv").write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in cells) + "\n")
+    model = tmp / "line.cal"
+    model.write_text(LINE.replace("[-10, 10]", "[-6, 6]"))
+    worst = max(abs(a * float(x) + b - float(y)) for x, y in cells)
+    e = Fraction(repr(max(worst * scale, 1e-6)))
+    prog = load(model, inputs=Inputs(consts={"e": str(e)}))
+    if not check_point(prog, np.array([a, b])).holds:
+        return
+    fa, fb = Fraction(a), Fraction(b)
+    for x, y in cells:
+        # the witness reads x at its value; y's error must be within e exactly
+        assert abs(fa * Fraction(x) + fb - Fraction(y)) <= e, (x, y, a, b, e)
