@@ -186,6 +186,9 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--identify/--no-identify", default=True, show_default=True,
               help="Report which parameters the data cannot separate.")
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
+@click.option("--inner/--no-inner", default=True, show_default=True,
+              help="Certify inner bounds: values each unknown provably takes at parameter "
+                   "vectors that satisfy every constraint (how much of the result is real).")
 @click.option("--diagnose/--no-diagnose", default=True, show_default=True,
               help="When the data are inconsistent, find the rows without which the rest is "
                    "proven consistent.")
@@ -196,7 +199,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, diagnose: bool, min_error: str | None, formulation: str,
+          identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None, formulation: str,
           data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
@@ -219,6 +222,8 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
+        if inner:
+            extra.inner_bounds(prog, res)
     found = None
     if res.status == "infeasible" and diagnose:
         from calib_dsl.pipeline import conflict

@@ -2,14 +2,14 @@
 
 Consistency asks for values within the bounds that satisfy every constraint. The witness:
 every declared unknown at the point, and every measured value that only enters the model
-(a joint reading: an argument, never a compared side) at its reading, the middle of its
-interval. Each primitive is then evaluated forward with outward rounding; a temporary takes
-the value its definition gives, and every other row (`f == x` with x measured, or a second
-definition of a temporary) must hold: f's enclosure inside x's interval, shrunk by the
-rounding that made it (so inside the exact one). Then some measurement errors within their
-bounds make the point satisfy every constraint: the data are consistent. Floating point is
-never trusted. Where a row compares two computed values, the test cannot prove it (an
-interval equals an interval only when both are points) and says so.
+(a joint reading: an argument, never a compared side) at a value within its interval (the
+middle unless the caller gives one). Each primitive is then evaluated forward with outward
+rounding; a temporary takes the value its definition gives, and every other row (`f == x`
+with x measured, or a second definition of a temporary) must hold: f's enclosure inside x's
+interval, shrunk by the rounding that made it (so inside the exact one). Then some
+measurement errors within their bounds make the point satisfy every constraint: the data are
+consistent. Floating point is never trusted. Where a row compares two computed values, the
+test cannot prove it (an interval equals an interval only when both are points) and says so.
 """
 
 from __future__ import annotations
@@ -35,23 +35,44 @@ class PointCheck:
     excess: np.ndarray
 
 
-def check_point(prog: Program, point: np.ndarray) -> PointCheck:
+def reading_slots(prog: Program) -> np.ndarray:
+    """The measured values that only enter the model (joint readings): the witness may give
+    each a value within its interval."""
+    compared = np.zeros(len(prog.slots.lo), dtype=bool)
+    for g in prog.groups:
+        compared[g.out[g.out >= 0]] = True
+    cells = prog.slots.cell_row
+    if cells is None:
+        return np.zeros(0, dtype=np.int64)
+    lo, hi = prog.slots.lo, prog.slots.hi
+    return np.flatnonzero((cells >= 0) & ~compared & np.isfinite(lo) & np.isfinite(hi))
+
+
+def check_point(prog: Program, point: np.ndarray,
+                readings: np.ndarray | None = None) -> PointCheck:
     """Whether `point` (the declared unknowns, in `independents` order) satisfies every
-    constraint of `prog` for every value of its measured intervals."""
+    constraint of `prog` for some value of its measured intervals: the readings' values
+    (`reading_slots` order; their midpoints if None) and any value of the compared sides."""
     ind = independents(prog)
     lay = layout(prog, ind)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     if np.any(point < lo[ind]) or np.any(point > hi[ind]):
         raise ValueError("the point lies outside the search domains")
+    # the domains too are rounded outward: a point on a float bound may lie outside the
+    # declared (exact) domain, and proves nothing
+    dlo, dhi = exact_inside(lo[ind], hi[ind])
+    in_domain = bool(np.all(point >= dlo) and np.all(point <= dhi))
     lo[ind], hi[ind] = point, point
     lo[lay.temp], hi[lay.temp] = -np.inf, np.inf
-    compared = np.zeros(len(lo), dtype=bool)
-    for g in prog.groups:
-        compared[g.out[g.out >= 0]] = True
-    cells = prog.slots.cell_row
-    measured = cells >= 0 if cells is not None else np.zeros(len(lo), dtype=bool)
-    readings = np.flatnonzero(measured & ~compared & np.isfinite(lo) & np.isfinite(hi))
-    lo[readings] = hi[readings] = 0.5 * lo[readings] + 0.5 * hi[readings]
+    at = reading_slots(prog)
+    rlo, rhi = exact_inside(lo[at], hi[at])  # the slots' bounds are rounded outward
+    # a reading a few ulps wide may hold no float of its exact interval: it keeps its
+    # enclosure, and the proof then holds for each of its values
+    some = rlo <= rhi
+    values = 0.5 * lo[at] + 0.5 * hi[at] if readings is None else readings
+    if np.any(~(values[some] >= rlo[some])) or np.any(~(values[some] <= rhi[some])):
+        raise ValueError("a reading lies outside its interval")
+    lo[at[some]] = hi[at[some]] = values[some]
     caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
     slots, clo, chi = [], [], []
     for g, mask in zip(prog.groups, lay.defining, strict=True):
@@ -69,7 +90,7 @@ def check_point(prog: Program, point: np.ndarray) -> PointCheck:
     chi.append(hi[capped])
     s = np.concatenate(slots)
     a, b = np.concatenate(clo), np.concatenate(chi)
-    tlo, thi = _exact_inside(prog.slots.lo[s], prog.slots.hi[s])
+    tlo, thi = exact_inside(prog.slots.lo[s], prog.slots.hi[s])
     computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
     tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
     with np.errstate(invalid="ignore"):
@@ -77,10 +98,10 @@ def check_point(prog: Program, point: np.ndarray) -> PointCheck:
         ok = (a >= tlo) & (b <= thi)
         ok[computed] &= (tlo[computed] == thi[computed])
     excess = np.where(np.isnan(excess), np.inf, excess)
-    return PointCheck(bool(np.all(ok)), s, a, b, excess)
+    return PointCheck(bool(np.all(ok)) and in_domain, s, a, b, excess)
 
 
-def _exact_inside(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def exact_inside(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """An interval inside the exact one that [lo, hi] encloses after outward rounding (a
     few ulps in from each end; a point stays a point)."""
     point = lo == hi

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from calib_dsl.analysis.certify_point import exact_inside
 from calib_dsl.analysis.lsq import estimate, rows_at
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -17,14 +18,21 @@ TRUST = 0.5  # each LP step within this share of the domains
 
 
 def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
-              start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+              start: np.ndarray | None = None,
+              box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
     """A point with a small largest residual on `rows` (all if None; the others within their
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
-    residuals in units of each row's bound. From `start`, else the least-squares estimate."""
+    residuals in units of each row's bound. From `start`, else the least-squares estimate;
+    within `box` (the unknowns' bounds), else the search domains."""
     from scipy.optimize import linprog
 
     ind = independents(prog)
-    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
+    # inside the declared domains exactly (their floats are rounded outward), so that the
+    # point can be certified even where it sits at a bound
+    dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
+    some = dlo <= dhi
+    lo, hi = np.where(some, np.maximum(lo, dlo), lo), np.where(some, np.minimum(hi, dhi), hi)
     p = estimate(prog, max_evaluations=200).values if start is None else start
     p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
     d, half, jac = rows_at(prog, p)

@@ -30,14 +30,42 @@ class Estimate:
 def rows_at(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every constraint row at p (floating point): its residual (predicted minus measured),
     its bound (the half-width of its measured side), and the residual's Jacobian."""
+    lin = linearized(prog, p)
+    return lin.d, lin.half, lin.jac
+
+
+@dataclass(frozen=True)
+class Linearized:
+    """Every constraint row at a point (floating point): its residual (predicted minus
+    measured), its bound (the half-width of its measured side), the residual's Jacobian in
+    the unknowns, the slot it compares with, and its derivatives in the measured values of
+    the one configuration it depends on (`owner`, -1 for none; one column per table column)."""
+
+    d: np.ndarray
+    half: np.ndarray
+    jac: np.ndarray
+    slots: np.ndarray
+    dq: np.ndarray
+    owner: np.ndarray
+
+
+def linearized(prog: Program, p: np.ndarray) -> Linearized:
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = Evaluation(prog, lo, hi, ind, p, point=True).run()
-    d = np.concatenate([0.5 * (r[0][0] + r[0][1]) for r in rows])
+    ev = Evaluation(prog, lo, hi, ind, p, point=True)
+    rows = ev.run()
+    if not rows:  # every constraint was a merge of slots: nothing left to evaluate
+        none = np.zeros(0)
+        return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
+                          np.zeros((0, 0)), np.zeros(0, np.int64))
+
+    def mid(part: int) -> np.ndarray:
+        return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in rows])
+
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
-    jac = np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])
-    return d, half, jac
+    return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
+                      np.concatenate([r[3] for r in rows]))
 
 
 def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

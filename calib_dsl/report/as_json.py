@@ -10,6 +10,7 @@ from calib_dsl.analysis.identify import identifiability_json
 from calib_dsl.ir.program import Program
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
+from calib_dsl.report.tightness import tightness
 from calib_dsl.strategy.solution import Solution
 
 
@@ -32,6 +33,9 @@ def result_json(prog: Program, res: Solution, strategy: str,
             params[r["name"]]["identifiable"] = r["name"] not in unident
         if extra.estimate is not None:
             params[r["name"]]["least_squares"] = extra.lsq_value(r["name"])
+        if extra.inner is not None and res.status != "infeasible":
+            inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
+            params[r["name"]]["inner"] = None if inner is None else list(inner)
     out: dict[str, Any] = {
         "model": str(Path(prog.source)),
         "status": res.status,
@@ -51,6 +55,9 @@ def result_json(prog: Program, res: Solution, strategy: str,
         out["identifiability"] = identifiability_json(extra.info)
         out["identifiability"]["combinations"] = [
             {"combination": t, "result": [_num(lo), _num(hi)]} for t, lo, hi in extra.combinations]
+    t = tightness(prog, res, extra)
+    if t is not None:
+        out["tightness"] = t
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}

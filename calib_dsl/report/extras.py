@@ -1,4 +1,5 @@
-"""Optional sections of a solve's report: identifiability, and a least-squares estimate."""
+"""Optional sections of a solve's report: identifiability, a least-squares estimate, and
+certified inner bounds."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import time
 from typing import Any
 
 from calib_dsl.analysis.identify import analyse, combination_enclosures
+from calib_dsl.analysis.inner import Inner, inner_bounds
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
@@ -16,12 +18,14 @@ from calib_dsl.strategy.solution import Solution
 
 
 class Extras:
-    """Optional sections of the report: identifiability, and a least-squares estimate."""
+    """Optional sections of the report: identifiability, a least-squares estimate, and
+    certified inner bounds."""
 
     def __init__(self) -> None:
         self.info: Any = None  # identify.Identifiability
         self.combinations: list[tuple[str, float, float]] = []
         self.estimate: Any = None  # lsq.Estimate
+        self.inner: Inner | None = None
         self.seconds = 0.0
         self.skipped = ""
 
@@ -46,6 +50,18 @@ class Extras:
         mid = 0.5 * (res.lo[ind] + res.hi[ind])
         self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
         self.seconds += time.perf_counter() - start
+
+    def inner_bounds(self, prog: Program, res: Solution) -> None:
+        self.inner = inner_bounds(prog, res.lo, res.hi)
+        self.seconds += self.inner.seconds
+
+    def inner_of(self, name: str) -> tuple[float, float] | None:
+        """The certified inner interval of an unknown (None: none certified, or not asked)."""
+        if self.inner is None or name not in self.inner.names:
+            return None
+        k = self.inner.names.index(name)
+        a, b = float(self.inner.lo[k]), float(self.inner.hi[k])
+        return None if math.isnan(a) else (a, b)
 
     def not_identifiable(self) -> set[str]:
         if self.info is None:

@@ -3,38 +3,73 @@
 from __future__ import annotations
 
 import math
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 from typing import Any
 
 from calib_dsl.analysis.identify import render
 from calib_dsl.ir.program import Program
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
+from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
 from calib_dsl.strategy.solution import Solution
 
 
 def render_table(prog: Program, res: Solution, extra: Extras | None = None) -> str:
+    """One line per declared unknown: search domain, result and certified inner interval as
+    printed, each end rounded to DIGITS significant digits away from the inside of the interval
+    (inward for the inner one), so what is printed keeps what is proven."""
     extra = extra or Extras()
     rows = parameter_rows(prog, res)
-    lsq = extra.estimate is not None
-    head = f"{'name':<10} {'search domain':<26} {'result':<36} {'width':>9} {'ratio':>9}"
-    head += f" {'least squares':>14}" if lsq else ""
-    lines = [head, "-" * len(head)]
-    unident = extra.not_identifiable()
-    for r in rows:
-        dom = _iv(r["domain"])
-        if r["result"] is None:
-            lines.append(f"{r['name']:<10} {dom:<26} {'(empty)':<36}")
-            continue
-        lo, hi = r["result"]
-        w = hi - lo
-        wd = r["domain"][1] - r["domain"][0]
-        ratio = w / wd if wd > 0 and math.isfinite(wd) else float("nan")
+    table = [_row(r, extra) for r in rows]
+    head = ["name", "search domain", "result", "width", "ratio"]
+    if extra.inner is not None:
+        head += ["certified inner", "outer/inner"]
+    if extra.estimate is not None:
+        head += ["least squares"]
+    widths = [max([len(h)] + [len(t[i]) for t in table if i < len(t)])
+              for i, h in enumerate(head)]
+    right = {"width", "ratio", "outer/inner", "least squares"}
+
+    def line(cells: list[str]) -> str:
+        return " ".join(c.rjust(w) if h in right else c.ljust(w)
+                        for c, w, h in zip(cells, widths, head, strict=False)).rstrip()
+
+    out = [line(head), "-" * len(line(head))]
+    for r, cells in zip(rows, table, strict=True):
+        out.append(line(cells) + _marks(r, extra))
+    return "\n".join(out)
+
+
+def _row(r: dict[str, Any], extra: Extras) -> list[str]:
+    dlo, dhi = r["domain"]
+    dom = f"[{_nearest(dlo)}, {_nearest(dhi)}]"
+    if r["result"] is None:
+        return [r["name"], dom, "(empty)"]
+    lo, hi = r["result"]
+    w = hi - lo
+    wd = dhi - dlo
+    ratio = w / wd if wd > 0 and math.isfinite(wd) else float("nan")
+    # an end the solve left at the domain's prints as the domain does (the declared value;
+    # its float is already the declared number rounded outward)
+    result = (f"[{_nearest(lo) if lo == dlo else _f(lo, ROUND_FLOOR)}, "
+              f"{_nearest(hi) if hi == dhi else _f(hi, ROUND_CEILING)}]")
+    cells = [r["name"], dom, result, f"{w:.3g}", f"{ratio:.3g}"]
+    if extra.inner is not None:
+        inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
+        q = width_ratio(r["result"], inner)
+        cells += ["-" if inner is None else _iv(inner, inward=True),
+                  "-" if q is None else f"{q:.4g}"]
+    if extra.estimate is not None:
         est = extra.lsq_value(r["name"])
-        col = f" {est:>14.9g}" if est is not None else ""
-        mark = _truth_mark(r) + ("  (not identifiable alone)" if r["name"] in unident else "")
-        lines.append(f"{r['name']:<10} {dom:<26} {_iv(r['result'], 10):<36} {w:>9.3g} "
-                     f"{ratio:>9.3g}{col}{mark}")
-    return "\n".join(lines)
+        cells.append("" if est is None else f"{est:.9g}")
+    return cells
+
+
+def _marks(r: dict[str, Any], extra: Extras) -> str:
+    if r["result"] is None:
+        return ""
+    unident = "  (not identifiable alone)" if r["name"] in extra.not_identifiable() else ""
+    return _truth_mark(r) + unident
 
 
 _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no solution "
@@ -71,12 +106,15 @@ def render_summary(prog: Program, res: Solution, strategy: str,
         prim = f" (primitive {e.primitive})" if e.primitive else ""
         lines.append(f"{where}the data and the model are inconsistent: the domain of "
                      f"{e.variable} became empty{prim}")
+    t = tightness(prog, res, extra)
+    if t is not None:
+        lines += ["", *render_tightness(t)]
     if extra.skipped:
         lines += ["", extra.skipped]
     if extra.info is not None:
         lines += ["", render(extra.info)]
         for text, lo, hi in extra.combinations:
-            lines.append(f"guaranteed: {text} in [{lo:.10g}, {hi:.10g}]")
+            lines.append(f"guaranteed: {text} in {_iv((lo, hi))}")
     if extra.estimate is not None:
         e = extra.estimate
         inside = [n for n, r in ((n, _result_of(prog, res, n)) for n in e.names)
@@ -104,11 +142,31 @@ def _truth_mark(r: dict[str, Any]) -> str:
     return "  true inside" if lo <= t <= hi else "  TRUE VALUE OUTSIDE"
 
 
-def _iv(b: tuple[float, float], digits: int = 6) -> str:
-    return f"[{_f(b[0], digits)}, {_f(b[1], digits)}]"
+DIGITS = 10  # significant digits of every printed bound
 
 
-def _f(x: float, digits: int) -> str:
+def _iv(b: tuple[float, float], inward: bool = False) -> str:
+    """[lo, hi] rounded outward (inward: the printed interval inside the true one)."""
+    down, up = (ROUND_FLOOR, ROUND_CEILING) if not inward else (ROUND_CEILING, ROUND_FLOOR)
+    return f"[{_f(b[0], down)}, {_f(b[1], up)}]"
+
+
+def _nearest(x: float) -> str:
+    """A declared bound: the nearest DIGITS-digit number (what the model says)."""
     if math.isinf(x):
         return "+oo" if x > 0 else "-oo"
-    return f"{x:.{digits}g}"
+    return f"{x:.{DIGITS}g}"
+
+
+def _f(x: float, rounding: str) -> str:
+    if math.isinf(x):
+        return "+oo" if x > 0 else "-oo"
+    if x == 0:
+        return "0"
+    d = Decimal(x)  # exact: the float's own value
+    q = d.quantize(Decimal(1).scaleb(d.adjusted() - DIGITS + 1), rounding=rounding).normalize()
+    e = q.adjusted()
+    if -4 <= e < DIGITS:  # as Python prints floats with the g format
+        return f"{q:f}"
+    mantissa = f"{q.scaleb(-e):f}"
+    return f"{mantissa}e{e:+03d}"

@@ -1,0 +1,250 @@
+"""Certified inner bounds: for each unknown, an interval [a, b] inside the hull of the solution
+set, so that outer/inner widths say how much of an enclosure is real.
+
+a and b are coordinates of parameter vectors that certify_point.py proves to satisfy every
+constraint (interval evaluation at the point, outward rounding: floating point is never
+trusted). The candidates are the extremes of each unknown over the model linearized at a
+certified centre (one LP per end, the same LP re-solved with another objective); where the
+linearization's remainder makes a candidate fail, the rows it violates are tightened by what
+the check measured and the LP is solved again, and as a last resort the candidate is pulled
+back towards the centre. Every certified point adds to every unknown's interval.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.analysis.certify_point import (
+    PointCheck,
+    check_point,
+    exact_inside,
+    reading_slots,
+)
+from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.lsq import Linearized, linearized
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.highs import load, optimal
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+
+# Each row aims inside this share of its bound: room for the rounding and for the remainder of
+# the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
+AIM = 1.0 - 1e-5
+CORRECTIONS = 4  # re-solves of one end's LP with the rows the check found violated tightened
+OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
+PULLBACKS = 10  # halvings of the step from the centre when the corrections did not succeed
+
+
+@dataclass(frozen=True)
+class Inner:
+    """Per unknown (independents' order), the smallest and largest value it takes at a
+    certified point (nan where none was certified), and one certified point."""
+
+    names: tuple[str, ...]
+    lo: np.ndarray
+    hi: np.ndarray
+    witness: np.ndarray | None  # a point proven to satisfy every constraint (None: none found)
+    points: int  # how many points were certified
+    seconds: float
+
+    @property
+    def consistent(self) -> bool:
+        """The data are proven consistent: some parameter vector satisfies every constraint."""
+        return self.witness is not None
+
+
+def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
+    """Certified inner intervals of the unknowns, searched within the outer box [lo, hi] (over
+    the program's slots: the solve's result)."""
+    start = time.perf_counter()
+    ind = independents(prog)
+    names = tuple(prog.slots.names[i] for i in ind)
+    # within the result, and within the declared domains exactly (their floats are rounded
+    # outward; a domain a few ulps wide keeps its float bounds and certifies nothing)
+    dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
+    some = dlo <= dhi
+    box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
+           np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
+    found = _Points(len(ind))
+    centre = _centre(prog, box)
+    if centre is not None:
+        found.add(centre)
+        _extremes(prog, box, centre, found)
+    return Inner(names, found.lo, found.hi, found.first, found.count,
+                 time.perf_counter() - start)
+
+
+class _Points:
+    """The certified points seen so far, as per-unknown ranges."""
+
+    def __init__(self, n: int) -> None:
+        self.lo, self.hi = np.full(n, np.nan), np.full(n, np.nan)
+        self.first: np.ndarray | None = None
+        self.count = 0
+
+    def add(self, p: np.ndarray) -> None:
+        self.lo = np.fmin(self.lo, p)
+        self.hi = np.fmax(self.hi, p)
+        self.first = p if self.first is None else self.first
+        self.count += 1
+
+
+def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray | None:
+    """A certified point near the middle of the box (the middle itself, else the point with
+    the smallest largest residual in units of each row's bound): the LPs' starting point."""
+    lo, hi = box
+    mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
+    mid = np.clip(mid, lo, hi)
+    if check_point(prog, mid).holds:  # a tight box's middle often is a solution
+        return mid
+    try:
+        with np.errstate(all="ignore"):
+            p, need = chebyshev(prog, normalized=True, start=mid, box=box)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    ok = need < 1.0 and np.all(np.isfinite(p)) and check_point(prog, p).holds
+    return p if ok else None
+
+
+def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
+              found: _Points) -> None:
+    """Both ends of every unknown that can move, over the model linearized at the centre."""
+    lo, hi = box
+    free = np.flatnonzero(hi > lo)
+    if not len(free):
+        return
+    lp = _LinearModel(prog, box, centre, free)
+    if not lp.finite:  # the model cannot be linearized there (an infinite derivative)
+        return
+    for j, k in enumerate(free):
+        for sign in (-1.0, 1.0):
+            reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
+            if reached == bound:
+                continue  # a certified point already reaches the outer bound
+            p = _end(prog, lp, j, sign)
+            if p is not None:
+                found.add(p)
+
+
+def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> np.ndarray | None:
+    """A certified point far along the free unknown j in the direction `sign`."""
+    tighten = np.zeros(lp.rows)
+    step = np.zeros(0)
+    for _ in range(CORRECTIONS):
+        y = lp.extreme(j, sign, tighten)
+        if y is None:  # tightened beyond what the LP can meet
+            break
+        step = y
+        point, readings = lp.point(step)
+        check = check_point(prog, point, readings)
+        if check.holds:
+            return point
+        tighten += OVERSHOOT * lp.excess(check)
+    for _ in range(PULLBACKS if len(step) else 0):
+        step = 0.5 * step
+        point, readings = lp.point(step)
+        if check_point(prog, point, readings).holds:
+            return point
+    return None
+
+
+class _LinearModel:
+    """The rows linearized at the centre, |r + A y + B z| <= AIM - tighten (in units of each
+    row's bound; y the free unknowns' step in units of their widths, z the readings' errors
+    in units of their bounds), within the box: one HiGHS model whose objective and row bounds
+    change from one end to the next."""
+
+    def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
+                 free: np.ndarray) -> None:
+        lo, hi = box
+        lin = linearized(prog, centre)
+        unit = np.maximum(lin.half, 1e-300)
+        self.centre, self.free, self.box = centre, free, box
+        self.scale = np.where(np.isfinite(hi - lo), hi - lo, 1.0)[free]
+        self.slots, self.unit, self.nslots = lin.slots, unit, len(prog.slots.names)
+        with np.errstate(all="ignore"):
+            self.r, self.rows, self.n = lin.d / unit, len(unit), len(free)
+            dense = lin.jac[:, free] * (self.scale / unit[:, None])
+        self.finite = bool(np.all(np.isfinite(self.r)) and np.all(np.isfinite(dense)))
+        if not self.finite:
+            return
+        self.readings = _Readings(prog)
+        rows, cols, vals = self.readings.entries(lin)
+        self.width = len(self.readings.mid)
+        A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
+        ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
+        zlo, zhi = self.readings.bounds()
+        self.h = load(LinearRelaxation(A, AIM - self.r, np.r_[ylo, zlo], np.r_[yhi, zhi],
+                                       b_lo=-AIM - self.r))
+        self.tightened = np.zeros(self.rows)
+
+    def extreme(self, j: int, sign: float, tighten: np.ndarray) -> np.ndarray | None:
+        """The LP's optimum (y, z) for the largest (sign > 0) or smallest free unknown j."""
+        h, cols = self.h, self.n + self.width
+        cost = np.zeros(cols)
+        cost[j] = -sign  # HiGHS minimizes
+        h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
+        if np.any(tighten != self.tightened):
+            m = self.rows
+            h.changeRowsBounds(m, np.arange(m, dtype=np.int32), -AIM + tighten - self.r,
+                               AIM - tighten - self.r)
+            self.tightened = tighten.copy()
+        h.run()
+        if not optimal(h):
+            return None
+        return np.array(h.getSolution().col_value)
+
+    def point(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The unknowns and the readings at `step` from the centre (kept in their bounds: a
+        step to an edge may round out of it)."""
+        p = self.centre.copy()
+        p[self.free] = self.centre[self.free] + self.scale * step[:self.n]
+        return np.clip(p, *self.box), self.readings.values(step[self.n:])
+
+    def excess(self, check: PointCheck) -> np.ndarray:
+        """How far each row stuck out at a failed point, in units of its bound."""
+        out = np.zeros(self.nslots)
+        np.maximum.at(out, check.slots, np.where(np.isfinite(check.excess), check.excess, 0.0))
+        return out[self.slots] / self.unit
+
+
+class _Readings:
+    """The joint readings as LP columns: each one's error within its interval, in units of its
+    half-width, entering the rows of its configuration through their derivatives."""
+
+    def __init__(self, prog: Program) -> None:
+        s = prog.slots
+        self.at = reading_slots(prog)
+        lo, hi = s.lo[self.at], s.hi[self.at]
+        self.mid = 0.5 * lo + 0.5 * hi
+        a, b = exact_inside(lo, hi)
+        none = a > b  # no float inside (a few ulps wide): the check keeps its enclosure
+        self.inside = (np.where(none, self.mid, a), np.where(none, self.mid, b))
+        self.half = np.where(none, 1e-300, np.maximum(0.5 * (hi - lo), 1e-300))
+        self.ncol, self.keys = 1, np.zeros(0, dtype=np.int64)
+        if len(self.at) and s.cell_row is not None and s.cell_col is not None:
+            self.ncol = int(s.cell_col.max()) + 1
+            self.keys = s.cell_row[self.at] * self.ncol + s.cell_col[self.at]
+        self.order = np.argsort(self.keys)
+
+    def entries(self, lin: Linearized) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row, column, value) of the rows' derivatives in the readings, scaled."""
+        if not len(self.at) or lin.dq.shape[1] == 0:
+            return (np.zeros(0, np.int64),) * 2 + (np.zeros(0),)
+        rows, cols = np.nonzero((lin.dq != 0) & (lin.owner >= 0)[:, None])
+        keys = lin.owner[rows] * self.ncol + cols
+        pos = np.searchsorted(self.keys, keys, sorter=self.order)
+        pos = np.minimum(pos, len(self.keys) - 1)
+        var = self.order[pos]
+        hit = self.keys[var] == keys  # a derivative in a compared value: not a reading
+        rows, cols, var = rows[hit], cols[hit], var[hit]
+        return rows, var, lin.dq[rows, cols] * self.half[var]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return (self.inside[0] - self.mid) / self.half, (self.inside[1] - self.mid) / self.half
+
+    def values(self, z: np.ndarray) -> np.ndarray:
+        return np.clip(self.mid + self.half * z, *self.inside)
