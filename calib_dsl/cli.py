@@ -199,8 +199,8 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None, formulation: str,
-          data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+          identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None,
+          formulation: str, data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve as run

@@ -39,21 +39,35 @@ PULLBACKS = 10  # halvings of the step from the centre when the corrections did 
 
 
 @dataclass(frozen=True)
+class Witness:
+    """A certified point: the unknowns (independents' order) and the joint readings
+    (certify_point.reading_slots order) at which every constraint was proven to hold."""
+
+    point: np.ndarray
+    readings: np.ndarray
+
+
+@dataclass(frozen=True)
 class Inner:
     """Per unknown (independents' order), the smallest and largest value it takes at a
-    certified point (nan where none was certified), and one certified point."""
+    certified point (nan where none was certified), and the points that give them."""
 
     names: tuple[str, ...]
     lo: np.ndarray
     hi: np.ndarray
-    witness: np.ndarray | None  # a point proven to satisfy every constraint (None: none found)
-    points: int  # how many points were certified
+    witnesses: tuple[Witness, ...]  # the first is the centre
+    lo_at: np.ndarray  # per unknown, the witness giving lo (-1: none)
+    hi_at: np.ndarray
     seconds: float
 
     @property
     def consistent(self) -> bool:
         """The data are proven consistent: some parameter vector satisfies every constraint."""
-        return self.witness is not None
+        return bool(self.witnesses)
+
+    @property
+    def points(self) -> int:
+        return len(self.witnesses)
 
 
 def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
@@ -71,25 +85,26 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     found = _Points(len(ind))
     centre = _centre(prog, box)
     if centre is not None:
-        found.add(centre)
+        found.add(Witness(centre, _Readings(prog).values(np.zeros(0))))
         _extremes(prog, box, centre, found)
-    return Inner(names, found.lo, found.hi, found.first, found.count,
+    return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
 
 class _Points:
-    """The certified points seen so far, as per-unknown ranges."""
+    """The certified points seen so far, and per unknown the range they span."""
 
     def __init__(self, n: int) -> None:
         self.lo, self.hi = np.full(n, np.nan), np.full(n, np.nan)
-        self.first: np.ndarray | None = None
-        self.count = 0
+        self.lo_at, self.hi_at = np.full(n, -1), np.full(n, -1)
+        self.all: list[Witness] = []
 
-    def add(self, p: np.ndarray) -> None:
-        self.lo = np.fmin(self.lo, p)
-        self.hi = np.fmax(self.hi, p)
-        self.first = p if self.first is None else self.first
-        self.count += 1
+    def add(self, w: Witness) -> None:
+        k = len(self.all)
+        self.all.append(w)
+        lower, higher = ~(w.point >= self.lo), ~(w.point <= self.hi)  # nan: none yet
+        self.lo[lower], self.lo_at[lower] = w.point[lower], k
+        self.hi[higher], self.hi_at[higher] = w.point[higher], k
 
 
 def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray | None:
@@ -124,12 +139,12 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
             reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
             if reached == bound:
                 continue  # a certified point already reaches the outer bound
-            p = _end(prog, lp, j, sign)
-            if p is not None:
-                found.add(p)
+            w = _end(prog, lp, j, sign)
+            if w is not None:
+                found.add(w)
 
 
-def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> np.ndarray | None:
+def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> Witness | None:
     """A certified point far along the free unknown j in the direction `sign`."""
     tighten = np.zeros(lp.rows)
     step = np.zeros(0)
@@ -141,13 +156,13 @@ def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> np.ndarray | N
         point, readings = lp.point(step)
         check = check_point(prog, point, readings)
         if check.holds:
-            return point
+            return Witness(point, readings)
         tighten += OVERSHOOT * lp.excess(check)
     for _ in range(PULLBACKS if len(step) else 0):
         step = 0.5 * step
         point, readings = lp.point(step)
         if check_point(prog, point, readings).holds:
-            return point
+            return Witness(point, readings)
     return None
 
 
@@ -247,4 +262,7 @@ class _Readings:
         return (self.inside[0] - self.mid) / self.half, (self.inside[1] - self.mid) / self.half
 
     def values(self, z: np.ndarray) -> np.ndarray:
+        """The readings at errors z (none given: their middles)."""
+        if not len(z):
+            return np.clip(self.mid, *self.inside)
         return np.clip(self.mid + self.half * z, *self.inside)

@@ -1,0 +1,195 @@
+"""Certified inner bounds: every witness point satisfies every constraint when checked
+independently in exact arithmetic (rationals for a line fit, 60-digit mpmath for the RX90), lies
+inside the outer box, and the inner intervals reach the hull where it is known."""
+
+from __future__ import annotations
+
+import json
+import math
+from fractions import Fraction
+from pathlib import Path
+
+import mpmath
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from calib_dsl.analysis.certify_point import reading_slots
+from calib_dsl.analysis.inner import inner_bounds
+from calib_dsl.analysis.simulate import simulate
+from calib_dsl.cli import main
+from calib_dsl.elaborate.elaborator import Inputs
+from calib_dsl.pipeline import load, solve
+from calib_dsl.relax.layout import independents
+
+ROOT = Path(__file__).resolve().parents[2]
+
+LINE = """const e = 0.2;
+table m = "d.csv" { x : +- 0; y : +- e; }
+param a in [-6, 6]; param b in [-6, 6];
+for k in 1..rows(m) { a * m.x[k] + b == m.y[k]; }
+"""
+
+
+def _hull(x: np.ndarray, y: np.ndarray, e: float, k: int, sign: float) -> float:
+    """The exact problem's extreme of unknown k (a polytope: an LP, to its tolerance)."""
+    ones = np.ones_like(x)
+    A = np.vstack([np.c_[x, ones], -np.c_[x, ones]])
+    c = np.zeros(2)
+    c[k] = -sign
+    res = linprog(c, A_ub=A, b_ub=np.r_[y + e, e - y], bounds=[(-6, 6)] * 2, method="highs")
+    return sign * -res.fun
+
+
+coord = st.floats(-3, 3, allow_nan=False, width=32)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(coord, coord), min_size=2, max_size=8, unique_by=lambda t: t[0]),
+       st.floats(0.05, 2.0))
+def test_line_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, rows, e):
+    tmp = tmp_path_factory.mktemp("line")
+    cells = [(repr(float(x)), repr(float(y))) for x, y in rows]
+    (tmp / "d.csv").write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in cells) + "\n")
+    (tmp / "line.cal").write_text(LINE)
+    prog = load(tmp / "line.cal", inputs=Inputs(consts={"e": repr(e)}))
+    sol = solve(prog)
+    if sol.status == "infeasible":
+        return
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    ind = independents(prog)
+    fe = Fraction(repr(e))
+    for w in inner.witnesses:
+        fa, fb = (Fraction(v) for v in w.point)
+        assert all(abs(fa * Fraction(x) + fb - Fraction(y)) <= fe for x, y in cells)
+        assert np.all(sol.lo[ind] <= w.point) and np.all(w.point <= sol.hi[ind])
+    x, y = (np.array([float(c[i]) for c in cells]) for i in (0, 1))
+    for k in range(2):
+        if inner.lo_at[k] < 0:
+            continue
+        assert inner.witnesses[inner.lo_at[k]].point[k] == inner.lo[k]
+        assert inner.witnesses[inner.hi_at[k]].point[k] == inner.hi[k]
+        lo, hi = _hull(x, y, e, k, -1.0), _hull(x, y, e, k, 1.0)
+        if hi - lo > 1e-6 * e:  # the linear model's extremes are the hull's: reached
+            assert inner.hi[k] - inner.lo[k] >= (hi - lo) * (1 - 1e-3)
+
+
+# -- the RX90: each witness checked with 60-digit arithmetic, by its own forward kinematics ----
+def _mdh(alpha, d, theta, r):
+    ca, sa, ct, st_ = (mpmath.cos(alpha), mpmath.sin(alpha), mpmath.cos(theta),
+                       mpmath.sin(theta))
+    return mpmath.matrix([[ct, -st_, 0, d], [ca * st_, ca * ct, -sa, -sa * r],
+                          [sa * st_, sa * ct, ca, ca * r], [0, 0, 0, 1]])
+
+
+def _rx90(p: dict, q: list) -> mpmath.matrix:
+    m = _mdh(0, 0, p["theta0"], p["r0"])
+    for j in range(1, 7):
+        theta = (p.get(f"theta{j}", 0) if j < 6 else 0) + q[j - 1]
+        m = m * _mdh(p[f"alpha{j}"], p[f"d{j}"], theta, p.get(f"r{j}", 0) if j < 6 else 0)
+    return m
+
+
+def _exact(text: str) -> mpmath.mpf:
+    return mpmath.mpf(text)
+
+
+@pytest.mark.parametrize("seed", [3, 11])
+def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
+    data = tmp_path / "d.csv"
+    simulate(ROOT / "models" / "rx90_lengths.cal", 10, seed, out_csv=data)
+    prog = load(ROOT / "models" / "rx90_lengths.cal", inputs=Inputs(data={"m": str(data)}))
+    sol = solve(prog)
+    assert sol.status == "contracted"
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    assert inner.consistent
+    ind = independents(prog)
+    names = [prog.slots.names[i] for i in ind]
+    # the readings' slots -> (configuration, column)
+    at = reading_slots(prog)
+    s = prog.slots
+    where = {(s.row_keys[s.cell_row[i]][1], s.col_keys[s.cell_col[i]][1]): n
+             for n, i in enumerate(at)}
+    header, *lines = data.read_text().splitlines()
+    cols = header.split(",")
+    table = [dict(zip(cols, line.split(","), strict=True)) for line in lines]
+    with mpmath.workdps(60):
+        e = _exact("1e-4")
+        dist = mpmath.mpf("0.1") * mpmath.sqrt(2)
+        for w in inner.witnesses[:: max(1, len(inner.witnesses) // 8)]:  # a sample of them
+            assert np.all(sol.lo[ind] <= w.point) and np.all(w.point <= sol.hi[ind])
+            p = {n: mpmath.mpf(float(v)) for n, v in zip(names, w.point, strict=True)}
+            for n in names:  # inside the declared domains exactly
+                lo, hi = prog.domains[n]
+                assert mpmath.mpf(lo) <= p[n] <= mpmath.mpf(hi) or math.isclose(lo, hi)
+            tool = [mpmath.matrix([p[f"b{i}x"], p[f"b{i}y"], p[f"b{i}z"], 1]) for i in (1, 2, 3)]
+            for k, row in enumerate(table, start=1):
+                q = []
+                for j in range(1, 7):
+                    slot = where.get((k, f"q{j}"))
+                    value = w.readings[slot] if slot is not None else float(row[f"q{j}"])
+                    assert abs(mpmath.mpf(value) - _exact(row[f"q{j}"])) <= _exact("1e-5")
+                    q.append(mpmath.mpf(value))
+                m = _rx90(p, q)
+                for i in (1, 2, 3):
+                    pos = m * tool[i - 1]
+                    for c, axis in enumerate("xyz"):
+                        assert abs(pos[c] - _exact(row[f"a{i}{axis}"])) <= e
+            for i, j in ((0, 1), (0, 2), (1, 2)):
+                gap = mpmath.sqrt(sum((tool[i][c] - tool[j][c]) ** 2 for c in range(3)))
+                assert abs(gap - dist) <= _exact("1e-5")
+
+
+def test_test_a_inner_reaches_the_outer_box():
+    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    sol = solve(prog)
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    ind = independents(prog)
+    outer = sol.hi[ind] - sol.lo[ind]
+    assert np.all(outer / (inner.hi - inner.lo) <= 1.05)
+
+
+def test_no_certified_point_says_so(tmp_path):
+    """Two computed sides equal: a point cannot prove it, so nothing is claimed."""
+    model = tmp_path / "m.cal"
+    model.write_text("var x in [0, 2];\nvar y in [0, 2];\nx * x == y + y;\n")
+    prog = load(model)
+    sol = solve(prog)
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    assert not inner.consistent and np.all(np.isnan(inner.lo))
+
+
+# -- the command line ---------------------------------------------------------------------
+def _solve(tmp_path: Path, *args: str):
+    from click.testing import CliRunner
+
+    out = tmp_path / "r.json"
+    res = CliRunner().invoke(main, ["solve", str(ROOT / "models" / "rx90_lengths.cal"),
+                                    "--no-identify", "--json", str(out), *args])
+    return res, json.loads(out.read_text())
+
+
+def test_cli_reports_inner_bounds_inside_the_result(tmp_path):
+    res, data = _solve(tmp_path)
+    assert res.exit_code == 0, res.output
+    assert "certified inner" in res.stdout and "outer/inner" in res.stdout
+    t = data["tightness"]
+    assert t["consistent"] and t["certified"] == t["unknowns"] == 33
+    assert 1.0 <= t["worst_ratio"] <= 1.05
+    for p in data["parameters"].values():
+        (lo, hi), (a, b) = p["result"], p["inner"]
+        assert lo <= a <= b <= hi
+    # what is printed stays inside what is proven
+    line = next(x for x in res.stdout.splitlines() if x.startswith("r0 "))
+    a_text, b_text = line.split("[")[3].split("]")[0].split(", ")
+    a, b = data["parameters"]["r0"]["inner"]
+    assert a <= float(a_text) <= float(b_text) <= b
+
+
+def test_cli_no_inner(tmp_path):
+    res, data = _solve(tmp_path, "--no-inner")
+    assert res.exit_code == 0, res.output
+    assert "tightness" not in data and "inner" not in data["parameters"]["r0"]
+    assert "certified inner" not in res.stdout
