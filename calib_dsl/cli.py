@@ -44,40 +44,9 @@ def model_inputs(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def _inputs(data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
             defines: tuple[str, ...]) -> Any:
-    from calib_dsl.elaborate.elaborator import Inputs
-    from calib_dsl.elaborate.rows import Selection, parse_numbers, parse_ranges
+    from calib_dsl.elaborate.options import inputs_from_options
 
-    files = dict(_named(d, "--data") for d in data)
-    selections: dict[str, Selection] = {}
-    for option, values, parse in (("--rows", rows, parse_ranges),
-                                  ("--exclude", exclude, parse_numbers)):
-        for item in values:
-            table, text = _named(item, option)
-            try:
-                parsed = parse(text)
-            except ValueError as err:
-                raise CalError(f"{option} {item}: {err}") from None
-            old = selections.get(table, Selection())
-            selections[table] = (Selection(old.ranges + parsed, old.excluded)  # type: ignore[operator]
-                                 if option == "--rows" else
-                                 Selection(old.ranges, old.excluded + parsed))  # type: ignore[operator]
-    consts = {}
-    for d in defines:
-        name, eq, value = d.partition("=")
-        if not eq or not name.strip().isidentifier():
-            raise CalError(f"-D {d}: write NAME=VALUE, e.g. -D e=1.2")
-        consts[name.strip()] = value
-    return Inputs(files, selections, consts)
-
-
-def _named(item: str, option: str) -> tuple[str, str]:
-    """`TABLE=VALUE` -> (TABLE, VALUE); a bare VALUE is for the first table ("")."""
-    name, eq, value = item.partition("=")
-    if eq and name.isidentifier():
-        if not value:
-            raise CalError(f"{option} {item}: nothing after '='")
-        return name, value
-    return "", item
+    return inputs_from_options(data, rows, exclude, defines)
 
 
 def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
