@@ -183,7 +183,14 @@ def test_batch_then_resume(tmp_path, monkeypatch):
     monkeypatch.setattr(schedule, "_client", lambda *a: pytest.fail("a cluster was started"))
     again = invoke("batch", jobs, "-o", out)
     assert "9 of 9 jobs already in" in again.stderr and again.stdout == first.stdout
+    assert "warning" not in again.stderr
     assert out.read_bytes() == before
+    # a job changed under its id is still skipped, with a warning
+    jobs.write_text(jobs.read_text().replace('id = "a"\n', 'id = "a"\nlsq = true\n'))
+    changed = invoke("batch", jobs, "-o", out)
+    assert "warning: the line of a records another job" in changed.stderr
+    assert out.read_bytes() == before
+    jobs.write_text(jobs.read_text().replace("lsq = true\n", "", 1))
     monkeypatch.undo()
 
     # a line removed, and the last one cut short (a kill mid-write): those two run again

@@ -33,6 +33,11 @@ def run_batch(jobs: list[Job], output: str, *, scheduler: str | None, workers: i
     if len(todo) < len(jobs):
         say(f"{len(jobs) - len(todo)} of {len(jobs)} jobs already in {output}: skipped "
             "(--force runs them again)")
+    changed = [job.id for job in jobs if job.id in done and done[job.id].get("job") not in
+               (None, job.spec())]
+    if changed:  # the id is what a rerun goes by: say when the job is no longer the same
+        say(f"warning: the line of {', '.join(changed)} records another job than the job "
+            "file's now (--force runs every job again)")
     if not todo:
         return [done[job.id] for job in jobs]
     # the file is opened (emptied by --force) once the cluster is there, not before
