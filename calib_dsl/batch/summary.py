@@ -18,7 +18,8 @@ def render_summary(lines: list[dict[str, Any]]) -> str:
     text = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=False)) + "  " + r[-1]
             for r in rows]
     counts = Counter(line["status"] for line in lines)
-    text.append(f"{len(lines)} jobs: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+    jobs = f"{len(lines)} job" + ("s" if len(lines) != 1 else "")
+    text.append(f"{jobs}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
     return "\n".join(t.rstrip() for t in text)
 
 
@@ -27,11 +28,12 @@ def _row(line: dict[str, Any]) -> tuple[str, ...]:
     seconds = f"{line.get('seconds', 0.0):.2f}"
     if line["status"] not in ("contracted", "infeasible"):
         return (line["id"], line["status"], "-", "-", "-", seconds, _first(line.get("error")))
-    widths = unknown_widths(result)
     if line["status"] == "infeasible":
         e = result.get("emptied") or {}
-        note = f"proven inconsistent: {e.get('variable')} emptied at {e.get('location')}"
+        where = f" at {e['location']}" if e.get("location") else ""
+        note = f"proven inconsistent: {e.get('variable')} emptied{where}"
         return (line["id"], "infeasible", "-", "-", "-", seconds, note)
+    widths = unknown_widths(result)
     moved = len(result.get("narrowed", []))
     warnings = result.get("warnings") or []
     return (line["id"], "contracted", f"{moved}/{len(widths)}",
