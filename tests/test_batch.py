@@ -5,6 +5,7 @@ runs a batch on a Dask cluster of separate processes."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import re
@@ -21,7 +22,9 @@ from calib_dsl.batch import schedule
 from calib_dsl.batch.jobs import Job, batch_jobs, read_job_file
 from calib_dsl.batch.run import run_job
 
-pytest.importorskip("distributed", reason="calibc batch needs Dask: pip install -e .[dev]")
+# the runs need Dask; reading job files and running one job do not
+needs_dask = pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
+                                reason="calibc batch runs on Dask: pip install -e .[dev]")
 
 
 def invoke(*args: object, cwd: Path | None = None):
@@ -158,6 +161,7 @@ def test_an_internal_error_is_a_failed_line(tmp_path, monkeypatch):
 
 # -- a batch, and resuming it --------------------------------------------------------------------
 
+@needs_dask
 def test_batch_then_resume(tmp_path, monkeypatch):
     jobs = write_project(tmp_path / "p")
     out = tmp_path / "out.jsonl"
@@ -213,6 +217,21 @@ def test_batch_then_resume(tmp_path, monkeypatch):
     forced = invoke("batch", jobs, "-o", out, "--workers", "1", "--force")
     assert "already in" not in forced.stderr and "[9/9]" in forced.stderr
     assert set(read_lines(out)) == set(STATUS)
+
+
+@needs_dask
+def test_data_glob_batch(tmp_path):
+    write_project(tmp_path)
+    res = invoke("batch", "line.cal", "--data-glob", "m=runs/*.csv", "-D", "e=0.05",
+                 "--strategy", "hc4", "-o", "out.jsonl", "--workers", "1", cwd=tmp_path)
+    assert res.exit_code == 0, res.output
+    lines = read_lines(tmp_path / "out.jsonl")
+    assert sorted(lines) == ["runs/b.csv", "runs/c.csv"]
+    for line in lines.values():
+        assert line["job"]["defines"] == ["e=0.05"] and line["job"]["strategy"] == "hc4"
+        assert line["status"] == "contracted"
+        assert direct(line["job"]) == ("contracted", intervals(line["result"]))
+    assert res.stdout.splitlines()[-1] == "2 jobs: 2 contracted"
 
 
 def test_without_dask_one_line_of_advice(tmp_path, monkeypatch):
