@@ -122,6 +122,13 @@ def test_data_glob_makes_one_job_per_file(tmp_path):
                           strategy="hc4")
     res = invoke("batch", "line.cal", "--data-glob", "runs/*.txt", "-o", "o", cwd=tmp_path)
     assert res.exit_code == 2 and "--data-glob runs/*.txt: no file matches" in res.stderr
+    for option, value, message in (("--rows", "m=0..2", "--rows 'm=0..2': row 0"),
+                                   ("--exclude", "x", "--exclude 'x': 'x' is not a row"),
+                                   ("-D", "e", "-D e: write NAME=VALUE")):
+        res = invoke("batch", "line.cal", "--data-glob", "runs/*", option, value, "-o", "o",
+                     cwd=tmp_path)
+        assert res.exit_code == 2 and res.stderr.startswith(f"error: {message}"), res.stderr
+    assert not (tmp_path / "o").exists()
 
 
 # -- one job ------------------------------------------------------------------------------------

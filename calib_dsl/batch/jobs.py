@@ -22,13 +22,14 @@ import glob
 import os
 import re
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 from calib_dsl.elaborate.chains import FORMULATIONS
-from calib_dsl.elaborate.options import named
+from calib_dsl.elaborate.options import consts, named
 from calib_dsl.elaborate.rows import parse_numbers, parse_ranges
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.strategy.tight import STRATEGIES
@@ -69,6 +70,8 @@ class Job:
         return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
                 for f in fields(self)}
 
+
+Fail = Callable[[str, str], CalError]  # (key, message) -> the error, at the key's line
 
 # the file's keys -> Job's fields; `define` is a TOML table, the others a value or a list
 KEYS = {"id": "id", "model": "model", "data": "data", "rows": "rows", "exclude": "exclude",
@@ -114,10 +117,14 @@ def glob_jobs(model: str, pattern: str, template: Job) -> list[Job]:
     --data), each as `template` (its id and model aside) with that file as the table's
     data; the id is the file's path as matched."""
     table, files = named(pattern, "--data-glob")
-    found = sorted(glob.glob(files, recursive=True))
+    found = sorted(f for f in glob.glob(files, recursive=True) if Path(f).is_file())
     if not found:
         raise CalError(f"--data-glob {pattern}: no file matches")
     here = Path.cwd()
+    # the options are checked once here, not found wrong by every job
+    for key in ("--rows", "--exclude"):
+        _listed(key, list(getattr(template, key[2:])), here, _option_error)
+    consts(template.defines)
     data = _listed("--data", list(template.data), here, _option_error)
     prefix = f"{table}=" if table else ""
     return [replace(template, id=f, model=_resolve(here, model),
@@ -149,7 +156,7 @@ def _job(entry: dict[str, Any], folder: Path, where: Places, k: int,
     return Job(**values)
 
 
-def _value(key: str, value: Any, folder: Path, fail: Any) -> Any:
+def _value(key: str, value: Any, folder: Path, fail: Fail) -> Any:
     if key in ("id", "model", "strategy", "formulation"):
         if not isinstance(value, str) or not value.strip() or "\n" in value:
             raise fail(key, "must be a non-empty string on one line")
@@ -177,27 +184,28 @@ def _value(key: str, value: Any, folder: Path, fail: Any) -> Any:
     return value
 
 
-def _listed(key: str, value: Any, folder: Path, fail: Any) -> tuple[str, ...]:
+def _listed(key: str, value: Any, folder: Path, fail: Fail) -> tuple[str, ...]:
     """data, rows, exclude: one string or a list of them, each `[TABLE=]TEXT`; data paths
     made absolute, rows and exclude checked here (where the line is known)."""
     items = [value] if isinstance(value, str) else value
     if not isinstance(items, list) or not all(isinstance(v, str) for v in items):
         raise fail(key, "must be a string or a list of strings")
     out = []
+    kind = key.lstrip("-")  # a job file's key, or the option (--data-glob's jobs)
     for item in items:
         table, text = named(item, key)
-        if key in ("data", "--data"):
+        if kind == "data":
             text = _resolve(folder, text)
         else:
             try:
-                (parse_ranges if key == "rows" else parse_numbers)(text)
+                (parse_ranges if kind == "rows" else parse_numbers)(text)
             except ValueError as err:
                 raise fail(key, f"'{item}': {err}") from None
         out.append(f"{table}={text}" if table else text)
     return tuple(out)
 
 
-def _defines(value: Any, fail: Any) -> tuple[str, ...]:
+def _defines(value: Any, fail: Fail) -> tuple[str, ...]:
     if not isinstance(value, dict):
         raise fail("define", "must be a table of const values, e.g. define = {e = \"1.2\"}")
     out = []
