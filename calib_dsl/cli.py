@@ -44,40 +44,9 @@ def model_inputs(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def _inputs(data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
             defines: tuple[str, ...]) -> Any:
-    from calib_dsl.elaborate.elaborator import Inputs
-    from calib_dsl.elaborate.rows import Selection, parse_numbers, parse_ranges
+    from calib_dsl.elaborate.options import inputs_from_options
 
-    files = dict(_named(d, "--data") for d in data)
-    selections: dict[str, Selection] = {}
-    for option, values, parse in (("--rows", rows, parse_ranges),
-                                  ("--exclude", exclude, parse_numbers)):
-        for item in values:
-            table, text = _named(item, option)
-            try:
-                parsed = parse(text)
-            except ValueError as err:
-                raise CalError(f"{option} {item}: {err}") from None
-            old = selections.get(table, Selection())
-            selections[table] = (Selection(old.ranges + parsed, old.excluded)  # type: ignore[operator]
-                                 if option == "--rows" else
-                                 Selection(old.ranges, old.excluded + parsed))  # type: ignore[operator]
-    consts = {}
-    for d in defines:
-        name, eq, value = d.partition("=")
-        if not eq or not name.strip().isidentifier():
-            raise CalError(f"-D {d}: write NAME=VALUE, e.g. -D e=1.2")
-        consts[name.strip()] = value
-    return Inputs(files, selections, consts)
-
-
-def _named(item: str, option: str) -> tuple[str, str]:
-    """`TABLE=VALUE` -> (TABLE, VALUE); a bare VALUE is for the first table ("")."""
-    name, eq, value = item.partition("=")
-    if eq and name.isidentifier():
-        if not value:
-            raise CalError(f"{option} {item}: nothing after '='")
-        return name, value
-    return "", item
+    return inputs_from_options(data, rows, exclude, defines)
 
 
 def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -399,3 +368,45 @@ def simulate(model: str, configs: int, seed: int, output: str, formulation: str)
 
     run(model, configs, seed, formulation=formulation, out_csv=Path(output))
     click.echo(f"wrote {configs} configurations to {output}")
+
+
+@main.command()
+@click.argument("source", metavar="JOBS|MODEL", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="The results: one JSON object per line, a job per line.")
+@click.option("--data-glob", metavar="[TABLE=]PATTERN",
+              help="SOURCE is a model: solve it once per CSV file matching PATTERN "
+                   "(e.g. 'runs/*.csv'), the file's path as the job's id.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="A running Dask scheduler (tcp://host:port); by default a local cluster.")
+@click.option("--workers", type=click.IntRange(min=1), default=min(2, os.cpu_count() or 1),
+              show_default=True, help="Worker processes of the local cluster.")
+@click.option("--force", is_flag=True, help="Run every job again (the output starts empty).")
+@click.option("--retry-errors", is_flag=True,
+              help="Run again the jobs whose line is an error or a failure.")
+@click.option("--quiet", is_flag=True, help="No progress on standard error.")
+@click.option("--strategy", type=click.Choice(STRATEGIES), help="With --data-glob: as solve's.")
+@click.option("--formulation", type=click.Choice(FORMULATIONS),
+              help="With --data-glob: as solve's.")
+@model_inputs
+@user_errors
+def batch(source: str, output: str, data_glob: str | None, scheduler: str | None,
+          workers: int, force: bool, retry_errors: bool, quiet: bool, strategy: str | None,
+          formulation: str | None, data: tuple[str, ...], rows: tuple[str, ...],
+          exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+    """Run many solves on Dask: the jobs of the TOML file SOURCE (docs/batch.md), or the
+    model SOURCE once per file of --data-glob. A rerun skips the jobs --output holds; exit 1
+    when a job ended in an error or a failure (its line says why)."""
+    from calib_dsl.batch.jobs import batch_jobs
+    from calib_dsl.batch.schedule import run_batch
+    from calib_dsl.batch.summary import render_summary
+
+    jobs = batch_jobs(source, data_glob, strategy=strategy, formulation=formulation,
+                      data=data, rows=rows, exclude=exclude, defines=defines)
+    lines = run_batch(jobs, output, scheduler=scheduler, workers=workers, force=force,
+                      retry_errors=retry_errors,
+                      say=(lambda s: None) if quiet else
+                      (lambda s: click.echo(f"calibc batch: {s}", err=True)))
+    click.echo(render_summary(lines))
+    if any(line["status"] in ("error", "failed") for line in lines):
+        sys.exit(1)

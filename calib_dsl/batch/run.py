@@ -1,0 +1,60 @@
+"""One job, run where Dask puts it: the steps of `calibc solve --json`, as one result line.
+
+`solve_job` makes the calls `calibc solve` makes (cli.py: load, solve, identifiability, the
+diagnosis of an inconsistency, warnings, result_json) in the same order with the same
+arguments, so a job's result is the `--json` document of the same solve run by hand (timing
+aside). `run_job` never raises: a user error (a missing or malformed file, a bad const) is a
+line of status "error" with the message the command line would print, a bug of ours one of
+status "failed"; the batch goes on either way.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from calib_dsl.batch.jobs import Job
+from calib_dsl.elaborate.options import inputs_from_options
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.pipeline import conflict, load, solve
+from calib_dsl.report.as_json import result_json
+from calib_dsl.report.extras import Extras
+from calib_dsl.report.min_error import conflict_json
+from calib_dsl.report.warnings import solve_warnings
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """The job's result line: id, status, seconds, the job, then its result or error."""
+    start = time.perf_counter()
+    outcome: dict[str, Any]
+    try:
+        result = solve_job(job)
+        outcome = {"status": result["status"], "result": result}
+    except CalError as err:
+        outcome = {"status": "error", "error": err.render()}
+    except RecursionError:  # as the command line says it
+        outcome = {"status": "error", "error": "error: the model nests too deeply to elaborate"}
+    except Exception as exc:  # a bug of ours: recorded, and the other jobs go on
+        outcome = {"status": "failed", "error": f"internal error: {type(exc).__name__}: {exc}"}
+    return {"id": job.id, "status": outcome.pop("status"),
+            "seconds": time.perf_counter() - start, "job": job.spec(), **outcome}
+
+
+def solve_job(job: Job) -> dict[str, Any]:
+    """What `calibc solve` writes with --json for the job's arguments (`job.argv()`)."""
+    inputs = inputs_from_options(job.data, job.rows, job.exclude, job.defines)
+    prog = load(job.model, job.formulation, inputs=inputs)
+    res = solve(prog, job.strategy, tol=job.tol, max_sweeps=job.max_sweeps)
+    extra = Extras()
+    if res.status == "contracted":
+        if job.identify:
+            extra.identify(prog, res, use_lp=job.strategy == "tight")
+        if job.lsq:
+            extra.least_squares(prog, res)
+    found = None
+    if res.status == "infeasible" and job.diagnose:
+        found = conflict(job.model, job.formulation, inputs)
+    more: dict[str, Any] = {"warnings": solve_warnings(prog, res)}
+    if found is not None:
+        more["conflict"] = conflict_json(found)
+    return {**result_json(prog, res, job.strategy, extra), **more}
