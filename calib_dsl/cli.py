@@ -172,51 +172,31 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
           formulation: str, data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
-    from calib_dsl.pipeline import solve as run
-    from calib_dsl.report.as_json import result_json
-    from calib_dsl.report.extras import Extras
-    from calib_dsl.report.min_error import conflict_json, render_conflict
+    from calib_dsl.pipeline import solve_report
+    from calib_dsl.report.min_error import render_conflict
     from calib_dsl.report.text import render_summary, render_table
-    from calib_dsl.report.warnings import solve_warnings
 
     inputs = _inputs(data, rows, exclude, defines)
     if min_error is not None:
         _min_error(model, min_error, formulation, inputs, strategy, json_path)
         return
-    prog = _load(model, formulation, inputs)
-    res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
-    extra = Extras()
-    if res.status == "contracted":
-        if identify:
-            extra.identify(prog, res, use_lp=strategy == "tight")
-        if lsq:
-            extra.least_squares(prog, res)
-        if inner:
-            extra.inner_bounds(prog, res)
-    found = None
-    if res.status == "infeasible" and diagnose:
-        from calib_dsl.pipeline import conflict
-
-        found = conflict(model, formulation, inputs)
-    warnings = solve_warnings(prog, res)
-    for w in warnings:
+    run = solve_report(model, formulation, inputs, strategy, tol=tol, max_sweeps=max_sweeps,
+                       identify=identify, lsq=lsq, inner=inner, diagnose=diagnose)
+    for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
-        click.echo(render_table(prog, res, extra))
+        click.echo(render_table(run.prog, run.res, run.extra))
         click.echo()
-        click.echo(render_summary(prog, res, strategy, extra))
-        if found is not None:
-            click.echo(render_conflict(found))
+        click.echo(render_summary(run.prog, run.res, strategy, run.extra))
+        if run.found is not None:
+            click.echo(render_conflict(run.found))
     if json_path:
-        more: dict[str, Any] = {"warnings": warnings}
-        if found is not None:
-            more["conflict"] = conflict_json(found)
-        text = json.dumps({**result_json(prog, res, strategy, extra), **more}, indent=2)
+        text = json.dumps(run.as_json(), indent=2)
         if json_path == "-":
             click.echo(text)
         else:
             _write(json_path, text + "\n")
-    if res.status == "infeasible":
+    if run.res.status == "infeasible":
         sys.exit(1)
 
 

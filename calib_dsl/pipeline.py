@@ -8,7 +8,9 @@
 from __future__ import annotations
 
 import gc
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from calib_dsl.analysis.conflict import Conflict, find_conflict
 from calib_dsl.analysis.min_error import MinError
@@ -23,6 +25,10 @@ from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import relax_quadratic
+from calib_dsl.report.as_json import result_json
+from calib_dsl.report.extras import Extras
+from calib_dsl.report.min_error import conflict_json
+from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
@@ -96,3 +102,44 @@ def conflict(model: str | Path, formulation: str = "matrix",
     """For data proven inconsistent: the worst rows without which the rest is proven
     consistent (None when the model has no table)."""
     return find_conflict(inputs or Inputs(), lambda i: load_model(model, formulation, inputs=i))
+
+
+@dataclass
+class SolveReport:
+    """What `calibc solve` reports: the program, its solution, the optional sections, the
+    rows found to conflict (inconsistent data) and the warnings."""
+
+    prog: Program
+    res: Solution
+    extra: Extras
+    strategy: str
+    found: Conflict | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    def as_json(self) -> dict[str, Any]:
+        more: dict[str, Any] = {"warnings": self.warnings}
+        if self.found is not None:
+            more["conflict"] = conflict_json(self.found)
+        return {**result_json(self.prog, self.res, self.strategy, self.extra), **more}
+
+
+def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
+                 strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
+                 identify: bool = True, lsq: bool = False, inner: bool = True,
+                 diagnose: bool = True) -> SolveReport:
+    """Load and solve `model`, with the report's optional sections (the command line's
+    `calibc solve`, and each job of `calibc batch`)."""
+    prog = load(model, formulation, inputs=inputs)
+    res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps)
+    extra = Extras()
+    if res.status == "contracted":
+        if identify:
+            extra.identify(prog, res, use_lp=strategy == "tight")
+        if lsq:
+            extra.least_squares(prog, res)
+        if inner:
+            extra.inner_bounds(prog, res)
+    found = None
+    if res.status == "infeasible" and diagnose:
+        found = conflict(model, formulation, inputs)
+    return SolveReport(prog, res, extra, strategy, found, solve_warnings(prog, res))

@@ -51,6 +51,7 @@ class Job:
     max_sweeps: int = 1000
     identify: bool = True
     lsq: bool = False
+    inner: bool = True
     diagnose: bool = True
 
     def argv(self) -> list[str]:
@@ -62,6 +63,7 @@ class Job:
             for v in values:
                 out += [option, v]
         out.append("--identify" if self.identify else "--no-identify")
+        out.append("--inner" if self.inner else "--no-inner")
         out.append("--diagnose" if self.diagnose else "--no-diagnose")
         return out + (["--lsq"] if self.lsq else [])
 
@@ -77,7 +79,7 @@ Fail = Callable[[str, str], CalError]  # (key, message) -> the error, at the key
 KEYS = {"id": "id", "model": "model", "data": "data", "rows": "rows", "exclude": "exclude",
         "define": "defines", "strategy": "strategy", "formulation": "formulation",
         "tol": "tol", "max-sweeps": "max_sweeps", "identify": "identify", "lsq": "lsq",
-        "diagnose": "diagnose"}
+        "inner": "inner", "diagnose": "diagnose"}
 
 
 def read_job_file(path: str) -> list[Job]:
@@ -170,7 +172,7 @@ def _value(key: str, value: Any, folder: Path, fail: Fail) -> Any:
         return _defines(value, fail)
     if key in ("data", "rows", "exclude"):
         return _listed(key, value, folder, fail)
-    if key in ("identify", "lsq", "diagnose"):
+    if key in ("identify", "lsq", "inner", "diagnose"):
         if not isinstance(value, bool):
             raise fail(key, "must be true or false")
         return value

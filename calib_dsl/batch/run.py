@@ -1,7 +1,6 @@
 """One job, run where Dask puts it: the steps of `calibc solve --json`, as one result line.
 
-`solve_job` makes the calls `calibc solve` makes (cli.py: load, solve, identifiability, the
-diagnosis of an inconsistency, warnings, result_json) in the same order with the same
+`solve_job` makes the call `calibc solve` makes (pipeline.solve_report) with the same
 arguments, so a job's result is the `--json` document of the same solve run by hand (timing
 aside). `run_job` never raises: a user error (a missing or malformed file, a bad const) is a
 line of status "error" with the message the command line would print, a bug of ours one of
@@ -16,11 +15,7 @@ from typing import Any
 from calib_dsl.batch.jobs import Job
 from calib_dsl.elaborate.options import inputs_from_options
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.pipeline import conflict, load, solve
-from calib_dsl.report.as_json import result_json
-from calib_dsl.report.extras import Extras
-from calib_dsl.report.min_error import conflict_json
-from calib_dsl.report.warnings import solve_warnings
+from calib_dsl.pipeline import solve_report
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -43,18 +38,6 @@ def run_job(job: Job) -> dict[str, Any]:
 def solve_job(job: Job) -> dict[str, Any]:
     """What `calibc solve` writes with --json for the job's arguments (`job.argv()`)."""
     inputs = inputs_from_options(job.data, job.rows, job.exclude, job.defines)
-    prog = load(job.model, job.formulation, inputs=inputs)
-    res = solve(prog, job.strategy, tol=job.tol, max_sweeps=job.max_sweeps)
-    extra = Extras()
-    if res.status == "contracted":
-        if job.identify:
-            extra.identify(prog, res, use_lp=job.strategy == "tight")
-        if job.lsq:
-            extra.least_squares(prog, res)
-    found = None
-    if res.status == "infeasible" and job.diagnose:
-        found = conflict(job.model, job.formulation, inputs)
-    more: dict[str, Any] = {"warnings": solve_warnings(prog, res)}
-    if found is not None:
-        more["conflict"] = conflict_json(found)
-    return {**result_json(prog, res, job.strategy, extra), **more}
+    return solve_report(job.model, job.formulation, inputs, job.strategy, tol=job.tol,
+                        max_sweeps=job.max_sweeps, identify=job.identify, lsq=job.lsq,
+                        inner=job.inner, diagnose=job.diagnose).as_json()
