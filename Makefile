@@ -26,7 +26,7 @@ lint: install
 	$(BIN)/mypy calib_dsl
 
 # bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
-# note where the data set is absent). The venv's python once `make install` made it; else $(PY) when calibc already runs
+# note where the data set is absent), then the certified inner bounds. The venv's python once `make install` made it; else $(PY) when calibc already runs
 # there (no install needed); else install first.
 ifneq ($(filter bench,$(MAKECMDGOALS)),)
 BENCH_PY := $(shell if [ -x $(BIN)/python ]; then echo $(BIN)/python; \
@@ -37,6 +37,7 @@ endif
 bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/ur10.py
+	$(or $(BENCH_PY),$(BIN)/python) bench/inner.py
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.

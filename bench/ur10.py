@@ -110,12 +110,12 @@ def report(data: Path, runs: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write(out: Path, section: str) -> None:
-    """Replace the section in `out` (or put it before the history)."""
+def write(out: Path, section: str, title: str = SECTION) -> None:
+    """Replace the section `title` in `out` (or put it before the history)."""
     text = out.read_text(encoding="utf-8") if out.exists() else ""
-    start = text.find(SECTION)
+    start = text.find(title)
     if start >= 0:
-        end = text.find("\n## ", start + len(SECTION))
+        end = text.find("\n## ", start + len(title))
         text = text[:start] + section + (text[end + 1:] if end >= 0 else "")
     else:
         at = text.find(HISTORY)

@@ -36,16 +36,19 @@ class PointCheck:
 
 
 def reading_slots(prog: Program) -> np.ndarray:
-    """The measured values that only enter the model (joint readings): the witness may give
-    each a value within its interval."""
-    compared = np.zeros(len(prog.slots.lo), dtype=bool)
+    """The measured values that only enter the model (joint readings: arguments, never a
+    compared side): the witness may give each a value within its interval."""
+    n = len(prog.slots.lo)
+    compared, argument = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     for g in prog.groups:
         compared[g.out[g.out >= 0]] = True
+        argument[g.args[g.args >= 0]] = True
     cells = prog.slots.cell_row
     if cells is None:
         return np.zeros(0, dtype=np.int64)
     lo, hi = prog.slots.lo, prog.slots.hi
-    return np.flatnonzero((cells >= 0) & ~compared & np.isfinite(lo) & np.isfinite(hi))
+    return np.flatnonzero((cells >= 0) & argument & ~compared & np.isfinite(lo)
+                          & np.isfinite(hi))
 
 
 def check_point(prog: Program, point: np.ndarray,
@@ -104,9 +107,11 @@ def check_point(prog: Program, point: np.ndarray,
 # How far the float bounds of a domain may lie outside its exact interval, relative to the
 # bounds' magnitude. A measured value y +- e is built from a decimal's enclosure, a unit factor
 # and an outward sum: a few ulps of max(|y|, e) <= max(|lo|, |hi|), so the bound may be many
-# ulps of itself away when y - e cancels (2.572364330291748 - 2: 4 ulps of 0.57). 2^-30 is a
-# million times those few ulps; it costs the inner bounds a billionth of their magnitude.
-ROUNDING_SPAN = 2.0**-30
+# # ulps of itself away when y - e cancels (2.572364330291748 - 2: 4 ulps of 0.57). 2^-40 is
+# a thousand times those few ulps; it costs the inner bounds 1e-12 of their magnitude (an
+# interval narrower than that, 1.8 +- 1e-12, holds no surely-inside float: a reading keeps
+# its enclosure, a measured side cannot be certified).
+ROUNDING_SPAN = 2.0**-40
 
 
 def exact_inside(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

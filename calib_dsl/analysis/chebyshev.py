@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.analysis.certify_point import exact_inside
-from calib_dsl.analysis.lsq import estimate, rows_at
+from calib_dsl.analysis.lsq import estimate, linearized, rows_at
+from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 
@@ -68,3 +69,40 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
 
 def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
     return float(np.max(np.abs(d / unit)[rows]))
+
+
+def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
+                  box: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """One more step of the fit from `point`, the joint readings free within their intervals
+    (their errors lower the largest residual where the arm's lever is long): the point, the
+    readings (Readings order) and the linear model's largest residual on `rows`; None
+    when the model has no readings or the LP fails. A point and a hope, as above."""
+    from scipy import sparse
+    from scipy.optimize import linprog
+
+    readings = Readings(prog)
+    if not len(readings.at):
+        return None
+    ind = independents(prog)
+    lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
+    lin = linearized(prog, point)
+    r, c, v = readings.entries(lin)
+    m, n, k = len(lin.d), len(point), len(readings.at)
+    # columns: the unknowns' steps, the readings' errors (in half-widths), the largest residual
+    B = sparse.csr_matrix((v, (r, c)), shape=(m, k))
+    J = sparse.hstack([sparse.csr_matrix(lin.jac), B]).tocsr()
+    t_col = sparse.csr_matrix(np.ones((m, 1)))
+    fit, other = np.flatnonzero(rows), np.flatnonzero(~rows)
+    A = sparse.vstack([sparse.hstack([J[fit], -t_col[fit]]), sparse.hstack([-J[fit], -t_col[fit]]),
+                       sparse.hstack([J[other], 0 * t_col[other]]),
+                       sparse.hstack([-J[other], 0 * t_col[other]])]).tocsr()
+    d, half = lin.d, lin.half
+    b = np.concatenate([-d[fit], d[fit], half[other] - d[other], half[other] + d[other]])
+    zlo, zhi = readings.bounds()
+    bounds = [*zip(lo - point, hi - point, strict=True), *zip(zlo, zhi, strict=True), (0, None)]
+    res = linprog(np.r_[np.zeros(n + k), 1.0], A_ub=A, b_ub=b, bounds=bounds, method="highs")
+    if res.status != 0:
+        return None
+    q = np.clip(point + res.x[:n], lo, hi)
+    return q, readings.values(res.x[n:n + k]), float(res.x[-1])

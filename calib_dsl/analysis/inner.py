@@ -17,14 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import (
-    PointCheck,
-    check_point,
-    exact_inside,
-    reading_slots,
-)
+from calib_dsl.analysis.certify_point import PointCheck, check_point, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
-from calib_dsl.analysis.lsq import Linearized, linearized
+from calib_dsl.analysis.lsq import linearized
+from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import load, optimal
 from calib_dsl.relax.layout import independents
@@ -85,7 +81,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     found = _Points(len(ind))
     centre = _centre(prog, box)
     if centre is not None:
-        found.add(Witness(centre, _Readings(prog).values(np.zeros(0))))
+        found.add(Witness(centre, Readings(prog).values(np.zeros(0))))
         _extremes(prog, box, centre, found)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
@@ -186,7 +182,7 @@ class _LinearModel:
         self.finite = bool(np.all(np.isfinite(self.r)) and np.all(np.isfinite(dense)))
         if not self.finite:
             return
-        self.readings = _Readings(prog)
+        self.readings = Readings(prog)
         rows, cols, vals = self.readings.entries(lin)
         self.width = len(self.readings.mid)
         A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
@@ -224,45 +220,3 @@ class _LinearModel:
         out = np.zeros(self.nslots)
         np.maximum.at(out, check.slots, np.where(np.isfinite(check.excess), check.excess, 0.0))
         return out[self.slots] / self.unit
-
-
-class _Readings:
-    """The joint readings as LP columns: each one's error within its interval, in units of its
-    half-width, entering the rows of its configuration through their derivatives."""
-
-    def __init__(self, prog: Program) -> None:
-        s = prog.slots
-        self.at = reading_slots(prog)
-        lo, hi = s.lo[self.at], s.hi[self.at]
-        self.mid = 0.5 * lo + 0.5 * hi
-        a, b = exact_inside(lo, hi)
-        none = a > b  # no float inside (a few ulps wide): the check keeps its enclosure
-        self.inside = (np.where(none, self.mid, a), np.where(none, self.mid, b))
-        self.half = np.where(none, 1e-300, np.maximum(0.5 * (hi - lo), 1e-300))
-        self.ncol, self.keys = 1, np.zeros(0, dtype=np.int64)
-        if len(self.at) and s.cell_row is not None and s.cell_col is not None:
-            self.ncol = int(s.cell_col.max()) + 1
-            self.keys = s.cell_row[self.at] * self.ncol + s.cell_col[self.at]
-        self.order = np.argsort(self.keys)
-
-    def entries(self, lin: Linearized) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(row, column, value) of the rows' derivatives in the readings, scaled."""
-        if not len(self.at) or lin.dq.shape[1] == 0:
-            return (np.zeros(0, np.int64),) * 2 + (np.zeros(0),)
-        rows, cols = np.nonzero((lin.dq != 0) & (lin.owner >= 0)[:, None])
-        keys = lin.owner[rows] * self.ncol + cols
-        pos = np.searchsorted(self.keys, keys, sorter=self.order)
-        pos = np.minimum(pos, len(self.keys) - 1)
-        var = self.order[pos]
-        hit = self.keys[var] == keys  # a derivative in a compared value: not a reading
-        rows, cols, var = rows[hit], cols[hit], var[hit]
-        return rows, var, lin.dq[rows, cols] * self.half[var]
-
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        return (self.inside[0] - self.mid) / self.half, (self.inside[1] - self.mid) / self.half
-
-    def values(self, z: np.ndarray) -> np.ndarray:
-        """The readings at errors z (none given: their middles)."""
-        if not len(z):
-            return np.clip(self.mid, *self.inside)
-        return np.clip(self.mid + self.half * z, *self.inside)

@@ -3,7 +3,8 @@
 
 - hi is *proven feasible*: a parameter vector that satisfies every row under interval
   evaluation at that bound (certify_point.py). The vector is a Chebyshev fit (chebyshev.py)
-  of the rows whose bound is the const, every other row within its own bound.
+  of the rows whose bound is the const, every other row within its own bound, and a last
+  step of it with the joint readings free within their intervals.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
   are tried from the top down, then by bisection, within a budget of solves.
 
@@ -22,8 +23,9 @@ from fractions import Fraction
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.chebyshev import chebyshev, with_readings
 from calib_dsl.analysis.lsq import rows_at
+from calib_dsl.analysis.readings import Readings
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
@@ -70,7 +72,19 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
     point, need = chebyshev(prog, rows)
-    hi, check_prog = _certified(name, inputs, load, point, need)
+    readings = None
+    step = with_readings(prog, point, rows)  # the joint readings' errors lower it further
+    if step is not None and step[2] < need:
+        point, need = step[0], step[2]
+        readings = Readings(prog).by_cell(step[1])
+    try:
+        hi, check_prog = _certified(name, inputs, load, point, need, readings)
+    except CalError:
+        if readings is None:
+            raise
+        point, need = chebyshev(prog, rows)  # the readings' step could not be proven: without
+        readings = None
+        hi, check_prog = _certified(name, inputs, load, point, need)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
     del model, prog, check_prog  # each trial loads its own: one program in memory at a time
@@ -94,13 +108,15 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     return rows
 
 
-def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray,
-               need: float) -> tuple[float, Program]:
-    """The smallest tried bound (from `need` up) at which the point is proven feasible."""
+def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need: float,
+               readings: dict[int, float] | None = None) -> tuple[float, Program]:
+    """The smallest tried bound (from `need` up) at which the point (with these joint
+    readings, else their middles) is proven feasible."""
     e = need * (1 + 1e-6) + 1e-12
     for _ in range(4):
         _, prog = load(_with(inputs, name, e))
-        check = check_point(prog, point)
+        check = check_point(prog, point,
+                            None if readings is None else Readings(prog).from_cells(readings))
         if check.holds:
             return e, prog
         e += float(np.max(check.excess[np.isfinite(check.excess)], initial=0.0)) + 1e-9 * e
