@@ -21,6 +21,8 @@ from calib_dsl.strategy.tight import STRATEGIES
 FORMULATION = click.option("--formulation", type=click.Choice(FORMULATIONS),
                            default="matrix", show_default=True,
                            help="How a robot chain becomes constraints.")
+QUIET = click.option("-q", "--quiet", is_flag=True,
+                     help="No progress line on standard error (drawn only on a terminal).")
 
 
 def model_inputs(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -98,8 +100,11 @@ def main() -> None:
 
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", type=click.Path(dir_okay=False), help="Write the listing here.")
-@click.option("--json", "as_json", is_flag=True, help="Print counts as JSON instead.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="Write the output (the listing, or the JSON with --json) to this file "
+                   "instead of standard output.")
+@click.option("--json", "as_json", is_flag=True,
+              help="The program's counts as JSON instead of the listing.")
 @FORMULATION
 @model_inputs
 @user_errors
@@ -110,12 +115,10 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
     from calib_dsl.compile.listing import listing_json, render_listing
 
     prog = _load(model, formulation, _inputs(data, rows, exclude, defines))
-    text = render_listing(prog)
+    text = listing_json(prog) + "\n" if as_json else render_listing(prog)
     if output:
         _write(output, text)
-    if as_json:
-        click.echo(listing_json(prog))
-    elif not output:
+    else:
         click.echo(text, nl=False)
 
 
@@ -164,24 +167,28 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--min-error", "min_error", metavar="NAME",
               help="Instead of one solve, bracket the smallest value of the const NAME (the "
                    "error bound) for which the data are consistent.")
+@QUIET
 @FORMULATION
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None,
-          formulation: str, data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-          defines: tuple[str, ...]) -> None:
+          quiet: bool, formulation: str, data: tuple[str, ...], rows: tuple[str, ...],
+          exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.min_error import render_conflict
+    from calib_dsl.report.progress_line import progress_line
     from calib_dsl.report.text import render_summary, render_table
 
     inputs = _inputs(data, rows, exclude, defines)
     if min_error is not None:
-        _min_error(model, min_error, formulation, inputs, strategy, json_path)
+        _min_error(model, min_error, formulation, inputs, strategy, json_path, quiet)
         return
-    run = solve_report(model, formulation, inputs, strategy, tol=tol, max_sweeps=max_sweeps,
-                       identify=identify, lsq=lsq, inner=inner, diagnose=diagnose)
+    with progress_line("solving", quiet) as progress:
+        run = solve_report(model, formulation, inputs, strategy, tol=tol,
+                           max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
+                           diagnose=diagnose, progress=progress)
     for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
@@ -201,11 +208,13 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
 
 
 def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: str,
-               json_path: str | None) -> None:
+               json_path: str | None, quiet: bool) -> None:
     from calib_dsl.pipeline import min_error
     from calib_dsl.report.min_error import min_error_json, render_min_error
+    from calib_dsl.report.progress_line import progress_line
 
-    found = min_error(model, name, formulation, inputs, strategy)
+    with progress_line(f"bracketing {name}", quiet) as progress:
+        found = min_error(model, name, formulation, inputs, strategy, progress)
     _out(json_path, render_min_error(found), {"model": model,
                                               "min_error": min_error_json(found)})
 
@@ -244,6 +253,7 @@ def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
                      show_default=True, help="The calibration's strategy."),
         click.option("--json", "json_path", type=click.Path(dir_okay=False),
                      help="Also write the result as JSON to this file ('-' for stdout)."),
+        QUIET,
     ]
     for option in reversed(options):
         fn = option(fn)
@@ -268,11 +278,13 @@ def _at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
 
 
 def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
-               strategy: str, formulation: str, inputs: Any) -> Any:
+               strategy: str, formulation: str, inputs: Any, quiet: bool) -> Any:
     from calib_dsl.pipeline import predict_at
+    from calib_dsl.report.progress_line import progress_line
 
-    sol, found = predict_at(model, at, formulation, inputs, strategy,
-                            _at_selection(at, at_rows, at_skip))
+    with progress_line("calibrating", quiet) as progress:
+        sol, found = predict_at(model, at, formulation, inputs, strategy,
+                                _at_selection(at, at_rows, at_skip), progress)
     if found is None:
         click.echo("the data are inconsistent (the solve proved it): nothing to predict",
                    err=True)
@@ -300,7 +312,7 @@ def _out(json_path: str | None, text: str, data: dict) -> None:
 @model_inputs
 @user_errors
 def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
-            json_path: str | None, csv_path: str | None, formulation: str,
+            json_path: str | None, quiet: bool, csv_path: str | None, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
             defines: tuple[str, ...]) -> None:
     """Calibrate MODEL on its data, then give for each configuration of --at a box proven to
@@ -308,7 +320,7 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
     from calib_dsl.report.prediction import prediction_csv, prediction_json, render_prediction
 
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
-                       _inputs(data, rows, exclude, defines))
+                       _inputs(data, rows, exclude, defines), quiet)
     if csv_path:
         _write(csv_path, prediction_csv(found))
     _out(json_path, render_prediction(found), {"model": model, **prediction_json(found)})
@@ -321,14 +333,14 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
 @model_inputs
 @user_errors
 def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
-             json_path: str | None, formulation: str, data: tuple[str, ...],
+             json_path: str | None, quiet: bool, formulation: str, data: tuple[str, ...],
              rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
     """Calibrate MODEL on its data, predict the held-out measurements of --at and compare:
     the share of rows inside their boxes widened by the error bound, and the boxes' widths."""
     from calib_dsl.report.prediction import render_validation, validation_json
 
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
-                       _inputs(data, rows, exclude, defines))
+                       _inputs(data, rows, exclude, defines), quiet)
     _out(json_path, render_validation(found), {"model": model, **validation_json(found)})
 
 
@@ -339,14 +351,20 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the random draws (a non-negative integer): the same seed gives "
                    "the same file.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True,
+              help="The CSV file to write (in the dialect of the model's table).")
+@QUIET
 @FORMULATION
 @user_errors
-def simulate(model: str, configs: int, seed: int, output: str, formulation: str) -> None:
+def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
+             formulation: str) -> None:
     """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
     from calib_dsl.analysis.simulate import simulate as run
+    from calib_dsl.report.progress_line import progress_line
 
-    run(model, configs, seed, formulation=formulation, out_csv=Path(output))
+    with progress_line("simulating", quiet) as progress:
+        run(model, configs, seed, formulation=formulation, out_csv=Path(output),
+            progress=progress)
     click.echo(f"wrote {configs} configurations to {output}")
 
 

@@ -22,6 +22,7 @@ from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.progress import Progress, labelled
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import relax_quadratic
@@ -57,32 +58,43 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
 
 
 def min_error(model: str | Path, name: str, formulation: str = "matrix",
-              inputs: Inputs | None = None, strategy: str = "tight") -> MinError:
-    """Bracket the smallest value of the const `name` for which the data are consistent."""
+              inputs: Inputs | None = None, strategy: str = "tight",
+              progress: Progress | None = None) -> MinError:
+    """Bracket the smallest value of the const `name` for which the data are consistent
+    (`progress`: each trial solve's stages, labelled with the trial's number)."""
+    trials = 0
+
+    def run(prog: Program) -> str:
+        nonlocal trials
+        trials += 1
+        return solve(prog, strategy, progress=labelled(progress, f"trial {trials}: ")).status
+
     return find_min_error(name, inputs or Inputs(),
-                          lambda i: load_model(model, formulation, inputs=i),
-                          lambda prog: solve(prog, strategy).status)
+                          lambda i: load_model(model, formulation, inputs=i), run)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
-          settings: Settings = DEFAULT) -> Solution:
-    """A guaranteed enclosure of every solution of the program (or the proof there is none)."""
+          settings: Settings = DEFAULT, progress: Progress | None = None) -> Solution:
+    """A guaranteed enclosure of every solution of the program (or the proof there is none);
+    `progress` is told the stages and rounds as they end (calib_dsl/progress.py)."""
     if strategy == "hc4":
-        return solve_hc4(prog, tol=tol, max_sweeps=max_sweeps)
+        return solve_hc4(prog, tol=tol, max_sweeps=max_sweeps, progress=progress)
     if strategy != "tight":
         raise ValueError(f"unknown strategy {strategy!r} (one of {', '.join(STRATEGIES)})")
-    return solve_tight(prog, tol=tol, max_sweeps=max_sweeps, settings=settings)
+    return solve_tight(prog, tol=tol, max_sweeps=max_sweeps, settings=settings,
+                       progress=progress)
 
 
 def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
                inputs: Inputs | None = None, strategy: str = "tight",
-               at_rows: Selection | None = None) -> tuple[Solution, Prediction | None]:
+               at_rows: Selection | None = None,
+               progress: Progress | None = None) -> tuple[Solution, Prediction | None]:
     """Calibrate on the model's data, then predict its measurements at the configurations of
     the file `at` (its rows `at_rows`) for every parameter vector consistent with the data
     (None when the data are inconsistent)."""
     inputs = inputs or Inputs()
     _, prog = load_model(model, formulation, inputs=inputs)
-    sol = solve(prog, strategy)
+    sol = solve(prog, strategy, progress=progress)
     if sol.status == "infeasible":
         return sol, None
     ind = independents(prog)
@@ -126,11 +138,21 @@ class SolveReport:
 def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
                  strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
                  identify: bool = True, lsq: bool = False, inner: bool = True,
-                 diagnose: bool = True) -> SolveReport:
+                 diagnose: bool = True, progress: Progress | None = None) -> SolveReport:
     """Load and solve `model`, with the report's optional sections (the command line's
     `calibc solve`, and each job of `calibc batch`)."""
     prog = load(model, formulation, inputs=inputs)
-    res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps)
+    return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
+                     lsq, inner, diagnose, progress)
+
+
+def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
+              inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
+              max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
+              inner: bool = True, diagnose: bool = True,
+              progress: Progress | None = None) -> SolveReport:
+    """`solve_report` on a program already loaded from `model` (with these inputs)."""
+    res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
     extra = Extras()
     if res.status == "contracted":
         if identify:

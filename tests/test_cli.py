@@ -87,9 +87,28 @@ def test_compile_output_file(tmp_path):
     res = run("compile", PAPER_CSE, "-o", out)
     assert res.exit_code == 0 and res.stdout == ""
     assert out.read_text(encoding="utf-8") == run("compile", PAPER_CSE).stdout
-    both = run("compile", PAPER_CSE, "-o", tmp_path / "l2.txt", "--json")
-    assert json.loads(both.stdout)["primitives"] == 6
-    assert (tmp_path / "l2.txt").read_text(encoding="utf-8").startswith("# calibc listing")
+
+
+def test_compile_json_output_file_holds_the_json(tmp_path):
+    """-o writes what was asked: with --json, the JSON (and nothing on standard output)."""
+    out = tmp_path / "counts.json"
+    res = run("compile", PAPER_CSE, "-o", out, "--json")
+    assert res.exit_code == 0 and res.stdout == ""
+    text = out.read_text(encoding="utf-8")
+    assert json.loads(text)["primitives"] == 6
+    assert text == run("compile", PAPER_CSE, "--json").stdout
+
+
+def test_every_option_has_a_help_text():
+    import click
+
+    commands = cli.main.commands
+    assert {"compile", "solve", "simulate"} <= set(commands)
+    for name, command in commands.items():
+        options = [p for p in command.params if isinstance(p, click.Option)]
+        assert options, name
+        for option in options:
+            assert (option.help or "").strip(), f"calibc {name} {'/'.join(option.opts)}"
 
 
 def test_compile_formulation_rotation():

@@ -90,19 +90,24 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
     r, c, v = readings.entries(lin)
     m, n, k = len(lin.d), len(point), len(readings.at)
     # columns: the unknowns' steps, the readings' errors (in half-widths), the largest residual
-    B = sparse.csr_matrix((v, (r, c)), shape=(m, k))
-    J = sparse.hstack([sparse.csr_matrix(lin.jac), B]).tocsr()
+    # rows in units of their bounds (HiGHS's tolerances are absolute: 1e-7 of a metre would
+    # swamp the residuals of exact data)
+    unit = np.maximum(lin.half, 1e-300)
+    B = sparse.csr_matrix((v / unit[r], (r, c)), shape=(m, k))
+    J = sparse.hstack([sparse.csr_matrix(lin.jac / unit[:, None]), B]).tocsr()
     t_col = sparse.csr_matrix(np.ones((m, 1)))
     fit, other = np.flatnonzero(rows), np.flatnonzero(~rows)
     A = sparse.vstack([sparse.hstack([J[fit], -t_col[fit]]), sparse.hstack([-J[fit], -t_col[fit]]),
                        sparse.hstack([J[other], 0 * t_col[other]]),
                        sparse.hstack([-J[other], 0 * t_col[other]])]).tocsr()
-    d, half = lin.d, lin.half
-    b = np.concatenate([-d[fit], d[fit], half[other] - d[other], half[other] + d[other]])
+    d = lin.d / unit
+    ones = np.ones(len(other))
+    b = np.concatenate([-d[fit], d[fit], ones - d[other], ones + d[other]])
     zlo, zhi = readings.bounds()
     bounds = [*zip(lo - point, hi - point, strict=True), *zip(zlo, zhi, strict=True), (0, None)]
     res = linprog(np.r_[np.zeros(n + k), 1.0], A_ub=A, b_ub=b, bounds=bounds, method="highs")
     if res.status != 0:
         return None
     q = np.clip(point + res.x[:n], lo, hi)
-    return q, readings.values(res.x[n:n + k]), float(res.x[-1])
+    scale = float(np.max(lin.half[fit])) if len(fit) else 1.0  # the bound rows share it
+    return q, readings.values(res.x[n:n + k]), float(res.x[-1]) * scale

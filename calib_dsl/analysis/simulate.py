@@ -13,6 +13,7 @@ column by column (declaration order), then the noise in the same order.
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
+from calib_dsl.progress import Progress
 
 # A constraint that does not define a cell must hold at the true values, up to float error:
 # otherwise the data would be inconsistent and calibration would answer "infeasible".
@@ -30,21 +32,31 @@ CHECK_ATOL = 1e-9
 
 
 def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "matrix",
-             out_csv: Path | None = None) -> None:
+             out_csv: Path | None = None, progress: Progress | None = None) -> None:
     """Elaborate MODEL for `rows` configurations, simulate its tables, write the CSV.
 
     `out_csv` receives the model's table; without it each table goes to its own path.
+    `progress` is told each stage as it ends (no width: there is no box).
     """
+    start = time.perf_counter()
+
+    def done(stage: str) -> None:
+        if progress is not None:
+            progress(stage, None, time.perf_counter() - start)
+
     model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows)
     if not model.tables:
         raise CalError("the model has no `table` to simulate")
     if out_csv is not None and len(model.tables) != 1:
         raise CalError(f"the model has {len(model.tables)} tables; simulate writes one CSV "
                        "per table, so give no output path", model.tables[-1].loc)
+    done(f"elaborated for {rows:,} configurations")
     tables = simulate_model(model, seed)
+    done("measurements computed")
     for table in model.tables:
         write_csv(Path(out_csv) if out_csv is not None else Path(table.path), table,
                   tables[table.name])
+    done("written")
 
 
 def simulate_model(model: Model, seed: int) -> dict[str, Array]:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import Entity, Macro, Scalar, Scope, Value
+from calib_dsl.elaborate.values import Values
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.dag import Dag
@@ -22,7 +23,8 @@ DEFAULT_UNITS = {"length": "m", "angle": "rad"}
 class Context:
     dag: Dag
     formulation: str
-    data: dict[str, str | Path]  # files replacing tables' (--data), by table ("": the first)
+    # files replacing tables' (--data), or values (the Python API's), by table ("": the first)
+    data: dict[str, str | Path | Values]
     selections: dict[str, Selection]  # rows to use (--rows), by table ("": the first)
     overrides: dict[str, str]  # const values from the command line (-D name=value)
     overridden: set[str]  # the consts they replaced
@@ -56,6 +58,9 @@ class Context:
         def scalar(self, v: Value, loc: Loc, what: str) -> Scalar: ...
         def constant_interval(self, v: Value, loc: Loc, what: str) -> tuple[float, float]: ...
         def integer(self, e: ast.Expr, scope: Scope, what: str, hint: str = "") -> int: ...
+        def arith(self, op: str, a: Scalar, b: Scalar, loc: Loc) -> Scalar: ...
+        def unrolled(self, var: ast.Ident, rng: ast.Range, scope: Scope, loc: Loc, what: str,
+                     body: Callable[[Scope], Any]) -> list[Any]: ...
         def is_constant(self, v: Scalar) -> bool: ...
         def interval_bounds(self, e: ast.IntervalLit, scope: Scope) -> tuple[float, float]: ...
         def lookup(self, name: str, loc: Loc, scope: Scope) -> Entity: ...

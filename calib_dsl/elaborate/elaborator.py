@@ -1,8 +1,9 @@
 """Elaboration: a `.cal` model (AST) becomes the expression DAG, its unknowns and constraints.
 
 The work is shared by parts of one job each, joined in `Elaborator`: statements.py (files,
-definitions, loops, declarations, constraints), expressions.py, robots.py, table_decl.py; the
-state they share is context.py's, what names denote is scope.py's.
+definitions, loops, declarations, constraints), expressions.py, loops.py (loops and sums
+unrolled), robots.py, table_decl.py; the state they share is context.py's, what names
+denote is scope.py's.
 
 Everything that can be computed at compile time is: loops are unrolled, macros and `let`
 aliases expanded inline, indices resolved, robot chains built (by `robot.forward_point`),
@@ -27,6 +28,7 @@ from typing import Any
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.elaborate.context import DEFAULT_UNITS
 from calib_dsl.elaborate.expressions import Expressions
+from calib_dsl.elaborate.loops import Loops
 from calib_dsl.elaborate.robots import Robots
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import (
@@ -36,6 +38,7 @@ from calib_dsl.elaborate.scope import (
 )
 from calib_dsl.elaborate.statements import Statements
 from calib_dsl.elaborate.table_decl import Tables
+from calib_dsl.elaborate.values import Values
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
@@ -45,10 +48,11 @@ from calib_dsl.ir.model import Model, Table
 # -- entry point ------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Inputs:
-    """What the command line adds to a model: data files and row selections by table name
-    ("" for the first table), and values of `const`s (`-D name=value`)."""
+    """What the command line adds to a model: data files (or, from Python, `Values`) and row
+    selections by table name ("" for the first table), and values of `const`s (`-D
+    name=value`)."""
 
-    data: Mapping[str, str | Path] = field(default_factory=dict)
+    data: Mapping[str, str | Path | Values] = field(default_factory=dict)
     rows: Mapping[str, Selection] = field(default_factory=dict)
     consts: Mapping[str, str] = field(default_factory=dict)
 
@@ -99,7 +103,7 @@ def _check_used(inputs: Inputs, run: Elaborator) -> None:
                        f"consts: {', '.join(consts)})")
 
 
-class Elaborator(Statements, Expressions, Robots, Tables):
+class Elaborator(Statements, Expressions, Loops, Robots, Tables):
     """One elaboration: the shared state, and each AST node type's part."""
 
     def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
@@ -137,5 +141,5 @@ class Elaborator(Statements, Expressions, Robots, Tables):
             ast.BinOp: self._binop, ast.Call: self._call, ast.RobotAt: self._robot_at,
             ast.RobotAxes: self._robot_axes,
             ast.Index: self._index, ast.Field: self._field, ast.TupleLit: self._tuple,
-            ast.IntervalLit: self._interval,
+            ast.IntervalLit: self._interval, ast.SumOver: self._sum_over,
         }

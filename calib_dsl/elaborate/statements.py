@@ -104,23 +104,8 @@ class Statements(Context):
         scope.define(s.name, Macro(s.name.id, s.params, s.body, scope))
 
     def _for(self, s: ast.For, scope: Scope, top: bool) -> None:
-        lo = self.integer(s.range.lo, scope, "a loop bound")
-        hi = self.integer(s.range.hi, scope, "a loop bound")
-        n = max(hi - lo + 1, 0)
-        # the loops' iterations in all, nested ones multiplied: checked before any is run
-        total = self.loop_product * n
-        if total > MAX_UNROLL:
-            what = "loop" if self.loop_product == 1 else "nested loops"
-            raise CalError(f"{what} of {total:,} iterations in all: more than {MAX_UNROLL:,}",
-                           s.loc)
-        outer, self.loop_product = self.loop_product, max(total, 1)
-        try:
-            for k in range(lo, hi + 1):
-                inner = Scope(scope)
-                inner.define(s.var, Fraction(k))
-                self.block(s.body, inner, top=False)
-        finally:
-            self.loop_product = outer
+        self.unrolled(s.var, s.range, scope, s.loc, "loop",
+                      lambda inner: self.block(s.body, inner, top=False))
 
     def _include(self, s: ast.Include, scope: Scope, top: bool) -> None:
         self._top_only("include", s.loc, top)

@@ -18,6 +18,7 @@ from calib_dsl.elaborate.scope import (
 )
 from calib_dsl.elaborate.tables import Dialect, cell_bounds, read_csv
 from calib_dsl.elaborate.units import UNITS, convert, dimension, factor
+from calib_dsl.elaborate.values import Values, read_values
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.model import Column, Table
@@ -44,10 +45,14 @@ class Tables(Context):
                                            locs[c.name], kind="data")
                               for k in range(1, table.rows + 1)] for c in columns}
         else:
-            data = read_csv(path, [c.name for c in columns],
-                            None if override is not None else s.path_loc, dialect=dialect,
-                            headers={c.name: c.header for c in columns if c.header},
-                            selection=selection, selection_loc=selection_loc)
+            if isinstance(override, Values):  # the Python API's arrays, where a file would be
+                data = read_values(override, [c.name for c in columns], s.name.id, selection,
+                                   s.loc)
+            else:
+                data = read_csv(path, [c.name for c in columns],
+                                None if override is not None else s.path_loc, dialect=dialect,
+                                headers={c.name: c.header for c in columns if c.header},
+                                selection=selection, selection_loc=selection_loc)
             table.rows, table.lines, table.numbers = data.rows, data.lines, data.numbers
             cells = {}
             for c in columns:

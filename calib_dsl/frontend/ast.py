@@ -111,8 +111,18 @@ class IntervalLit:
     loc: Loc
 
 
+@dataclass(frozen=True)
+class SumOver:
+    """`sum(var in range) body`: the body's values for each integer of the range, added."""
+
+    var: Ident
+    range: Range
+    body: Expr
+    loc: Loc
+
+
 Expr = (Number | Pi | Infinity | Name | Neg | BinOp | Call | RobotAt | RobotAxes | Index | Field
-        | TupleLit | IntervalLit)
+        | TupleLit | IntervalLit | SumOver)
 
 # -- statements ---------------------------------------------------------------------------
 

@@ -233,6 +233,10 @@ class _Builder(Transformer_NonRecursive):
     def robot_axes(self, meta: Any, c: list) -> ast.RobotAxes:
         return ast.RobotAxes(str(c[0]), c[1] or (), self._loc(meta))
 
+    def sum_over(self, meta: Any, c: list) -> ast.SumOver:
+        var, lo, hi, body = c
+        return ast.SumOver(self._id(var), ast.Range(lo, hi, lo.loc), body, self._loc(meta))
+
     def args(self, meta: Any, c: list) -> tuple[ast.Expr, ...]:
         return tuple(c)
 
@@ -247,7 +251,7 @@ class _Builder(Transformer_NonRecursive):
 
 
 # -- syntax errors ----------------------------------------------------------------------------
-_EXPR_START = {"NAME", "NUMBER", "PI", "INF", "LPAR", "LSQB", "MINUS", "PLUS"}
+_EXPR_START = {"NAME", "NUMBER", "PI", "INF", "LPAR", "LSQB", "MINUS", "PLUS", "SUM"}
 _STMT_START = {"CONST", "LET", "DEF", "PARAM", "VAR", "FOR", "INCLUDE", "ROBOT", "TABLE",
                "UNITS"}
 _OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "CIRCUMFLEX", "DOT", "LSQB", "PM"}
@@ -294,6 +298,9 @@ def _hint(tok: Token, expected: set[str]) -> str:
         return "'==' states a constraint; a definition uses '='"
     if tok.type == "DOT" and "NUMBER" in expected:
         return "a number starts with a digit: write 0.5, not .5"
+    if tok.type == "SUM" and "NUMBER" in expected:  # after `*`, `/`, `^` or a unary `-`
+        return "a sum(...) is a term of its own: in a product, put it in parentheses, as in " \
+            "2 * (sum(k in 1..n) x[k])"
     if "NAME" in expected and str(tok).isidentifier() and tok.type != "NAME":
         return f"'{tok}' is a reserved word"
     return ""

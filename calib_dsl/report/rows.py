@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from calib_dsl.ir.program import Program
@@ -36,3 +37,10 @@ def narrowed(prog: Program, res: Solution) -> list[str]:
         if r["kind"] in ("param", "var") and (lo > dlo or hi < dhi):
             out.append(r["name"])
     return out
+
+
+def contraction(domain: tuple[float, float], result: tuple[float, float]) -> float:
+    """The result's width over its search domain's (nan when the domain is not finite and
+    wider than a point): 1 means the data taught nothing about the unknown."""
+    w, wd = result[1] - result[0], domain[1] - domain[0]
+    return w / wd if wd > 0 and math.isfinite(wd) else float("nan")

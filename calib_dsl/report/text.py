@@ -9,7 +9,7 @@ from typing import Any
 from calib_dsl.analysis.identify import render
 from calib_dsl.ir.program import Program
 from calib_dsl.report.extras import Extras
-from calib_dsl.report.rows import narrowed, parameter_rows
+from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
 from calib_dsl.strategy.solution import Solution
 
@@ -47,8 +47,7 @@ def _row(r: dict[str, Any], extra: Extras) -> list[str]:
         return [r["name"], dom, "(empty)"]
     lo, hi = r["result"]
     w = hi - lo
-    wd = dhi - dlo
-    ratio = w / wd if wd > 0 and math.isfinite(wd) else float("nan")
+    ratio = contraction(r["domain"], r["result"])
     # an end the solve left at the domain's prints as the domain does (the declared value;
     # its float is already the declared number rounded outward)
     result = (f"[{_nearest(lo) if lo == dlo else _f(lo, ROUND_FLOOR)}, "
@@ -88,7 +87,8 @@ def render_summary(prog: Program, res: Solution, strategy: str,
                 if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
-             f"time: {res.seconds:.3f} s"]
+             f"time: {res.seconds:.3f} s" + (f" (and {extra.inner.seconds:.2f} s for the inner "
+                                             "bounds)" if extra.inner is not None else "")]
     if res.split:
         lines.append(f"split: {' '.join(res.split)} (not identifiable alone) cut into pieces; "
                      f"the result is the hull of the {len(res.pieces)} that hold solutions")

@@ -52,6 +52,6 @@ def render_tightness(t: dict[str, Any]) -> list[str]:
     if t["certified"]:
         lines.append(f"inner bounds: certified for {t['certified']} of {t['unknowns']} "
                      f"unknowns; outer/inner widths median {t['median_ratio']:.4g}, worst "
-                     f"{t['worst_ratio']:.4g} (1: the result is the best possible enclosure); "
-                     f"{t['points']} points, {t['seconds']:.2f} s")
+                     f"{t['worst_ratio']:.4g} (1: the result is the best possible enclosure), "
+                     f"from {t['points']} certified points")
     return lines

@@ -16,6 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import Result, propagate
 
@@ -94,6 +95,7 @@ class Sequence:
     steps: Seq[Contractor]
     name: str = "sequence"
     max_sweeps: int | None = None
+    progress: Meter | None = None  # told the box after each step
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out = Outcome(lo, hi, "")
@@ -110,4 +112,6 @@ class Sequence:
             work, stop = work + out.work, out.stop or stop
             if out.empty:
                 break
+            if self.progress is not None:
+                self.progress(step.name, out.lo, out.hi)
         return replace(out, work=work, stop=stop)

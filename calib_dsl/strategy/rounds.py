@@ -29,6 +29,7 @@ import numpy as np
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
+from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents, measured_cells
@@ -61,6 +62,7 @@ class LPRounds:
     threads: int | None = None  # LP threads (settings.lp_workers unless given)
     unsolved: np.ndarray | None = None
     name: str = "rounds of LPs"
+    progress: Meter | None = None  # told the box after each round
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
@@ -126,7 +128,13 @@ class _Rounds:
                 break
             new = self.bounds(this)
             gains = self.narrow(new, this)
-            if gains is None or not self.next_round(this, gains):
+            if gains is None:
+                break
+            more = self.next_round(this, gains)
+            if self.spec.progress is not None:
+                done = self.work.lp_rounds + self.work.reused_rounds
+                self.spec.progress(f"LP round {done}", self.lo, self.hi)
+            if not more:
                 break
         return Outcome(self.lo, self.hi, self.stop, self.work, self.emptied)
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
+from calib_dsl.progress import Meter, Progress
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.reparametrize import along_combinations, back
@@ -28,25 +29,31 @@ from calib_dsl.strategy.split import Split
 STRATEGIES = ("tight", "hc4")  # the first is the default
 
 
-def solve_hc4(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000) -> Solution:
+def solve_hc4(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
+              progress: Progress | None = None) -> Solution:
     """Forward-backward propagation to the fixed point (the paper's method)."""
     start = time.perf_counter()
+    meter = _meter(prog, progress, start)
     out = Propagation(prog, tol, max_sweeps).contract(prog.slots.lo.copy(), prog.slots.hi.copy())
+    if meter is not None and not out.empty:
+        meter("propagation", out.lo, out.hi)
     return solution("hc4", out, time.perf_counter() - start)
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
                 settings: Settings = DEFAULT, second_order: bool = True, split: bool = True,
-                combinations: bool = True) -> Solution:
+                combinations: bool = True, progress: Progress | None = None) -> Solution:
     """The tight strategy on `prog` (in unknowns along the identifiable combinations with
-    `combinations`): a box of `prog`, with the bounds of each combination solved for."""
+    `combinations`): a box of `prog`, with the bounds of each combination solved for.
+    `progress` is told the box's total width after each step and each round of LPs."""
     start = time.perf_counter()
     rep = along_combinations(prog, settings) if combinations else None
     target = rep.prog if rep is not None else prog
     # (the members left as unknowns, like r3, are not cut: the model barely depends on them
     # in the new unknowns)
     uncut = np.array(rep.free, dtype=np.int64) if rep is not None else None
-    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut)
+    meter = _meter(target, progress, start)
+    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut, meter)
     out = steps.contract(target.slots.lo.copy(), target.slots.hi.copy())
     if rep is None:
         return solution("tight", out, time.perf_counter() - start)
@@ -60,15 +67,28 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
 
 def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
                 second_order: bool = True, split: bool = True,
-                uncut: np.ndarray | None = None) -> Sequence:
+                uncut: np.ndarray | None = None, progress: Meter | None = None) -> Sequence:
     """The tight strategy's contractors, in order. The rounds and the split share the
     certificates of the LPs solved (a split's pieces start from the whole box's)."""
     certs = Certificates()
     steps: list[Contractor] = [
         Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
-        LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order, unsolved=uncut),
+        LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order, unsolved=uncut,
+                 progress=progress),
         Propagation(prog, tol, max_sweeps),
     ]
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
-    return Sequence(tuple(steps), max_sweeps=max_sweeps)
+    return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress)
+
+
+def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | None:
+    """What reports to `progress` (told the search domains at once), or None: the total
+    width is over the declared unknowns (params and vars), as propagation watches them."""
+    if progress is None:
+        return None
+    s = prog.slots
+    slots = np.array([i for i in s.declared if s.kinds[i] in ("param", "var")], dtype=np.int64)
+    meter = Meter(progress, slots, start)
+    meter("start", s.lo, s.hi)
+    return meter
