@@ -54,11 +54,23 @@ def result_json(prog: Program, res: Solution, strategy: str,
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}
+    if res.history is not None:
+        out["history"] = history_json(prog, res)
     if res.emptied is not None:
         e = res.emptied
         out["emptied"] = {"variable": e.variable, "location": str(e.loc) if e.loc else None,
                           "primitive": e.primitive}
     return out
+
+
+def history_json(prog: Program, res: Solution) -> dict[str, Any]:
+    """The width of each declared unknown after each step of the solve (`calibc plot --kind
+    history`): the unknowns' names, then per step its label, seconds and widths."""
+    assert res.history is not None
+    return {"parameters": list(prog.slots.declared_names),
+            "steps": [{"step": s.label, "seconds": s.seconds,
+                       "widths": [_num(float(w)) for w in s.widths]}
+                      for s in res.history.steps]}
 
 
 def _num(x: float) -> float | str:
