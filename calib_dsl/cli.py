@@ -14,6 +14,7 @@ from typing import Any
 
 import click
 
+from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.strategy.tight import STRATEGIES
@@ -192,11 +193,13 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--min-error", "min_error", metavar="NAME",
               help="Instead of one solve, bracket the smallest value of the const NAME (the "
                    "error bound) for which the data are consistent.")
+@outputs.solve_options
 @FORMULATION
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, diagnose: bool, min_error: str | None, formulation: str,
+          identify: bool, lsq: bool, diagnose: bool, min_error: str | None, residuals: bool,
+          plot_path: str | None, export_domains: str | None, formulation: str,
           data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
@@ -211,6 +214,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if min_error is not None:
         _min_error(model, min_error, formulation, inputs, strategy, json_path)
         return
+    outputs.plot_ready(plot_path)
     prog = _load(model, formulation, inputs)
     res = run(prog, strategy, tol=tol, max_sweeps=max_sweeps)
     extra = Extras()
@@ -233,15 +237,21 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(render_summary(prog, res, strategy, extra))
         if found is not None:
             click.echo(render_conflict(found))
+    more: dict[str, Any] = {"warnings": warnings}
+    if found is not None:
+        more["conflict"] = conflict_json(found)
+    result = {**result_json(prog, res, strategy, extra), **more}
+    if (residuals or plot_path) and res.status == "contracted":
+        result["residuals"] = outputs.residuals(model, prog, res, formulation, inputs,
+                                                quiet=json_path == "-")
     if json_path:
-        more: dict[str, Any] = {"warnings": warnings}
-        if found is not None:
-            more["conflict"] = conflict_json(found)
-        text = json.dumps({**result_json(prog, res, strategy, extra), **more}, indent=2)
+        text = json.dumps(result, indent=2)
         if json_path == "-":
             click.echo(text)
         else:
             _write(json_path, text + "\n")
+    outputs.plotted(result, plot_path)
+    outputs.export_domains(result, export_domains)
     if res.status == "infeasible":
         sys.exit(1)
 
@@ -363,19 +373,24 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @at_options
+@outputs.PLOT
 @FORMULATION
 @model_inputs
 @user_errors
 def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
-             json_path: str | None, formulation: str, data: tuple[str, ...],
-             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+             json_path: str | None, plot_path: str | None, formulation: str,
+             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+             defines: tuple[str, ...]) -> None:
     """Calibrate MODEL on its data, predict the held-out measurements of --at and compare:
     the share of rows inside their boxes widened by the error bound, and the boxes' widths."""
     from calib_dsl.report.prediction import render_validation, validation_json
 
+    outputs.plot_ready(plot_path)
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
                        _inputs(data, rows, exclude, defines))
-    _out(json_path, render_validation(found), {"model": model, **validation_json(found)})
+    result = {"model": model, **validation_json(found)}
+    _out(json_path, render_validation(found), result)
+    outputs.plotted(result, plot_path)
 
 
 @main.command()
@@ -394,3 +409,10 @@ def simulate(model: str, configs: int, seed: int, output: str, formulation: str)
 
     run(model, configs, seed, formulation=formulation, out_csv=Path(output))
     click.echo(f"wrote {configs} configurations to {output}")
+
+
+
+# `plot` and `export` (calib_dsl/outputs.py), with this module's handling of user errors
+for _command in (outputs.plot, outputs.export):
+    _command.callback = user_errors(_command.callback)  # type: ignore[arg-type]
+    main.add_command(_command)

@@ -22,9 +22,10 @@ RANKS = {
     "lp": 5,
     "analysis": 6,
     "strategy": 7,
-    "report": 8,
+    "report": 8, "plot": 8,
     "pipeline": 9,
-    "cli": 10,
+    "outputs": 10,
+    "cli": 11,
 }
 MAX_LINES = 450  # "no module over ~400 lines"
 
