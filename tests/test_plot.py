@@ -63,8 +63,10 @@ def validated(arm) -> dict:
     lines[4] = ",".join(cells)
     held.write_text("\n".join(lines) + "\n")
     out = arm.parent / "v.json"
-    res = run("validate", arm, "--at", held, "--exclude", OUTLIER_ROW, "--json", out)
+    res = run("validate", arm, "--at", held, "--exclude", OUTLIER_ROW, "--json", out,
+              "--plot", arm.parent / "v.png")
     assert res.exit_code == 0, res.output
+    assert "drew prediction" in res.output and (arm.parent / "v.png").stat().st_size > 1000
     return json.loads(out.read_text())
 
 
@@ -105,8 +107,9 @@ def test_residual_ranges_bounds_and_the_outlier(solved):
     assert segment[0, 1] == pytest.approx(bad["residual"][0])
     levels = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_linestyle() == "--")
     assert levels == pytest.approx([-1e-4, 1e-4], rel=1e-6)
-    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]
-    assert list(marks.get_xdata()) == [OUTLIER_ROW]
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on x's bar, beside y's
+    assert list(marks.get_xdata()) == [pytest.approx(OUTLIER_ROW - 0.2)]
+    assert list(marks.get_ydata()) == [pytest.approx(sum(bad["residual"]) / 2)]
     grey = [p for p in ax.patches if p.get_facecolor()[:3] == pytest.approx((0.85,) * 3)]
     assert len(grey) == 1  # the row left out
 
@@ -118,8 +121,8 @@ def test_prediction_marks_the_rows_not_covered(validated):
     ranges = [c for c in ax.collections if isinstance(c, LineCollection)]
     assert [c.get_label() for c in ranges] == ["x", "y"]
     assert all(len(c.get_segments()) == 8 for c in ranges)
-    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]
-    assert list(marks.get_xdata()) == [4]
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on y's bar of row 4
+    assert list(marks.get_xdata()) == [pytest.approx(4.2)]
     assert "coverage 0.875" in ax.get_title(loc="left")
 
 

@@ -68,5 +68,5 @@ def _truth(ax: Any, params: dict[str, Any], y: np.ndarray) -> None:
     ax.set_xlim(-OUTSIDE - 0.3, OUTSIDE + 0.3)
     ax.set_xticks([-1, 0, 1])
     ax.set_xlabel("true value in the result")
-    ax.set_title(f"{sum(outside)} outside", loc="left", fontsize="small")
+    ax.set_title(f"true values: {sum(outside)} outside", loc="left", fontsize="small")
     ax.set_label("domains:true")

@@ -58,25 +58,27 @@ def draw(ax: Any, panel: Panel, mark_label: str) -> None:
     width = 0.8 * _spacing(panel.rows)
     ends = np.concatenate([np.abs(np.concatenate(r)) for r in panel.ranges.values()])
     lim = max([CLIP * panel.bound, *ends[np.isfinite(ends)]])
+    crosses: list[tuple[float, float]] = []
     for j, (name, (lo, hi)) in enumerate(panel.ranges.items()):
         x = panel.rows + (j - (n - 1) / 2) * width / max(n, 1)
         ok = ~np.isnan(lo)
-        ax.vlines(x[ok], np.clip(lo[ok], -lim, lim), np.clip(hi[ok], -lim, lim),
-                  colors=f"C{j % 10}", linewidth=1.5, label=name)
+        lo, hi = np.clip(lo, -lim, lim), np.clip(hi, -lim, lim)
+        ax.vlines(x[ok], lo[ok], hi[ok], colors=f"C{j % 10}", linewidth=1.5, label=name)
+        with np.errstate(invalid="ignore"):  # a cross on each bar wholly outside +-e
+            out = panel.marked & ((lo > panel.bound) | (hi < -panel.bound))
+        crosses += zip(x[out], 0.5 * (lo[out] + hi[out]), strict=True)
     for sign in (1, -1):
         ax.axhline(sign * panel.bound, color="black", linestyle="--", linewidth=0.8,
                    label=f"±e = ±{panel.bound:.3g}" if sign > 0 else None)
-    if panel.marked.any():  # a cross at the middle of the row's bars
-        at = np.flatnonzero(panel.marked)
-        mids = np.array([np.clip(0.5 * (lo[at] + hi[at]), -lim, lim)
-                         for lo, hi in panel.ranges.values()])
-        mid = [next((m for m in col if np.isfinite(m)), 0.0) for col in mids.T]
-        ax.plot(panel.rows[at], mid, "x", color="red", markersize=8, label=mark_label)
+    if crosses:
+        xs, ys = zip(*crosses, strict=True)
+        ax.plot(xs, ys, "x", color="red", markersize=8, label=mark_label)
     for x in panel.rows[panel.greyed]:
         ax.axvspan(x - width / 2, x + width / 2, color="0.85", zorder=0)
     ax.set_xlabel("data row")
     ax.xaxis.get_major_locator().set_params(integer=True)
-    ax.legend(fontsize="small", ncols=min(n + 2, 6), loc="upper right")
+    # beside the axes: over them it would hide bars
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
 
 
 def _spacing(rows: np.ndarray) -> float:

@@ -29,9 +29,9 @@ def urdf(model: str, tables: list[RobotTable], units: dict[str, str]) -> str:
     scale = {"length": _factor(units["length"], "m"), "angle": _factor(units["angle"], "rad")}
     out = ['<?xml version="1.0"?>',
            f"<!-- calibc export of the guaranteed result of {_comment(model)}: frame entries "
-           f"at the midpoints of their enclosures, converted from {units['length']} and "
-           f"{units['angle']} to m and rad; each joint's comment gives its entries +- their "
-           f"guaranteed half-widths in {units['length']} and {units['angle']}. -->"]
+           f"at the midpoints of their enclosures, in m and rad (URDF's units; the model's: "
+           f"{units['length']} and {units['angle']}); each joint's comment gives its entries "
+           f"+- their guaranteed half-widths in the model's units. -->"]
     for t in tables:
         out += _robot(t, scale)
     return "\n".join(out) + "\n"
