@@ -146,9 +146,10 @@ def urdf_forward(root: ET.Element, q: np.ndarray) -> np.ndarray:
     moving = 0
     for j in root.findall("joint"):
         m = m @ origin(j)
-        if j.get("type") != "fixed":
+        if j.get("type") != "fixed":  # a turn about z, or a move along it (prismatic)
             s = float(j.find("axis").get("xyz").split()[2])
-            m = m @ dh_matrix(0, 0, s * q[:, moving], 0)
+            m = m @ (dh_matrix(0, 0, 0, s * q[:, moving]) if j.get("type") == "prismatic"
+                     else dh_matrix(0, 0, s * q[:, moving], 0))
             moving += 1
     return m
 
@@ -234,3 +235,50 @@ def test_export_of_a_model_without_robot(tmp_path):
     assert res.exit_code == 0 and json.loads(res.output)["robots"] == []
     res = run("export", out, "--format", "cal")
     assert res.exit_code == 0 and res.output.count("param ") == 3
+
+
+STANDARD_DH = """param l1 in [0.9, 1.1]; param l2 in [0.4, 0.6]; param off in [-0.1, 0.1];
+param h in [0.1, 0.3];
+robot arm(q1, q2, q3) dh {
+  joint theta = q1 + off, d = h, a = l1, alpha = pi / 2;
+  joint theta = -q2, a = l2;
+  joint theta = 0.3, d = q3;
+}
+var x;
+x == dot(arm(0, 0, 0) at (0, 0, 0), (1, 0, 0));
+"""
+
+
+def test_standard_dh_with_a_reversed_and_a_prismatic_joint(tmp_path):
+    """The URDF of a standard-DH arm (motion before the frame's fixed part), one joint
+    entering as -q and one prismatic, composes to the DH chain at the midpoints."""
+    (tmp_path / "m.cal").write_text(STANDARD_DH)
+    params = {n: {"kind": "param", "result": r, "true": None} for n, r in
+              {"l1": [0.95, 1.05], "l2": [0.5, 0.52], "off": [0.01, 0.03],
+               "h": [0.2, 0.2]}.items()}
+    params["x"] = {"kind": "var", "result": [0, 2], "true": None}
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps({"model": str(tmp_path / "m.cal"), "status": "contracted",
+                                "parameters": params}))
+    table = run("export", path, "--format", "dh-table")
+    assert table.exit_code == 0, table.output
+    rows = dh_rows(table.output)
+    assert [rows[f"joint{j}"]["motion"] for j in (1, 2, 3)] == ["revolute", "revolute(-q)",
+                                                                "prismatic"]
+    assert rows["joint1"]["theta"][0] == pytest.approx(0.02)
+    urdf = run("export", path, "--format", "urdf")
+    root = ET.fromstring(urdf.output.split("\n", 1)[1])
+    assert [j.get("type") for j in root.findall("joint")] == ["continuous", "continuous",
+                                                             "prismatic", "fixed"]
+    q = np.random.default_rng(7).uniform(-1, 1, (8, 3))
+
+    def rz(t):
+        return dh_matrix(0, 0, t, 0)
+
+    def dh(theta, d, a, alpha):  # Rz(theta) Tz(d) Tx(a) Rx(alpha)
+        return rz(theta) @ dh_matrix(0, 0, 0, d) @ dh_matrix(0, a, 0, 0) @ \
+            dh_matrix(alpha, 0, 0, 0)
+
+    expected = (dh(q[:, 0] + 0.02, 0.2, 1.0, np.pi / 2) @ dh(-q[:, 1], 0, 0.51, 0)
+                @ dh(0.3, q[:, 2], 0, 0))
+    np.testing.assert_allclose(urdf_forward(root, q), expected, atol=1e-12)
