@@ -50,7 +50,7 @@ def plotted(result: dict[str, Any], plot_path: str | None) -> None:
     if plot_path:
         from calib_dsl.plot.figure import available, save_figure
 
-        if available(result):  # (an infeasible solve has nothing to draw)
+        if available(result):  # (an infeasible solve: its domains and history only)
             kinds = save_figure(result, plot_path)
             click.echo(f"calibc: drew {', '.join(kinds)} in {plot_path}", err=True)
 
