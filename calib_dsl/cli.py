@@ -14,6 +14,7 @@ from typing import Any
 
 import click
 
+from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.strategy.tight import STRATEGIES
@@ -168,12 +169,14 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
               help="Instead of one solve, bracket the smallest value of the const NAME (the "
                    "error bound) for which the data are consistent.")
 @QUIET
+@outputs.solve_options
 @FORMULATION
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None,
-          quiet: bool, formulation: str, data: tuple[str, ...], rows: tuple[str, ...],
+          quiet: bool, residuals: bool, plot_path: str | None, export_domains: str | None,
+          formulation: str, data: tuple[str, ...], rows: tuple[str, ...],
           exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
@@ -185,6 +188,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if min_error is not None:
         _min_error(model, min_error, formulation, inputs, strategy, json_path, quiet)
         return
+    outputs.plot_ready(plot_path)
     with progress_line("solving", quiet) as progress:
         run = solve_report(model, formulation, inputs, strategy, tol=tol,
                            max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
@@ -197,12 +201,18 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(render_summary(run.prog, run.res, strategy, run.extra))
         if run.found is not None:
             click.echo(render_conflict(run.found))
+    result = run.as_json()
+    if (residuals or plot_path) and run.res.status == "contracted":
+        result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
+                                                quiet=json_path == "-")
     if json_path:
-        text = json.dumps(run.as_json(), indent=2)
+        text = json.dumps(result, indent=2)
         if json_path == "-":
             click.echo(text)
         else:
             _write(json_path, text + "\n")
+    outputs.plotted(result, plot_path)
+    outputs.export_domains(result, export_domains)
     if run.res.status == "infeasible":
         sys.exit(1)
 
@@ -329,19 +339,24 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @at_options
+@outputs.PLOT
 @FORMULATION
 @model_inputs
 @user_errors
 def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
-             json_path: str | None, quiet: bool, formulation: str, data: tuple[str, ...],
-             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+             json_path: str | None, quiet: bool, plot_path: str | None, formulation: str,
+             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+             defines: tuple[str, ...]) -> None:
     """Calibrate MODEL on its data, predict the held-out measurements of --at and compare:
     the share of rows inside their boxes widened by the error bound, and the boxes' widths."""
     from calib_dsl.report.prediction import render_validation, validation_json
 
+    outputs.plot_ready(plot_path)
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
                        _inputs(data, rows, exclude, defines), quiet)
-    _out(json_path, render_validation(found), {"model": model, **validation_json(found)})
+    result = {"model": model, **validation_json(found)}
+    _out(json_path, render_validation(found), result)
+    outputs.plotted(result, plot_path)
 
 
 @main.command()
@@ -408,3 +423,8 @@ def batch(source: str, output: str, data_glob: str | None, scheduler: str | None
     click.echo(render_summary(lines))
     if any(line["status"] in ("error", "failed") for line in lines):
         sys.exit(1)
+
+# `plot` and `export` (calib_dsl/outputs.py), with this module's handling of user errors
+for _command in (outputs.plot, outputs.export):
+    _command.callback = user_errors(_command.callback)  # type: ignore[arg-type]
+    main.add_command(_command)

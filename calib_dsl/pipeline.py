@@ -8,7 +8,8 @@
 from __future__ import annotations
 
 import gc
-from dataclasses import dataclass, field
+import json
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,9 +18,12 @@ from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
+from calib_dsl.analysis.residuals import Ranges, residual_ranges
+from calib_dsl.analysis.robot_frames import robot_tables
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
+from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.progress import Progress, labelled
@@ -27,8 +31,10 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.report.as_json import result_json
+from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json
+from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
@@ -165,3 +171,45 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)
     return SolveReport(prog, res, extra, strategy, found, solve_warnings(prog, res))
+
+
+def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str = "matrix",
+              inputs: Inputs | None = None) -> tuple[Model, Ranges, dict[str, set[int]]]:
+    """The ranges of measured minus predicted over the solve's box (`sol` of `prog`) of every
+    row the solve used and of those `--exclude` left out (the model read again without
+    them: it shows whether they are outliers of the result); and those left out, by table."""
+    inputs = inputs or Inputs()
+    kept = {t: Selection(sel.ranges) for t, sel in inputs.rows.items()}
+    elaborated, every = load_model(model, formulation, inputs=replace(inputs, rows=kept))
+    names = {"": elaborated.tables[0].name} if elaborated.tables else {}
+    left_out = {names.get(t, t): set(sel.excluded) for t, sel in inputs.rows.items()}
+    box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in independents(prog)}
+    return elaborated, residual_ranges(every, box), left_out
+
+
+def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
+    """The result of a solve (its JSON, `data`) in the format `fmt` (report/export.py): `cal`
+    (search domains for the next run), `json`, `dh-table` or `urdf` (midpoints with their
+    guaranteed half-widths; the robots are read from `model`, else the model `data` names)."""
+    if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
+        raise CalError("the result holds no guaranteed box to export (calibc solve --json "
+                       "writes one; an infeasible solve has none)")
+    if fmt == "cal":
+        return domains_cal(data)
+    source = model or data.get("model")
+    if not source:
+        raise CalError("the result does not name its model: give it with --model")
+    try:
+        box = {name: (number(p["result"][0]), number(p["result"][1]))
+               for name, p in data["parameters"].items()}
+    except (KeyError, TypeError, ValueError, IndexError) as err:
+        raise CalError(f"the result's parameters are malformed ({err!r})") from None
+    tables, units = robot_tables(source, box)
+    if fmt == "json":
+        return json.dumps(export_json(data, tables, units, units_of(tables, units)),
+                          indent=2) + "\n"
+    if not tables:
+        raise CalError(f"{source} has no robot: a {fmt} export needs one (--format json "
+                       "writes its parameters)")
+    return dh_table(data, tables, units) if fmt == "dh-table" else urdf(str(source), tables,
+                                                                         units)

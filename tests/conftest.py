@@ -60,3 +60,18 @@ def calibc() -> list[str]:
     if found is None:
         pytest.fail("the `calibc` command is not installed (pip install -e .)")
     return [found]
+
+
+def _untimed(doc):
+    """A result document without its timings (every "seconds" key, at any depth), which
+    differ from run to run."""
+    if isinstance(doc, dict):
+        return {k: _untimed(v) for k, v in doc.items() if k != "seconds"}
+    if isinstance(doc, list):
+        return [_untimed(v) for v in doc]
+    return doc
+
+
+@pytest.fixture
+def untimed():
+    return _untimed

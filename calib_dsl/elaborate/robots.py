@@ -91,6 +91,11 @@ class Robots(Context):
                            f", got {len(e.args)}", e.loc)
         return tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
 
+    def frames_of(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
+        """The robot's frames (base, joints, tool: chains.Frame or Transform of DAG nodes)
+        for these joint values: what `calibc export` writes as a DH table."""
+        return self._frames(robot, args)
+
     def _frames(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The frames of a robot for these joint values (the same for every tool point)."""
         key = (robot.name, args)

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
 
 from calib_dsl.analysis.identify import identifiability_json
+from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
@@ -61,11 +63,37 @@ def result_json(prog: Program, res: Solution, strategy: str,
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}
+    if res.history is not None:
+        out["history"] = history_json(prog, res)
     if res.emptied is not None:
         e = res.emptied
         out["emptied"] = {"variable": e.variable, "location": str(e.loc) if e.loc else None,
                           "primitive": e.primitive}
     return out
+
+
+def history_json(prog: Program, res: Solution) -> dict[str, Any]:
+    """The width of each declared unknown after each step of the solve (`calibc plot --kind
+    history`): the unknowns' names, then per step its label, seconds and widths."""
+    assert res.history is not None
+    return {"parameters": list(prog.slots.declared_names),
+            "steps": [{"step": s.label, "seconds": s.seconds,
+                       "widths": [_num(float(w)) for w in s.widths]}
+                      for s in res.history.steps]}
+
+
+def read_result(path: str | Path) -> dict[str, Any]:
+    """A result JSON (`solve --json`, `validate --json`), or a user error that says why not."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as err:
+        raise CalError(f"cannot read '{path}': {err.strerror or err}") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise CalError(f"'{path}' is not a result JSON: {err}") from None
+    if not isinstance(data, dict):
+        raise CalError(f"'{path}' is not a result JSON (calibc solve or validate --json "
+                       "writes one)")
+    return data
 
 
 def _num(x: float) -> float | str:

@@ -50,7 +50,27 @@ def validation_json(p: Prediction) -> dict[str, Any]:
     return {"at": p.file, "rows": len(covered), "coverage": float(covered.mean()),
             "width": widths(p),
             "not_covered": [{"row": p.rows[k], "line": p.lines[k]}
-                            for k in np.flatnonzero(~covered)]}
+                            for k in np.flatnonzero(~covered)],
+            "held_out": held_out(p, covered)}
+
+
+def held_out(p: Prediction, covered: np.ndarray) -> list[dict[str, Any]]:
+    """Per held-out row (what `calibc plot --kind prediction` draws): whether it is covered,
+    and per measured column the measured value minus the predicted box, rounded outward,
+    with the column's error bound."""
+    with np.errstate(invalid="ignore"):
+        lo = np.nextafter(p.measured - p.hi, -np.inf)
+        hi = np.nextafter(p.measured - p.lo, np.inf)
+    return [{"row": row, "line": line, "covered": bool(covered[k]),
+             "columns": {c: {"error": [_num(lo[k, j]), _num(hi[k, j])],
+                             "bound": float(p.bound[j])}
+                         for j, c in enumerate(p.columns) if not np.isnan(p.measured[k, j])}}
+            for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True))]
+
+
+def _num(x: float) -> float | str:
+    """JSON has no infinity: "-oo" and "+oo", as in the solve JSON."""
+    return ("+oo" if x > 0 else "-oo") if np.isinf(x) else float(x)
 
 
 def render_validation(p: Prediction) -> str:

@@ -19,6 +19,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import Result, propagate
+from calib_dsl.strategy.history import History
 
 
 @dataclass(frozen=True)
@@ -90,12 +91,14 @@ class Sequence:
     the last step's, with the `stop` of the last step that propagated (a step that did not
     propagate says stop=""). With `max_sweeps`, the sweeps of all the steps together are
     capped: each step that propagates gets what the ones before left, and none runs once
-    they are spent (stop="max sweeps")."""
+    they are spent (stop="max sweeps"). With `history`, the box after each step is
+    recorded there."""
 
     steps: Seq[Contractor]
     name: str = "sequence"
     max_sweeps: int | None = None
     progress: Meter | None = None  # told the box after each step
+    history: History | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out = Outcome(lo, hi, "")
@@ -110,6 +113,8 @@ class Sequence:
                     step = replace(step, max_sweeps=left)  # type: ignore[type-var]
             out = step.contract(out.lo, out.hi)
             work, stop = work + out.work, out.stop or stop
+            if self.history is not None and not out.empty:
+                self.history.record(step.name, out.lo, out.hi)
             if out.empty:
                 break
             if self.progress is not None:

@@ -39,6 +39,7 @@ from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.strategy.history import History
 
 SECOND_ORDER = FAMILY  # LinearRelaxation.family of quadratic.relax_quadratic's
 
@@ -49,7 +50,8 @@ class LPRounds:
     of the LPs solved (updated in place: a split's pieces start from the whole box's). With
     `cells` the rounds start with the errors as LP columns (a box near its end); the slots
     `unsolved` get no LPs (a member left free by the change of unknowns: the data do not see
-    it, and propagation gives it what its combination allows)."""
+    it, and propagation gives it what its combination allows). With `history`, the box after
+    each round is recorded there."""
 
     prog: Program
     settings: Settings
@@ -61,6 +63,7 @@ class LPRounds:
     cells: bool = False
     threads: int | None = None  # LP threads (settings.lp_workers unless given)
     unsolved: np.ndarray | None = None
+    history: History | None = None
     name: str = "rounds of LPs"
     progress: Meter | None = None  # told the box after each round
 
@@ -128,10 +131,10 @@ class _Rounds:
                 break
             new = self.bounds(this)
             gains = self.narrow(new, this)
-            if gains is None:
-                break
-            more = self.next_round(this, gains)
-            if self.spec.progress is not None:
+            if gains is not None:
+                self.record(this)
+            more = gains is not None and self.next_round(this, gains)
+            if gains is not None and self.spec.progress is not None:
                 done = self.work.lp_rounds + self.work.reused_rounds
                 self.spec.progress(f"LP round {done}", self.lo, self.hi)
             if not more:
@@ -211,6 +214,15 @@ class _Rounds:
         self.moved |= gains >= spec.settings.stalled
         self.last_family, self.last_fresh = this.target.family, this.fresh
         return gains
+
+    def record(self, this: _Round) -> None:
+        history = self.spec.history
+        if history is None or self.emptied is not None:
+            return
+        n = self.work.lp_rounds + self.work.reused_rounds + 1
+        kind = "second order" if this.target.family == SECOND_ORDER else "first order"
+        history.record(f"LP round {n} ({kind}{'' if this.fresh else ', reused'})",
+                       self.lo, self.hi)
 
     # -- 4. the next round -------------------------------------------------------------------
     def next_round(self, this: _Round, gains: np.ndarray) -> bool:

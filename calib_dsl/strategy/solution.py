@@ -8,6 +8,7 @@ import numpy as np
 
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.strategy.history import History
 
 
 @dataclass(frozen=True)
@@ -25,6 +26,8 @@ class Solution:
     pieces: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     # certified bounds of the identifiable combinations solved for, as (text, lo, hi)
     combinations: tuple[tuple[str, float, float], ...] = ()
+    # the widths of the declared unknowns after each step (the tight strategy's)
+    history: History | None = None
 
     @property
     def status(self) -> str:
@@ -44,6 +47,7 @@ class Solution:
 
 
 def solution(strategy: str, out: Outcome, seconds: float,
-             combinations: tuple[tuple[str, float, float], ...] = ()) -> Solution:
+             combinations: tuple[tuple[str, float, float], ...] = (),
+             history: History | None = None) -> Solution:
     return Solution(strategy, out.lo, out.hi, out.stop, seconds, out.work, out.emptied,
-                    out.split, out.pieces, combinations)
+                    out.split, out.pieces, combinations, history)

@@ -21,6 +21,7 @@ from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter, Progress
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
+from calib_dsl.strategy.history import History
 from calib_dsl.strategy.reparametrize import along_combinations, back
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.solution import Solution, solution
@@ -44,42 +45,50 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
                 settings: Settings = DEFAULT, second_order: bool = True, split: bool = True,
                 combinations: bool = True, progress: Progress | None = None) -> Solution:
     """The tight strategy on `prog` (in unknowns along the identifiable combinations with
-    `combinations`): a box of `prog`, with the bounds of each combination solved for.
-    `progress` is told the box's total width after each step and each round of LPs."""
+    `combinations`): a box of `prog`, with the bounds of each combination solved for, and
+    the widths of `prog`'s declared unknowns after each step (its history). `progress` is
+    told the box's total width after each step and each round of LPs."""
     start = time.perf_counter()
+    # (a program in new unknowns keeps the old slots at their indices: the same ones recorded)
+    history = History(np.array(prog.slots.declared, dtype=np.int64), start)
+    history.record("start", prog.slots.lo, prog.slots.hi)
     rep = along_combinations(prog, settings) if combinations else None
     target = rep.prog if rep is not None else prog
     # (the members left as unknowns, like r3, are not cut: the model barely depends on them
     # in the new unknowns)
     uncut = np.array(rep.free, dtype=np.int64) if rep is not None else None
     meter = _meter(target, progress, start)
-    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut, meter)
+    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut, meter,
+                        history)
     out = steps.contract(target.slots.lo.copy(), target.slots.hi.copy())
     if rep is None:
-        return solution("tight", out, time.perf_counter() - start)
+        return solution("tight", out, time.perf_counter() - start, history=history)
     combos = tuple((text, float(out.lo[s]), float(out.hi[s]))
                    for text, s, _, _ in rep.combinations)
     lo, hi = back(rep, out.lo, out.hi)
     pieces = tuple(back(rep, a, b) for a, b in out.pieces)
     return Solution("tight", lo, hi, out.stop, time.perf_counter() - start, out.work,
-                    out.emptied, out.split, pieces, combos)
+                    out.emptied, out.split, pieces, combos, history)
 
 
 def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
                 second_order: bool = True, split: bool = True,
-                uncut: np.ndarray | None = None, progress: Meter | None = None) -> Sequence:
+                uncut: np.ndarray | None = None, progress: Meter | None = None,
+                history: History | None = None) -> Sequence:
     """The tight strategy's contractors, in order. The rounds and the split share the
-    certificates of the LPs solved (a split's pieces start from the whole box's)."""
+    certificates of the LPs solved (a split's pieces start from the whole box's); with
+    `history`, the box after each step and each round is recorded there."""
     certs = Certificates()
     steps: list[Contractor] = [
         Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
         LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order, unsolved=uncut,
-                 progress=progress),
+                 progress=progress, history=history),
         Propagation(prog, tol, max_sweeps),
     ]
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
-    return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress)
+    return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress,
+                    history=history)
 
 
 def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | None:

@@ -1,0 +1,124 @@
+"""What the command line writes beside a result's report: figures (`calibc plot`, `--plot`),
+residual ranges (`solve --residuals`), exports (`calibc export`, `solve --export-domains`).
+cli.py registers the two commands and calls the rest; kept apart so that the command line's
+module stays one a reader can hold."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.plot.figure import CHOICES as PLOT_KINDS
+from calib_dsl.report.export import FORMATS as EXPORT_FORMATS
+
+PLOT = click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+                    help="Also draw the result's figures into this file (.png, .svg or .pdf; "
+                         "needs matplotlib: pip install calibc[plot]).")
+
+
+def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """solve's --residuals, --plot, --export-domains."""
+    options = [
+        click.option("--residuals", is_flag=True,
+                     help="Also enclose measured minus predicted over the result, per data "
+                          "row (in the JSON; rows left out by --exclude too)."),
+        PLOT,
+        click.option("--export-domains", "export_domains", type=click.Path(dir_okay=False),
+                     help="Also write the result as `param` declarations: the next run's "
+                          "search domains."),
+    ]
+    for option in reversed(options):
+        fn = option(fn)
+    return fn
+
+
+def plot_ready(plot_path: str | None) -> None:
+    """Before any work: a figure that cannot be drawn (its format, or no matplotlib) is a
+    user error that costs no solve."""
+    if plot_path:
+        from calib_dsl.plot.backend import file_format, require
+
+        file_format(plot_path)
+        require()
+
+
+def plotted(result: dict[str, Any], plot_path: str | None) -> None:
+    if plot_path:
+        from calib_dsl.plot.figure import available, save_figure
+
+        if available(result):  # (an infeasible solve: its domains and history only)
+            kinds = save_figure(result, plot_path)
+            click.echo(f"calibc: drew {', '.join(kinds)} in {plot_path}", err=True)
+
+
+def residuals(model: str, prog: Any, res: Any, formulation: str, inputs: Any,
+              quiet: bool) -> dict[str, Any]:
+    """The solve JSON's `residuals`; its summary printed unless `quiet`."""
+    from calib_dsl.pipeline import residuals as ranges
+    from calib_dsl.report.residuals import render_residuals, residuals_json
+
+    found = residuals_json(*ranges(model, prog, res, formulation, inputs))
+    if not quiet:
+        click.echo(render_residuals(found))
+    return found
+
+
+def export_domains(result: dict[str, Any], path: str | None) -> None:
+    from calib_dsl.report.export import domains_cal
+
+    if not path:
+        return
+    if result["status"] != "contracted":
+        click.echo(f"calibc: no domains written to {path}: the data are inconsistent",
+                   err=True)
+        return
+    write(path, domains_cal(result))
+
+
+def write(path: str, text: str) -> None:
+    try:
+        Path(path).write_text(text, encoding="utf-8")
+    except OSError as err:
+        raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
+
+
+@click.command()
+@click.argument("result", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True,
+              help="The figure's file: .png, .svg or .pdf (the format is the extension's).")
+@click.option("--kind", type=click.Choice(PLOT_KINDS), default="all", show_default=True,
+              help="The figure to draw (all: every one the result holds data for, one band "
+                   "each, in one file).")
+def plot(result: str, output: str, kind: str) -> None:
+    """Draw the figures of RESULT, a solve's or a validation's JSON, into OUTPUT (needs
+    matplotlib: pip install calibc[plot])."""
+    from calib_dsl.plot.figure import save_figure
+    from calib_dsl.report.as_json import read_result
+
+    kinds = save_figure(read_result(result), output, kind)
+    click.echo(f"drew {', '.join(kinds)} in {output}")
+
+
+@click.command()
+@click.argument("result", type=click.Path(dir_okay=False))
+@click.option("--format", "fmt", type=click.Choice(EXPORT_FORMATS), required=True,
+              help="dh-table, urdf, json: midpoints with guaranteed half-widths for a "
+                   "controller; cal: the result as search domains for the next run.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="Write it here (default: standard output).")
+@click.option("--model", type=click.Path(dir_okay=False),
+              help="The model RESULT was solved from (default: the one it names).")
+def export(result: str, fmt: str, output: str | None, model: str | None) -> None:
+    """Export RESULT, a solve's JSON, for a controller or the next run."""
+    from calib_dsl.pipeline import export as run
+    from calib_dsl.report.as_json import read_result
+
+    text = run(read_result(result), fmt, model)
+    if output:
+        write(output, text)
+    else:
+        click.echo(text, nl=False)

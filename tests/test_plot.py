@@ -1,0 +1,197 @@
+"""Figures of results (`calibc plot`, `solve --plot`, `validate --plot`), rendered on the Agg
+canvas from real solver results on the planar arm; each test reads what the Figure draws
+(axes, bars, ranges, marks, scales), not only that a file was written."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from matplotlib.collections import LineCollection, PathCollection
+from matplotlib.patches import Rectangle
+
+from calib_dsl import cli
+from calib_dsl.plot.figure import available, figure
+
+ROOT = Path(__file__).resolve().parents[1]
+ARM = ROOT / "models" / "examples"
+OUTLIER_ROW = 3  # its measured x moved by 1 cm: 100 times the error bound
+
+
+def run(*args: object):
+    return CliRunner().invoke(cli.main, [str(a) for a in args], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory) -> Path:
+    """The planar arm with one bad row (OUTLIER_ROW), beside its robot."""
+    tmp = tmp_path_factory.mktemp("arm")
+    shutil.copy(ARM / "planar_arm.cal", tmp)
+    shutil.copy(ARM / "planar_arm_robot.cal", tmp)
+    lines = (ARM / "planar_arm.csv").read_text().splitlines()
+    cells = lines[OUTLIER_ROW].split(",")
+    cells[2] = repr(float(cells[2]) + 0.01)
+    lines[OUTLIER_ROW] = ",".join(cells)
+    (tmp / "planar_arm.csv").write_text("\n".join(lines) + "\n")
+    return tmp / "planar_arm.cal"
+
+
+@pytest.fixture(scope="module")
+def solved(arm) -> dict:
+    """Solved without the bad row (--exclude), with the residuals of every row."""
+    out = arm.parent / "r.json"
+    res = run("solve", arm, "--exclude", OUTLIER_ROW, "--residuals", "--json", out)
+    assert res.exit_code == 0, res.output
+    assert "1 outliers of the result" in res.output
+    return json.loads(out.read_text())
+
+
+@pytest.fixture(scope="module")
+def validated(arm) -> dict:
+    """Validated on 8 simulated held-out rows, the 4th moved by 1 cm."""
+    held = arm.parent / "held.csv"
+    assert run("simulate", ROOT / "models" / "examples" / "planar_arm.cal", "--configs", 8,
+               "--seed", 3, "-o", held).exit_code == 0
+    lines = held.read_text().splitlines()
+    cells = lines[4].split(",")
+    cells[3] = repr(float(cells[3]) - 0.01)
+    lines[4] = ",".join(cells)
+    held.write_text("\n".join(lines) + "\n")
+    out = arm.parent / "v.json"
+    res = run("validate", arm, "--at", held, "--exclude", OUTLIER_ROW, "--json", out,
+              "--plot", arm.parent / "v.png")
+    assert res.exit_code == 0, res.output
+    assert "drew prediction" in res.output and (arm.parent / "v.png").stat().st_size > 1000
+    return json.loads(out.read_text())
+
+
+def axes(fig, label: str) -> list:
+    return [ax for ax in fig.axes if ax.get_label() == label]
+
+
+def test_domains_bars_on_a_log_scale_and_the_truth(solved):
+    fig = figure(solved, "domains")
+    (ax,) = axes(fig, "domains")
+    assert ax.get_xscale() == "log"
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["l1", "l2"]
+    bars = [p for p in ax.patches if isinstance(p, Rectangle)]
+    assert len(bars) == 4  # a domain and a result per parameter
+    widths = sorted(b.get_width() for b in bars)
+    result = [solved["parameters"][n]["result"] for n in ("l1", "l2")]
+    assert widths[:2] == sorted(hi - lo for lo, hi in result)
+    assert widths[2:] == pytest.approx([0.4, 0.4])
+    (truth,) = axes(fig, "domains:true")
+    (points,) = [c for c in truth.collections if isinstance(c, PathCollection)]
+    x = points.get_offsets()[:, 0]
+    assert len(x) == 2 and np.all(np.abs(x) <= 1)  # both true values inside their results
+
+
+def test_residual_ranges_bounds_and_the_outlier(solved):
+    rows = solved["residuals"]["rows"]
+    assert [r["row"] for r in rows] == [1, 2, 3, 4, 5]
+    assert [r["used"] for r in rows] == [True, True, False, True, True]
+    assert solved["residuals"]["outliers"] == [{"table": "m", "row": OUTLIER_ROW, "line": 4}]
+    bad = rows[OUTLIER_ROW - 1]["columns"]["x"]
+    assert bad["residual"][0] > bad["bound"]  # wholly above +e: proven not to fit
+    fig = figure(solved, "residuals")
+    (ax,) = axes(fig, "residuals")  # x and y share their bound: one panel
+    ranges = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert [c.get_label() for c in ranges] == ["x", "y"]
+    assert all(len(c.get_segments()) == 5 for c in ranges)
+    segment = ranges[0].get_segments()[OUTLIER_ROW - 1]
+    assert segment[0, 1] == pytest.approx(bad["residual"][0])
+    levels = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_linestyle() == "--")
+    assert levels == pytest.approx([-1e-4, 1e-4], rel=1e-6)
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on x's bar, beside y's
+    assert list(marks.get_xdata()) == [pytest.approx(OUTLIER_ROW - 0.2)]
+    assert list(marks.get_ydata()) == [pytest.approx(sum(bad["residual"]) / 2)]
+    grey = [p for p in ax.patches if p.get_facecolor()[:3] == pytest.approx((0.85,) * 3)]
+    assert len(grey) == 1  # the row left out
+
+
+def test_prediction_marks_the_rows_not_covered(validated):
+    assert validated["coverage"] == pytest.approx(7 / 8)
+    fig = figure(validated, "prediction")
+    (ax,) = axes(fig, "prediction")
+    ranges = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert [c.get_label() for c in ranges] == ["x", "y"]
+    assert all(len(c.get_segments()) == 8 for c in ranges)
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on y's bar of row 4
+    assert list(marks.get_xdata()) == [pytest.approx(4.2)]
+    assert "coverage 0.875" in ax.get_title(loc="left")
+
+
+def test_history_widths_against_seconds(solved):
+    fig = figure(solved, "history")
+    (ax,) = axes(fig, "history")
+    assert ax.get_yscale() == "log"
+    steps = solved["history"]["steps"]
+    assert len(ax.lines) == 2
+    for line, j in zip(ax.lines, range(2), strict=True):
+        assert list(line.get_xdata()) == [s["seconds"] for s in steps]
+        np.testing.assert_allclose(line.get_ydata(), [s["widths"][j] for s in steps])
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["l1", "l2"]
+
+
+def test_all_kinds_in_one_figure(solved, validated):
+    assert available(solved) == ["domains", "residuals", "history"]
+    assert available(validated) == ["prediction"]
+    fig = figure(solved)
+    assert len(fig.subfigs) == 3
+    assert [ax.get_label() for ax in fig.axes] == ["domains", "domains:true", "residuals",
+                                                  "history"]
+
+
+@pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml"),
+                                           (".pdf", b"%PDF")])
+def test_plot_command_writes_the_format_of_the_extension(solved, tmp_path, suffix, magic):
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(solved))
+    out = tmp_path / f"f{suffix}"
+    res = run("plot", result, "-o", out, "--kind", "domains")
+    assert res.exit_code == 0 and "drew domains" in res.output
+    assert out.read_bytes().startswith(magic)
+
+
+def test_solve_and_validate_draw_with_plot(arm, tmp_path):
+    out = tmp_path / "s.png"
+    res = run("solve", arm, "--exclude", OUTLIER_ROW, "--plot", out)
+    assert res.exit_code == 0 and "drew domains, residuals, history" in res.output
+    assert out.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-o", "f.gif"], "must end in .png, .svg, .pdf"),
+    (["-o", "f.png", "--kind", "prediction"], "calibc validate MODEL --at HELDOUT"),
+])
+def test_plot_user_errors(solved, tmp_path, args, message):
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(solved))
+    res = run("plot", result, *[tmp_path / a if a.startswith("f.") else a for a in args])
+    assert res.exit_code == 2 and message in res.output
+
+
+def test_plot_of_something_else(tmp_path):
+    bad = tmp_path / "r.json"
+    bad.write_text("[1, 2]")
+    res = run("plot", bad, "-o", tmp_path / "f.png")
+    assert res.exit_code == 2 and "is not a result JSON" in res.output
+
+
+def test_without_matplotlib_the_message_says_how_to_get_it(monkeypatch, solved, arm,
+                                                           tmp_path):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # `import matplotlib` fails
+    result = tmp_path / "r.json"
+    result.write_text(json.dumps(solved))
+    res = run("plot", result, "-o", tmp_path / "f.png")
+    assert res.exit_code == 2
+    assert res.output.strip() == ("error: plotting needs matplotlib, which is not "
+                                  "installed: pip install calibc[plot]")
+    res = run("solve", arm, "--plot", tmp_path / "f.png")
+    assert res.exit_code == 2 and "pip install calibc[plot]" in res.output
+    assert "status:" not in res.output  # refused before solving
