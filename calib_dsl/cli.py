@@ -159,6 +159,8 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--identify/--no-identify", default=True, show_default=True,
               help="Report which parameters the data cannot separate.")
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
+@click.option("--all", "every", is_flag=True,
+              help="List every unknown, also those that kept their whole search domain.")
 @click.option("--inner/--no-inner", default=True, show_default=True,
               help="Certify inner bounds: values each unknown provably takes at parameter "
                    "vectors that satisfy every constraint (how much of the result is real).")
@@ -174,10 +176,11 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, inner: bool, diagnose: bool, min_error: str | None,
-          quiet: bool, residuals: bool, plot_path: str | None, export_domains: str | None,
-          formulation: str, data: tuple[str, ...], rows: tuple[str, ...],
-          exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+          identify: bool, lsq: bool, every: bool, inner: bool, diagnose: bool,
+          min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
+          export_domains: str | None, formulation: str, data: tuple[str, ...],
+          rows: tuple[str, ...], exclude: tuple[str, ...],
+          defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.min_error import render_conflict
@@ -196,7 +199,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
-        click.echo(render_table(run.prog, run.res, run.extra))
+        click.echo(render_table(run.prog, run.res, run.extra, every))
         click.echo()
         click.echo(render_summary(run.prog, run.res, strategy, run.extra))
         if run.found is not None:

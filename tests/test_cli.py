@@ -444,3 +444,19 @@ def test_max_sweeps_caps_the_tight_strategy(cap, calibc):
         if p["true"] is not None:
             lo, hi = p["result"]
             assert lo <= p["true"] <= hi, (cap, name)
+
+
+def test_known_parameters_are_named_not_listed_unless_all():
+    """Test A's 19 parameters known to +-1e-5: the data cannot improve them, so the table
+    names them on one line (--all lists them); those not identifiable alone stay listed."""
+    model = ROOT / "models" / "rx90_lengths.cal"
+    short = run("solve", model, "--no-inner")
+    every = run("solve", model, "--no-inner", "--all")
+    assert short.exit_code == every.exit_code == 0
+    assert table_row(every.stdout, "theta0")[0] == "[1.570786327, 1.570806327]"
+    assert not re.search(r"^theta0\s", short.stdout, re.M)
+    assert re.search(r"^\(17 more kept their whole search domain, not shown: theta0 ", short.stdout,
+                     re.M)
+    for name in ("r0", "b3z", "r2", "r3"):  # narrowed, or not identifiable alone
+        table_row(short.stdout, name)
+    assert short.stdout.startswith("# result: proven to hold every consistent value")

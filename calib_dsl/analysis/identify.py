@@ -149,7 +149,8 @@ def render(info: Identifiability) -> str:
             lines.append(f"not identifiable at all: {' '.join(members)}")
     for s, d in info.weakest:
         shown = " ".join(f"{v:+.3g}*{n}" for n, v in d.items())
-        lines.append(f"weak direction (singular value {s:.3g}): {shown}")
+        lines.append(f"weak direction, a combination the data see least (singular value "
+                     f"{s:.3g}): {shown}")
     return "\n".join(lines)
 
 

@@ -163,23 +163,31 @@ def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> Witness | None
 
 
 class _LinearModel:
-    """The rows linearized at the centre, |r + A y + B z| <= AIM - tighten (in units of each
+    """The rows linearized at the centre: each row's residual r + A y + B z (in units of the
     row's bound; y the free unknowns' step in units of their widths, z the readings' errors
-    in units of their bounds), within the box: one HiGHS model whose objective and row bounds
+    in units of their bounds) within its interval, narrowed by 1 - AIM and `tighten` at each
+    finite end, the variables within the box: one HiGHS model whose objective and row bounds
     change from one end to the next."""
 
     def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
                  free: np.ndarray) -> None:
         lo, hi = box
         lin = linearized(prog, centre)
-        unit = np.maximum(lin.half, 1e-300)
         self.centre, self.free, self.box = centre, free, box
         self.scale = np.where(np.isfinite(hi - lo), hi - lo, 1.0)[free]
-        self.slots, self.unit, self.nslots = lin.slots, unit, len(prog.slots.names)
         with np.errstate(all="ignore"):
-            self.r, self.rows, self.n = lin.d / unit, len(unit), len(free)
-            dense = lin.jac[:, free] * (self.scale / unit[:, None])
-        self.finite = bool(np.all(np.isfinite(self.r)) and np.all(np.isfinite(dense)))
+            dense = lin.jac[:, free] * self.scale
+            # a row's unit: its bound, or for an inequality the size of its terms
+            size = np.fmax(np.abs(np.where(np.isfinite(lin.r_lo), lin.r_lo, lin.r_hi)),
+                           np.abs(dense).max(axis=1, initial=0.0))
+            unit = np.where(np.isfinite(lin.half) & (lin.half > 0), lin.half, size)
+            unit = np.maximum(np.where(np.isfinite(unit), unit, 1.0), 1e-300)
+            self.lower, self.upper = -lin.r_hi / unit, -lin.r_lo / unit  # A y within these
+            dense = dense / unit[:, None]
+        self.slots, self.unit, self.nslots = lin.slots, unit, len(prog.slots.names)
+        self.rows, self.n = len(unit), len(free)
+        self.finite = bool(np.all(np.isfinite(dense))
+                           and not np.any(np.isnan(self.lower) | np.isnan(self.upper)))
         if not self.finite:
             return
         self.readings = Readings(prog)
@@ -188,9 +196,14 @@ class _LinearModel:
         A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
         ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
         zlo, zhi = self.readings.bounds()
-        self.h = load(LinearRelaxation(A, AIM - self.r, np.r_[ylo, zlo], np.r_[yhi, zhi],
-                                       b_lo=-AIM - self.r))
+        b_lo, b = self.bounds(np.zeros(self.rows))
+        self.h = load(LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo))
         self.tightened = np.zeros(self.rows)
+
+    def bounds(self, tighten: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rows' bounds narrowed by 1 - AIM and `tighten` (an infinite end stays)."""
+        inward = (1.0 - AIM) + tighten
+        return self.lower + inward, self.upper - inward
 
     def extreme(self, j: int, sign: float, tighten: np.ndarray) -> np.ndarray | None:
         """The LP's optimum (y, z) for the largest (sign > 0) or smallest free unknown j."""
@@ -200,8 +213,10 @@ class _LinearModel:
         h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
         if np.any(tighten != self.tightened):
             m = self.rows
-            h.changeRowsBounds(m, np.arange(m, dtype=np.int32), -AIM + tighten - self.r,
-                               AIM - tighten - self.r)
+            b_lo, b = self.bounds(tighten)
+            inf = 1e300  # HiGHS's infinity: anything beyond 1e20
+            h.changeRowsBounds(m, np.arange(m, dtype=np.int32), np.maximum(b_lo, -inf),
+                               np.minimum(b, inf))
             self.tightened = tighten.copy()
         h.run()
         if not optimal(h):

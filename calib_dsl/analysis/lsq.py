@@ -47,6 +47,10 @@ class Linearized:
     slots: np.ndarray
     dq: np.ndarray
     owner: np.ndarray
+    # the residual's interval (predicted minus the measured side's whole interval): a
+    # one-sided row (an inequality) has an infinite end, and d, half are then not finite
+    r_lo: np.ndarray
+    r_hi: np.ndarray
 
 
 def linearized(prog: Program, p: np.ndarray) -> Linearized:
@@ -58,14 +62,16 @@ def linearized(prog: Program, p: np.ndarray) -> Linearized:
     if not rows:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
         return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
-                          np.zeros((0, 0)), np.zeros(0, np.int64))
+                          np.zeros((0, 0)), np.zeros(0, np.int64), none, none)
 
     def mid(part: int) -> np.ndarray:
         return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in rows])
 
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
     return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
-                      np.concatenate([r[3] for r in rows]))
+                      np.concatenate([r[3] for r in rows]),
+                      np.concatenate([r[0][0] for r in rows]),
+                      np.concatenate([r[0][1] for r in rows]))
 
 
 def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -14,18 +14,20 @@ from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
 from calib_dsl.strategy.solution import Solution
 
 
-def render_table(prog: Program, res: Solution, extra: Extras | None = None) -> str:
-    """One line per declared unknown: search domain, result and certified inner interval as
-    printed, each end rounded to DIGITS significant digits away from the inside of the interval
-    (inward for the inner one), so what is printed keeps what is proven."""
+def render_table(prog: Program, res: Solution, extra: Extras | None = None,
+                 every: bool = False) -> str:
+    """One line per declared unknown (by default only those the data narrowed or cannot
+    identify alone; `every`: all): search domain, result and certified inner interval as
+    printed, each end rounded to DIGITS significant digits away from the inside of the
+    interval (inward for the inner one), so what is printed keeps what is proven."""
     extra = extra or Extras()
     rows = parameter_rows(prog, res)
+    kept = [] if every else _kept(rows, extra)
+    rows = [r for r in rows if r["name"] not in kept]
     table = [_row(r, extra) for r in rows]
     head = ["name", "search domain", "result", "width", "ratio"]
-    if extra.inner is not None:
-        head += ["certified inner", "outer/inner"]
-    if extra.estimate is not None:
-        head += ["least squares"]
+    head += ["certified inner", "outer/inner"] if extra.inner is not None else []
+    head += ["least squares"] if extra.estimate is not None else []
     widths = [max([len(h)] + [len(t[i]) for t in table if i < len(t)])
               for i, h in enumerate(head)]
     right = {"width", "ratio", "outer/inner", "least squares"}
@@ -34,10 +36,33 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None) -> s
         return " ".join(c.rjust(w) if h in right else c.ljust(w)
                         for c, w, h in zip(cells, widths, head, strict=False)).rstrip()
 
-    out = [line(head), "-" * len(line(head))]
+    out = [_legend(extra), line(head), "-" * len(line(head))]
     for r, cells in zip(rows, table, strict=True):
         out.append(line(cells) + _marks(r, extra))
+    if kept:
+        shown = " ".join(kept[:12]) + (f" ... ({len(kept) - 12} more)" if len(kept) > 12 else "")
+        out.append(f"({len(kept)} more kept their whole search domain, not shown: {shown}; "
+                   "--all lists them)")
     return "\n".join(out)
+
+
+def _legend(extra: Extras) -> str:
+    """What the columns mean, above them (docs/tutorial.md, section 5)."""
+    lines = ["# result: proven to hold every consistent value (rounded outward); "
+             "ratio: its width / the domain's"]
+    if extra.inner is not None:
+        lines.append("# certified inner: values proven to be taken (rounded inward); "
+                     "outer/inner: 1 = the best possible enclosure")
+    return "\n".join(lines)
+
+
+def _kept(rows: list[dict[str, Any]], extra: Extras) -> list[str]:
+    """The unknowns whose result is their whole search domain and that the data could
+    identify alone: known beforehand as well as the data know them (Test A's 19)."""
+    unident = extra.not_identifiable()
+    return [r["name"] for r in rows
+            if r["kind"] in ("param", "var") and r["result"] is not None
+            and tuple(r["result"]) == tuple(r["domain"]) and r["name"] not in unident]
 
 
 def _row(r: dict[str, Any], extra: Extras) -> list[str]:
@@ -83,7 +108,8 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     extra = extra or Extras()
     c = prog.counts()
     lines = [f"status: {res.status}", f"stopped: {res.stop}", f"sweeps: {res.sweeps}"
-             + (f", LP rounds: {res.lp_rounds} (and {res.reused_rounds} reusing their multipliers)"
+             + (f", LP rounds: {res.lp_rounds} (and {res.reused_rounds} re-certifying the last "
+                f"round's solutions on the smaller box)"
                 if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",

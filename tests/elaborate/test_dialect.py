@@ -4,6 +4,7 @@ TABLE=, --rows, --exclude, -D). Bad data and bad options give one clear message,
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 from fractions import Fraction
@@ -200,6 +201,8 @@ def test_define_sets_a_const(tmp_path, calibc):
     source = ('const lo = 5;\nparam a in [0, 10];\na >= lo;\n')
     path = tmp_path / "c.cal"
     path.write_text(source)
-    res = run(calibc, "solve", path, "--strategy", "hc4", "--no-identify", "-D", "lo=7.5")
+    res = run(calibc, "solve", path, "--strategy", "hc4", "--no-identify", "-D", "lo=7.5",
+              "--json", "-")
     assert res.returncode == 0, res.stderr
-    assert "[7.5, 10]" in res.stdout
+    lo, hi = json.loads(res.stdout)["parameters"]["a"]["result"]
+    assert 7.5 - 1e-12 < lo <= 7.5 and hi == 10
