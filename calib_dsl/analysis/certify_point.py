@@ -33,6 +33,15 @@ class PointCheck:
     lo: np.ndarray
     hi: np.ndarray
     excess: np.ndarray
+    # per row: whether it holds; whether it compares two computed values (then `lo, hi`
+    # minus `side` is the difference of the two); its other side's enclosure (the exact
+    # interval's inside for a measured value); the configuration (table row id) of the
+    # readings it depends on (-1: none, -2: more than one)
+    ok: np.ndarray | None = None
+    computed: np.ndarray | None = None
+    side: tuple[np.ndarray, np.ndarray] | None = None
+    owner: np.ndarray | None = None
+    in_domain: bool = True
 
 
 def reading_slots(prog: Program) -> np.ndarray:
@@ -77,20 +86,27 @@ def check_point(prog: Program, point: np.ndarray,
         raise ValueError("a reading lies outside its interval")
     lo[at[some]] = hi[at[some]] = values[some]
     caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
-    slots, clo, chi = [], [], []
+    own = np.full(len(lo), -1, dtype=np.int64)  # the configuration whose readings it uses
+    if len(at) and prog.slots.cell_row is not None:
+        own[at] = prog.slots.cell_row[at]
+    slots, clo, chi, owners = [], [], [], []
     for g, mask in zip(prog.groups, lay.defining, strict=True):
         args = [(lo[c], hi[c]) for c in g.args.T]
+        row_own = _combine(np.where(g.args.T >= 0, own[g.args.T], -1))
         for j, op in enumerate(OUTPUTS.get(g.op, (g.op,))):
             flo, fhi = forward(op, args, g.param)
             out, d = g.out[:, j], mask[:, j]
             lo[out[d]], hi[out[d]] = flo[d], fhi[d]
+            own[out[d]] = row_own[d]
             slots.append(out[~d])
             clo.append(flo[~d])
             chi.append(fhi[~d])
+            owners.append(_combine(np.stack([row_own[~d], own[out[~d]]])))
     capped = np.flatnonzero(caps)  # a bounded temporary: its value within its bounds
     slots.append(capped)
     clo.append(lo[capped])
     chi.append(hi[capped])
+    owners.append(own[capped])
     s = np.concatenate(slots)
     a, b = np.concatenate(clo), np.concatenate(chi)
     tlo, thi = exact_inside(prog.slots.lo[s], prog.slots.hi[s])
@@ -101,7 +117,19 @@ def check_point(prog: Program, point: np.ndarray,
         ok = (a >= tlo) & (b <= thi)
         ok[computed] &= (tlo[computed] == thi[computed])
     excess = np.where(np.isnan(excess), np.inf, excess)
-    return PointCheck(bool(np.all(ok)) and in_domain, s, a, b, excess)
+    return PointCheck(bool(np.all(ok)) and in_domain, s, a, b, excess, ok, computed,
+                      (tlo, thi), np.concatenate(owners), in_domain)
+
+
+def _combine(owners: np.ndarray) -> np.ndarray:
+    """Per column of `owners` (one row per argument): the one configuration they use, -1
+    for none, -2 for more than one (or an argument that already mixes them)."""
+    if owners.shape[0] == 0:
+        return np.full(owners.shape[1], -1, dtype=np.int64)
+    top = np.iinfo(np.int64).max
+    low = np.where(owners == -1, top, owners).min(axis=0)
+    high = owners.max(axis=0)
+    return np.where(low == top, -1, np.where((low == high) & (low >= 0), low, -2))
 
 
 # How far the float bounds of a domain may lie outside its exact interval, relative to the

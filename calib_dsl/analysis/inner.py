@@ -19,6 +19,7 @@ import numpy as np
 
 from calib_dsl.analysis.certify_point import PointCheck, check_point, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
@@ -31,13 +32,16 @@ from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 AIM = 1.0 - 1e-5
 CORRECTIONS = 4  # re-solves of one end's LP with the rows the check found violated tightened
 OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
+COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
 PULLBACKS = 10  # halvings of the step from the centre when the corrections did not succeed
 
 
 @dataclass(frozen=True)
 class Witness:
     """A certified point: the unknowns (independents' order) and the joint readings
-    (certify_point.reading_slots order) at which every constraint was proven to hold."""
+    (certify_point.reading_slots order) at which every constraint was proven to hold (but a
+    row comparing two computed values, proven by existence.py: its own readings then lie
+    between two vectors, not at these values)."""
 
     point: np.ndarray
     readings: np.ndarray
@@ -109,14 +113,14 @@ def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray | N
     lo, hi = box
     mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     mid = np.clip(mid, lo, hi)
-    if check_point(prog, mid).holds:  # a tight box's middle often is a solution
+    if prove_point(prog, mid):  # a tight box's middle often is a solution
         return mid
     try:
         with np.errstate(all="ignore"):
             p, need = chebyshev(prog, normalized=True, start=mid, box=box)
     except (ValueError, np.linalg.LinAlgError):
         return None
-    ok = need < 1.0 and np.all(np.isfinite(p)) and check_point(prog, p).holds
+    ok = need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p)
     return p if ok else None
 
 
@@ -151,13 +155,17 @@ def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> Witness | None
         step = y
         point, readings = lp.point(step)
         check = check_point(prog, point, readings)
-        if check.holds:
+        if check.holds or prove_point(prog, point, readings, check):
             return Witness(point, readings)
-        tighten += OVERSHOOT * lp.excess(check)
+        excess, computed = lp.excess(check)
+        tighten += OVERSHOOT * excess
+        # a row between two computed values fails by its remainder, not by its (whole)
+        # difference: aim further inside, doubling
+        tighten[computed] = np.maximum(2.0 * tighten[computed], COMPUTED_AIM)
     for _ in range(PULLBACKS if len(step) else 0):
         step = 0.5 * step
         point, readings = lp.point(step)
-        if check_point(prog, point, readings).holds:
+        if prove_point(prog, point, readings):
             return Witness(point, readings)
     return None
 
@@ -230,8 +238,14 @@ class _LinearModel:
         p[self.free] = self.centre[self.free] + self.scale * step[:self.n]
         return np.clip(p, *self.box), self.readings.values(step[self.n:])
 
-    def excess(self, check: PointCheck) -> np.ndarray:
-        """How far each row stuck out at a failed point, in units of its bound."""
+    def excess(self, check: PointCheck) -> tuple[np.ndarray, np.ndarray]:
+        """How far each row stuck out at a failed point, in units of its bound, and which
+        failed rows compare two computed values."""
+        assert check.computed is not None and check.ok is not None
+        plain = ~check.computed
         out = np.zeros(self.nslots)
-        np.maximum.at(out, check.slots, np.where(np.isfinite(check.excess), check.excess, 0.0))
-        return out[self.slots] / self.unit
+        np.maximum.at(out, check.slots[plain],
+                      np.where(np.isfinite(check.excess[plain]), check.excess[plain], 0.0))
+        failed = np.zeros(self.nslots, dtype=bool)
+        failed[check.slots[check.computed & ~check.ok]] = True
+        return out[self.slots] / self.unit, failed[self.slots]

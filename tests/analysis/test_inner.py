@@ -193,3 +193,62 @@ def test_cli_no_inner(tmp_path):
     assert res.exit_code == 0, res.output
     assert "tightness" not in data and "inner" not in data["parameters"]["r0"]
     assert "certified inner" not in res.stdout
+
+
+# -- rows between two computed values: existence by the intermediate value theorem ----------
+CIRCLE = """param cx in [-10, 10]; param cy in [-10, 10]; param radius in [0, 10];
+table m = "c.csv" { x, y : +- 1e-3; }
+for k in 1..rows(m) { sqr(m.x[k] - cx) + sqr(m.y[k] - cy) == sqr(radius); }
+"""
+
+
+def _square_range(lo: Fraction, hi: Fraction, c: Fraction) -> tuple[Fraction, Fraction]:
+    """The exact range of (x - c)^2 over [lo, hi]."""
+    ends = ((lo - c) ** 2, (hi - c) ** 2)
+    return (Fraction(0) if lo <= c <= hi else min(ends)), max(ends)
+
+
+def _circle_row_holds(point: np.ndarray, x: str, y: str) -> bool:
+    """Some x', y' within 1e-3 of the cells (as written) put (cx, cy, radius) on the row's
+    circle: the exact range of the row's difference over that box holds 0."""
+    cx, cy, r = (Fraction(v) for v in point)
+    e = Fraction(1, 1000)
+    (ax, bx), (ay, by) = (_square_range(Fraction(v) - e, Fraction(v) + e, c)
+                          for v, c in ((x, cx), (y, cy)))
+    return ax + ay <= r * r <= bx + by
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(-2, 2), st.floats(-2, 2), st.floats(1, 4), st.floats(0, 6.28),
+       st.lists(st.tuples(st.floats(-0.3, 0.3), st.floats(-9e-4, 9e-4), st.floats(-9e-4, 9e-4)),
+                min_size=4, max_size=8))
+def test_circle_witnesses_hold_exactly(tmp_path_factory, cx, cy, r, turn, draws):
+    """Points spread round a circle (the n-th at angle 2 pi n / N, moved a little), each
+    coordinate off by less than its bound: the truth fits, so a point is proven."""
+    tmp = tmp_path_factory.mktemp("circle")
+    angles = [turn + 2 * math.pi * (n + dt) / len(draws) for n, (dt, _, _) in enumerate(draws)]
+    cells = [(repr(cx + r * math.cos(t) + dx), repr(cy + r * math.sin(t) + dy))
+             for t, (_, dx, dy) in zip(angles, draws, strict=True)]
+    (tmp / "c.csv").write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in cells) + "\n")
+    (tmp / "circle.cal").write_text(CIRCLE)
+    prog = load(tmp / "circle.cal")
+    sol = solve(prog)
+    assert sol.status == "contracted"
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    assert inner.consistent  # the truth fits: a point near it is found and proven
+    ind = independents(prog)
+    for w in inner.witnesses:
+        assert all(_circle_row_holds(w.point, x, y) for x, y in cells)
+        assert np.all(sol.lo[ind] <= w.point) and np.all(w.point <= sol.hi[ind])
+
+
+def test_a_point_off_the_circles_is_not_proven(tmp_path):
+    from calib_dsl.analysis.existence import prove_point
+
+    (tmp_path / "c.csv").write_text("x,y\n3,0\n0,3\n-3,0\n0,-3\n")
+    (tmp_path / "circle.cal").write_text(CIRCLE)
+    prog = load(tmp_path / "circle.cal")
+    assert prove_point(prog, np.array([0.0, 0.0, 3.0]))
+    assert prove_point(prog, np.array([0.0, 0.0, 3.0009]))
+    assert not prove_point(prog, np.array([0.0, 0.0, 3.0011]))  # 1.1e-3 off every cell
+    assert not _circle_row_holds(np.array([0.0, 0.0, 3.0011]), "3", "0")
