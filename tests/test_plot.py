@@ -80,11 +80,16 @@ def test_domains_bars_on_a_log_scale_and_the_truth(solved):
     assert ax.get_xscale() == "log"
     assert [t.get_text() for t in ax.get_yticklabels()] == ["l1", "l2"]
     bars = [p for p in ax.patches if isinstance(p, Rectangle)]
-    assert len(bars) == 4  # a domain and a result per parameter
-    widths = sorted(b.get_width() for b in bars)
+    assert len(bars) == 6  # a domain, a result and a certified inner interval per parameter
+    heights = {round(b.get_height(), 2) for b in bars}
+    assert heights == {0.8, 0.45, 0.15}
+    by = {h: sorted(b.get_width() for b in bars if round(b.get_height(), 2) == h)
+          for h in heights}
     result = [solved["parameters"][n]["result"] for n in ("l1", "l2")]
-    assert widths[:2] == sorted(hi - lo for lo, hi in result)
-    assert widths[2:] == pytest.approx([0.4, 0.4])
+    inner = [solved["parameters"][n]["inner"] for n in ("l1", "l2")]
+    assert by[0.45] == sorted(hi - lo for lo, hi in result)
+    assert by[0.15] == sorted(b - a for a, b in inner)
+    assert by[0.8] == pytest.approx([0.4, 0.4])
     (truth,) = axes(fig, "domains:true")
     (points,) = [c for c in truth.collections if isinstance(c, PathCollection)]
     x = points.get_offsets()[:, 0]

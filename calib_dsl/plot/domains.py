@@ -1,6 +1,7 @@
-"""The domains figure: per parameter, the width of its search domain and of its guaranteed
-result (bars on a log scale: they span orders of magnitude), and beside it where the true
-value lies in the result, when the model gives one (-1: its lower end, +1: its upper end)."""
+"""The domains figure: per parameter, the width of its search domain, of its guaranteed
+result and of its certified inner interval when the solve computed one (bars on a log scale:
+they span orders of magnitude), and beside it where the true value lies in the result, when
+the model gives one (-1: its lower end, +1: its upper end)."""
 
 from __future__ import annotations
 
@@ -36,6 +37,11 @@ def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
     ax.barh(y[shown], domain[shown], height=0.8, color="0.8", label="search domain")
     shown = np.isfinite(result) & (result > 0)
     ax.barh(y[shown], result[shown], height=0.45, color="C0", label="guaranteed result")
+    inner = np.array([width(p["inner"]) if p.get("inner") else np.nan
+                      for p in params.values()])
+    shown = np.isfinite(inner) & (inner > 0)
+    if np.any(shown):  # how much of the result is proven real
+        ax.barh(y[shown], inner[shown], height=0.15, color="C1", label="certified inner")
     ax.set_xscale("log")
     ax.set_yticks(y, names, fontsize="small")
     ax.invert_yaxis()
