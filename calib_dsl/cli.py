@@ -167,6 +167,10 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--diagnose/--no-diagnose", default=True, show_default=True,
               help="When the data are inconsistent, find the rows without which the rest is "
                    "proven consistent.")
+@click.option("--outliers", type=click.IntRange(min=0), default=0, metavar="K",
+              help="Enclose every parameter vector consistent with all data rows but at "
+                   "most K (a row: a configuration with all its measured values), and name "
+                   "the rows that are certainly and possibly outliers. 0: every row holds.")
 @click.option("--min-error", "min_error", metavar="NAME",
               help="Instead of one solve, bracket the smallest value of the const NAME (the "
                    "error bound) for which the data are consistent.")
@@ -177,7 +181,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, every: bool, inner: bool, diagnose: bool,
-          min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
+          outliers: int, min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
           export_domains: str | None, formulation: str, data: tuple[str, ...],
           rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...]) -> None:
@@ -195,7 +199,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     with progress_line("solving", quiet) as progress:
         run = solve_report(model, formulation, inputs, strategy, tol=tol,
                            max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
-                           diagnose=diagnose, progress=progress)
+                           diagnose=diagnose, progress=progress, outliers=outliers)
     for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
@@ -204,6 +208,8 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(render_summary(run.prog, run.res, strategy, run.extra))
         if run.found is not None:
             click.echo(render_conflict(run.found))
+        if run.outliers is not None:
+            click.echo(run.outliers.render())
     result = run.as_json()
     if (residuals or plot_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,

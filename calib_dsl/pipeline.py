@@ -16,6 +16,7 @@ from typing import Any
 from calib_dsl.analysis.conflict import Conflict, find_conflict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
+from calib_dsl.analysis.outlier_rows import Outliers, data_rows, excluding
 from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -37,6 +38,7 @@ from calib_dsl.report.min_error import conflict_json
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.strategy.outliers import solve_outliers
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 
@@ -133,23 +135,57 @@ class SolveReport:
     strategy: str
     found: Conflict | None = None
     warnings: list[str] = field(default_factory=list)
+    outliers: Outliers | None = None  # --outliers K: the rows at fault
 
     def as_json(self) -> dict[str, Any]:
         more: dict[str, Any] = {"warnings": self.warnings}
         if self.found is not None:
             more["conflict"] = conflict_json(self.found)
+        if self.outliers is not None:
+            more["outliers"] = self.outliers.as_json()
         return {**result_json(self.prog, self.res, self.strategy, self.extra), **more}
 
 
 def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
                  strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
                  identify: bool = True, lsq: bool = False, inner: bool = True,
-                 diagnose: bool = True, progress: Progress | None = None) -> SolveReport:
+                 diagnose: bool = True, progress: Progress | None = None,
+                 outliers: int = 0) -> SolveReport:
     """Load and solve `model`, with the report's optional sections (the command line's
-    `calibc solve`, and each job of `calibc batch`)."""
-    prog = load(model, formulation, inputs=inputs)
+    `calibc solve`, and each job of `calibc batch`); with `outliers` K > 0, an enclosure of
+    every parameter vector that satisfies all data rows but at most K (outlier_report)."""
+    elaborated, prog = load_model(model, formulation, inputs=inputs)
+    if outliers > 0:
+        return outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
+                              max_sweeps, identify, progress)
     return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
                      lsq, inner, diagnose, progress)
+
+
+def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
+                   formulation: str = "matrix", inputs: Inputs | None = None,
+                   tol: float = 1e-5, max_sweeps: int = 1000, identify: bool = True,
+                   progress: Progress | None = None) -> SolveReport:
+    """`solve --outliers K` (strategy/outliers.py). No inner bounds: they would be values
+    taken by vectors that satisfy every row, not by S_K."""
+    if not elaborated.tables:
+        raise CalError(f"{model}: --outliers needs data rows, and the model has no table")
+    given = inputs or Inputs()
+
+    def without(rows: list[int]) -> Program:
+        out = data_rows(elaborated, prog, rows)
+        return load(model, formulation,
+                    inputs=excluding(given, out, elaborated.tables[0].name))
+
+    found = solve_outliers(prog, k, without, tol=tol, max_sweeps=max_sweeps,
+                           progress=progress)
+    res = found.solution
+    extra = Extras()
+    if res.status == "contracted" and identify:
+        extra.identify(prog, res, use_lp=True)
+    rows = Outliers(k, data_rows(elaborated, prog, found.certain),
+                    data_rows(elaborated, prog, found.possible))
+    return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows)
 
 
 def report_on(prog: Program, model: str | Path, formulation: str = "matrix",

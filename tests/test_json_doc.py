@@ -44,7 +44,7 @@ def cases(tmp_path_factory) -> list[dict]:
     free = tmp / "free.cal"
     free.write_text("var x in [0, 1];\nvar y in [0, 1];\nvar z in [3, 4];\nz == x + y;\n")
     return [written(tmp, ARM, "--lsq", "--residuals"), written(tmp, ARM, "--strategy", "hc4"),
-            written(tmp, bad), written(tmp, free)]
+            written(tmp, bad), written(tmp, free), written(tmp, bad, "--outliers", "1")]
 
 
 def test_the_top_level_is_as_documented(cases):

@@ -74,6 +74,9 @@ class Evaluation:
             self.FM = fm
         # (C_f, G_f, D_f, owner_f, target slots, whether the target is the slot's box domain)
         self.rows: list[tuple] = []
+        # the argument slots of each row's computed side (-1 past the arity), by rows as in
+        # `rows`: which data rows a row depends on (relax/ownership.py)
+        self.sources: list[np.ndarray] = []
 
     def _init_cells(self, lo: np.ndarray, hi: np.ndarray) -> None:
         s = self.prog.slots
@@ -111,6 +114,7 @@ class Evaluation:
                         pick = np.flatnonzero(nd)[by_domain == flag]
                         if len(pick):
                             self.rows.append((*take(form, pick), slots[pick], flag))
+                            self.sources.append(g.args[pick])
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
@@ -207,6 +211,7 @@ class Evaluation:
                     self.C[1][capped]), (self.G[0][r], self.G[1][r]),
                     (self.D[0][r], self.D[1][r]), self.owner[capped])
             self.rows.append((*form, capped, True))
+            self.sources.append(capped[:, None])  # the capped slot's own value
 
     def _difference(self, f: Iv, c: Iv, gr: Iv, dd: Iv, owner: np.ndarray,
                     slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv, Iv, np.ndarray]:

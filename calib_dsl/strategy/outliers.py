@@ -1,0 +1,143 @@
+"""Solving with outliers (`calibc solve --outliers K`): a box holding every parameter vector
+that satisfies all data rows but at most K (S_K, the union over the sets J of at most K data
+rows of the solutions of the rest).
+
+Propagation treats every constraint as hard, so it could remove a vector that fails a row:
+here only LPs contract, over relaxations made from the box alone (relax/evaluation.py
+recomputes every temporary's range from the unknowns' box), with the rows of each data row
+allowed to fail through the big-M columns of strategy/dropping.py. Each round relaxes on the
+box the last one left (a smaller box: smaller M, a tighter relaxation), from the search
+domains, until no unknown narrows by `gain`. Every bound is certified (lp/), so the box holds
+S_K whatever the LP solver did.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.analysis.outliers import classify
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.progress import Meter, Progress
+from calib_dsl.propagate.diagnose import Emptied
+from calib_dsl.relax.layout import independents
+from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.strategy.contractor import Work
+from calib_dsl.strategy.dropping import dropping, relax_owned
+from calib_dsl.strategy.solution import Solution
+from calib_dsl.strategy.tight import solve_tight
+
+GAIN = 0.01  # a round that narrows no unknown by 1 % of its width ends the loop
+MAX_ROUNDS = 40
+LP_ITERATIONS = 5000  # per objective; a stopped LP still certifies a (weaker) bound
+
+
+@dataclass(frozen=True)
+class OutlierBox:
+    """The box (over the program's slots: the declared unknowns contracted, the rest at
+    their domains) or `empty` (proven: no vector fails at most K rows), and the LP rounds."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    empty: bool
+    rounds: int
+    seconds: float
+
+
+def outlier_box(prog: Program, k: int, meter: Meter | None = None,
+                max_rounds: int = MAX_ROUNDS) -> OutlierBox:
+    """Rounds of certified LPs over the relaxations that let at most k data rows fail."""
+    start = time.perf_counter()
+    ind = independents(prog)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    rounds = 0
+    while rounds < max_rounds:
+        made = relax_owned(prog, lo, hi)
+        if made is None:  # an unbounded unknown: nothing to linearize over
+            break
+        lp = dropping(*made, k)
+        lower, upper = lp_bounds(lp, np.eye(lp.main), iterations=LP_ITERATIONS)
+        rounds += 1
+        new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
+        if np.any(new_lo > new_hi):  # certified bounds that cross: S_K is empty
+            return OutlierBox(lo, hi, True, rounds, time.perf_counter() - start)
+        old = hi[ind] - lo[ind]
+        lo[ind], hi[ind] = new_lo, new_hi
+        if meter is not None:
+            meter(f"outlier LP round {rounds}", lo, hi)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gained = np.where(old > 0, 1.0 - (new_hi - new_lo) / old, 0.0)
+        if not np.any(gained > GAIN):
+            break
+    return OutlierBox(lo, hi, False, rounds, time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class WithOutliers:
+    """A solve with at most k outliers: the Solution (its box over `prog`'s slots), and the
+    data rows (ids of `Slots.row_keys`) that are certain and possible outliers of it."""
+
+    solution: Solution
+    certain: list[int]
+    possible: list[int]
+
+
+def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program],
+                   tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
+                   progress: Progress | None = None) -> WithOutliers:
+    """A box holding every vector of `prog`'s unknowns that satisfies all data rows but at
+    most k (outlier_box), its certain and possible outliers (analysis/outliers.py). When
+    exactly k rows are certain outliers, every such vector fails them (they fail on the
+    whole box), so it satisfies all the others: the tight solve of the program `without`
+    those rows encloses it too, and the box is the intersection (and no other row can be an
+    outlier of any such vector: none is possible)."""
+    start = time.perf_counter()
+    meter = Meter(progress, independents(prog), start) if progress is not None else None
+    box = outlier_box(prog, k, meter)
+    work = Work(lp_rounds=box.rounds)
+    if box.empty:
+        return _none(prog, k, box, work, start, [])
+    found = classify(prog, box.lo, box.hi)
+    if found.hard_violated or len(found.certain) > k:
+        return _none(prog, k, box, work, start, found.certain)
+    if not found.certain or len(found.certain) < k:
+        sol = Solution("tight", box.lo, box.hi, "outlier LPs", time.perf_counter() - start,
+                       work)
+        return WithOutliers(sol, found.certain, found.possible)
+    rest = without(found.certain)
+    inner = solve_tight(rest, tol=tol, max_sweeps=max_sweeps, settings=settings,
+                        progress=progress)
+    work = work + inner.work
+    lo, hi = _intersect(prog, box, rest, inner)
+    if inner.status == "infeasible" or np.any(lo > hi):
+        return _none(prog, k, box, work, start, found.certain)
+    sol = Solution("tight", lo, hi, inner.stop, time.perf_counter() - start, work,
+                   split=inner.split, combinations=inner.combinations)
+    return WithOutliers(sol, found.certain, [])
+
+
+def _intersect(prog: Program, box: OutlierBox, rest: Program,
+               inner: Solution) -> tuple[np.ndarray, np.ndarray]:
+    """The outlier box with the declared unknowns narrowed to the tight solve's of `rest`
+    (matched by name: `rest` is another program)."""
+    lo, hi = box.lo.copy(), box.hi.copy()
+    names = {n: i for i, n in enumerate(rest.slots.names)}
+    for i in independents(prog):
+        j = names.get(prog.slots.names[i])
+        if j is not None:
+            lo[i], hi[i] = max(lo[i], inner.lo[j]), min(hi[i], inner.hi[j])
+    return lo, hi
+
+
+def _none(prog: Program, k: int, box: OutlierBox, work: Work, start: float,
+          certain: list[int]) -> WithOutliers:
+    """Proven: no vector satisfies all data rows but at most k."""
+    rows = "row" if k == 1 else "rows"
+    emptied = Emptied(f"the unknowns (with at most {k} outlier {rows})", None, None)
+    sol = Solution("tight", box.lo, box.hi, "empty", time.perf_counter() - start, work,
+                   emptied)
+    return WithOutliers(sol, certain, [])

@@ -1,0 +1,156 @@
+"""solve --outliers K: the enclosure holds every parameter vector that satisfies all data rows
+but at most K (checked against the exact hull of that set on a line fit), and on the RX90's
+Test A a moved tool coordinate is found and costs no tightness."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from calib_dsl.analysis.simulate import simulate
+from calib_dsl.cli import main
+from calib_dsl.elaborate.elaborator import Inputs
+from calib_dsl.elaborate.rows import Selection
+from calib_dsl.pipeline import load, solve, solve_report
+
+ROOT = Path(__file__).resolve().parents[2]
+RX90 = ROOT / "models" / "rx90_lengths.cal"
+LINE = """param a in [-2, 2]; param b in [-2, 2];
+table m = "d.csv" { x : +- 1e-12; v : +- 0.05; }
+for k in 1..rows(m) { a * m.x[k] + b == m.v[k]; }
+"""
+E = 0.05
+
+
+def _hull(x: np.ndarray, v: np.ndarray, k: int) -> np.ndarray | None:
+    """The exact [min, max] of a and b over the vectors in [-2, 2]^2 with |a x + b - v| <= E
+    on all rows but at most k (every k-subset left out in turn: an LP each), or None."""
+    hull = None
+    for out in itertools.combinations(range(len(x)), k):
+        keep = np.setdiff1d(np.arange(len(x)), out)
+        A = np.concatenate([np.stack([x[keep], np.ones(len(keep))], 1),
+                            -np.stack([x[keep], np.ones(len(keep))], 1)])
+        b = np.concatenate([v[keep] + E, E - v[keep]])
+        ends = []
+        for c in ([1, 0], [-1, 0], [0, 1], [0, -1]):
+            r = linprog(c, A_ub=A, b_ub=b, bounds=[(-2, 2)] * 2, method="highs")
+            if r.status != 0:
+                break
+            ends.append(r.fun)
+        if len(ends) == 4:
+            here = np.array([[ends[0], -ends[1]], [ends[2], -ends[3]]])
+            hull = here if hull is None else np.stack(
+                [np.minimum(hull[:, 0], here[:, 0]), np.maximum(hull[:, 1], here[:, 1])], 1)
+    return hull
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), k=st.sampled_from([1, 2]), n=st.integers(4, 7))
+def test_the_enclosure_holds_the_exact_hull(seed, k, n):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 3, n).round(3)
+    v = (rng.uniform(-0.5, 0.5) * x + rng.uniform(-0.5, 0.5) + rng.uniform(-E, E, n)).round(3)
+    bad = rng.choice(n, rng.integers(0, 3), replace=False)
+    v[bad] += rng.choice([-1, 1], len(bad)) * rng.uniform(0.02, 1.0, len(bad))
+    v = v.round(3)
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = zip(x.tolist(), v.tolist(), strict=True)
+        (Path(tmp) / "d.csv").write_text("x,v\n" + "".join(f"{a!r},{b!r}\n" for a, b in rows))
+        (Path(tmp) / "line.cal").write_text(LINE)
+        run = solve_report(Path(tmp) / "line.cal", outliers=k, identify=False)
+    hull = _hull(x, v, k)
+    if hull is None:
+        return  # S_K is empty: any answer holds it
+    assert run.res.status == "contracted"
+    names = run.prog.slots.names
+    for row, name in enumerate(("a", "b")):
+        i = names.index(name)
+        slack = 1e-9 * (1 + np.abs(hull[row]))
+        assert run.res.lo[i] <= hull[row, 0] + slack[0]
+        assert run.res.hi[i] >= hull[row, 1] - slack[1]
+    assert run.outliers is not None
+    assert len(run.outliers.certain) <= k
+
+
+COLUMNS = [f"a{i}{c}" for i in (1, 2, 3) for c in "xyz"]
+_DATA: dict[int, str] = {}
+
+
+def _simulated(seed: int, rows: int, tmp: Path) -> str:
+    if seed not in _DATA:
+        out = tmp / f"sim{seed}.csv"
+        simulate(RX90, rows, seed, out_csv=out)
+        _DATA[seed] = out.read_text()
+    return _DATA[seed]
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 3), row=st.integers(1, 20), column=st.sampled_from(COLUMNS),
+       fault=st.floats(0.005, 0.03), sign=st.sampled_from([-1.0, 1.0]))
+def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, sign):
+    with tempfile.TemporaryDirectory() as name:
+        tmp = Path(name)
+        lines = _simulated(seed, 20, tmp).splitlines()
+        at = lines[0].split(",").index(column)
+        cells = lines[row].split(",")
+        cells[at] = repr(float(cells[at]) + sign * fault)
+        lines[row] = ",".join(cells)
+        (tmp / "bad.csv").write_text("\n".join(lines) + "\n")
+        inputs = Inputs(data={"": tmp / "bad.csv"})
+        run = solve_report(RX90, inputs=inputs, outliers=1, identify=False)
+        ref_prog = load(RX90, inputs=Inputs(data={"": tmp / "bad.csv"},
+                                            rows={"": Selection((), (row,))}))
+        ref = solve(ref_prog)
+    assert run.res.status == "contracted"
+    assert run.outliers is not None and [r.row for r in run.outliers.certain] == [row]
+    names = run.prog.slots.names
+    for name, true in run.prog.true_values.items():
+        i, j = names.index(name), ref_prog.slots.names.index(name)
+        assert true is not None and run.res.lo[i] <= true <= run.res.hi[i]
+        assert run.res.hi[i] - run.res.lo[i] <= 2 * (ref.hi[j] - ref.lo[j])
+
+
+def test_the_command_line_writes_the_outliers(tmp_path):
+    (tmp_path / "d.csv").write_text("x,v\n0,0.1\n1,0.3\n2,0.5\n3,2.9\n4,0.9\n")
+    (tmp_path / "line.cal").write_text(LINE)
+    res = CliRunner().invoke(main, ["solve", str(tmp_path / "line.cal"), "--outliers", "1",
+                                    "--json", "-", "-q"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert data["outliers"]["certain"] == [4]
+    assert data["outliers"]["possible"] == []
+    assert data["outliers"]["rows"][0]["line"] == 5
+    assert "tightness" not in data  # no inner bounds: they would assume every row holds
+
+
+def test_two_certain_outliers_with_one_allowed_are_inconsistent(tmp_path):
+    v = [0.2 * x + 0.1 for x in range(8)]
+    v[2], v[5] = 1.5, 0.0  # rows 3 and 6 are off
+    (tmp_path / "d.csv").write_text("x,v\n" + "".join(f"{x},{y:.3f}\n"
+                                                      for x, y in enumerate(v)))
+    (tmp_path / "line.cal").write_text(LINE)
+    res = CliRunner().invoke(main, ["solve", str(tmp_path / "line.cal"), "--outliers", "1",
+                                    "-q"])
+    assert res.exit_code == 1, res.output
+    assert "status: infeasible" in res.output
+    assert "d.csv:4 (row 3)" in res.output and "d.csv:7 (row 6)" in res.output
+    res = CliRunner().invoke(main, ["solve", str(tmp_path / "line.cal"), "--outliers", "2",
+                                    "--json", "-", "-q"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.output)["outliers"]["certain"] == [3, 6]
+
+
+def test_a_model_without_a_table_is_a_user_error():
+    res = CliRunner().invoke(main, ["solve", str(ROOT / "models/examples/paper_cse.cal"),
+                                    "--outliers", "1"])
+    assert res.exit_code == 2
+    assert "error:" in res.output and "no table" in res.output
+    assert "Traceback" not in res.output
