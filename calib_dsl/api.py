@@ -225,7 +225,7 @@ def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
     prog = problem.program
     run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
                              strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
-                             progress)
+                             progress, problem.model)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))

@@ -159,7 +159,7 @@ def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs 
         return outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
                               max_sweeps, identify, progress)
     return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
-                     lsq, inner, diagnose, progress)
+                     lsq, inner, diagnose, progress, elaborated)
 
 
 def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
@@ -192,8 +192,9 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
               max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
               inner: bool = True, diagnose: bool = True,
-              progress: Progress | None = None) -> SolveReport:
-    """`solve_report` on a program already loaded from `model` (with these inputs)."""
+              progress: Progress | None = None, elaborated: Model | None = None) -> SolveReport:
+    """`solve_report` on a program already loaded from `model` (with these inputs; the
+    elaborated model, when given, names the data rows of the warnings)."""
     res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
     extra = Extras()
     if res.status == "contracted":
@@ -206,7 +207,8 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     found = None
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)
-    return SolveReport(prog, res, extra, strategy, found, solve_warnings(prog, res))
+    return SolveReport(prog, res, extra, strategy, found,
+                       solve_warnings(prog, res, elaborated))
 
 
 def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str = "matrix",

@@ -16,6 +16,7 @@ import numpy as np
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
+from calib_dsl.relax.ownership import row_owners
 
 
 @dataclass
@@ -51,6 +52,8 @@ class Linearized:
     # one-sided row (an inequality) has an infinite end, and d, half are then not finite
     r_lo: np.ndarray
     r_hi: np.ndarray
+    # the data row (a table row id, Slots.row_keys) each row depends on: -1 none, -2 several
+    data_row: np.ndarray
 
 
 def linearized(prog: Program, p: np.ndarray) -> Linearized:
@@ -62,7 +65,8 @@ def linearized(prog: Program, p: np.ndarray) -> Linearized:
     if not rows:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
         return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
-                          np.zeros((0, 0)), np.zeros(0, np.int64), none, none)
+                          np.zeros((0, 0)), np.zeros(0, np.int64), none, none,
+                          np.zeros(0, np.int64))
 
     def mid(part: int) -> np.ndarray:
         return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in rows])
@@ -71,7 +75,8 @@ def linearized(prog: Program, p: np.ndarray) -> Linearized:
     return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
                       np.concatenate([r[3] for r in rows]),
                       np.concatenate([r[0][0] for r in rows]),
-                      np.concatenate([r[0][1] for r in rows]))
+                      np.concatenate([r[0][1] for r in rows]),
+                      row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows]))
 
 
 def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

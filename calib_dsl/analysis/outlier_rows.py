@@ -12,6 +12,8 @@ from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 
+SHOWN = 10  # rows the text report lists (the JSON has every one)
+
 
 @dataclass(frozen=True)
 class Row:
@@ -36,7 +38,10 @@ class Outliers:
 
     def render(self) -> str:
         def listed(rows: list[Row]) -> str:
-            return ", ".join(f"{r.file}:{r.line} (row {r.row})" for r in rows) or "none"
+            shown = ", ".join(f"{r.file}:{r.line} (row {r.row})" for r in rows[:SHOWN])
+            more = f", ... ({len(rows) - SHOWN} more; the JSON lists them all)" \
+                if len(rows) > SHOWN else ""
+            return shown + more or "none"
 
         most = f"at most {self.k} row{'s' if self.k > 1 else ''}"
         return (f"outliers ({most}): certain {listed(self.certain)}\n"
