@@ -20,6 +20,7 @@ from calib_dsl.analysis.certify_point import check_point
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.analysis.min_error import Loader, row_owners
+from calib_dsl.analysis.outlier_rows import Row
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.frontend.diagnostics import CalError
@@ -30,11 +31,7 @@ MAX_ROWS = 3  # rows left out at most
 
 
 @dataclass(frozen=True)
-class DataRow:
-    table: str
-    file: str
-    line: int
-    row: int  # the data row number (1: the first after the header)
+class DataRow(Row):
     residual: float  # its largest least-squares residual, in error bounds
 
 

@@ -16,12 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.analysis.residuals import residual_ranges
+from calib_dsl.analysis.residuals import residual_ranges, row_enclosures
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.ownership import NONE, row_owners
-from calib_dsl.relax.relaxation import RHS_REL
 
 
 @dataclass(frozen=True)
@@ -47,22 +45,13 @@ def _violated_rows(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarra
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per constraint row: whether its enclosure over the box excludes 0, its data row, and
     whether it compares with a measured value (one that residual_ranges encloses)."""
-    center = 0.5 * (lo[ind] + hi[ind])
-    ev = Evaluation(prog, lo, hi, ind, center)
-    rows = ev.run()
-    if not rows:
+    ranges = row_enclosures(prog, lo, hi, ind)
+    ev = ranges.ev
+    if not len(ranges.lo):
         none = np.zeros(0, dtype=bool)
         return none, np.zeros(0, dtype=np.int64), none
-    dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
-    gmax = np.concatenate([np.maximum(np.abs(r[1][0]), np.abs(r[1][1])) for r in rows])
-    qmax = np.concatenate([np.maximum(np.abs(r[2][0]), np.abs(r[2][1])) for r in rows])
-    w = np.maximum(center - lo[ind], hi[ind] - center) * (1 + 4 * RHS_REL)
-    with np.errstate(invalid="ignore"):  # 0 * inf: an unbounded unknown a row ignores
-        spread = gmax @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
-    spread = np.where(np.isnan(spread), np.inf, spread)
-    err = RHS_REL * (spread + np.abs(dlo) + np.abs(dhi)) + 1e-300
     with np.errstate(invalid="ignore"):
-        violated = (dlo - spread - err > 0) | (dhi + spread + err < 0)
+        violated = (ranges.lo > 0) | (ranges.hi < 0)
     owners = row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows])
     targets = ev.targets()
     measured = np.isin(targets, np.array(sorted(prog.slots.measured_sides or {}), dtype=int))

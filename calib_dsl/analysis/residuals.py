@@ -68,10 +68,32 @@ def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
                 side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Enclosures of f - m over the box for the rows whose target is one of `side` (the
     first row of each: a cell capped twice keeps its first constraint's)."""
+    ranges = row_enclosures(prog, lo, hi, ind)
+    first: dict[int, int] = {}
+    for i, t in enumerate(ranges.ev.targets().tolist()):
+        first.setdefault(t, i)
+    pick = np.array([first[int(k)] for k in side], dtype=np.int64)
+    return ranges.lo[pick], ranges.hi[pick]
+
+
+@dataclass(frozen=True)
+class RowEnclosures:
+    """Per constraint row of an Evaluation over a box: an enclosure of its residual over the
+    whole box (the mean-value form, rounded outward), and the Evaluation (its rows' targets
+    and sources)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    ev: Evaluation
+
+
+def row_enclosures(prog: Program, lo: np.ndarray, hi: np.ndarray,
+                   ind: np.ndarray) -> RowEnclosures:
     center = 0.5 * (lo[ind] + hi[ind])
     ev = Evaluation(prog, lo, hi, ind, center)
     rows = ev.run()
-    targets = ev.targets()
+    if not rows:
+        return RowEnclosures(np.zeros(0), np.zeros(0), ev)
     dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
     gmax = np.concatenate([np.maximum(np.abs(r[1][0]), np.abs(r[1][1])) for r in rows])
     qmax = np.concatenate([np.maximum(np.abs(r[2][0]), np.abs(r[2][1])) for r in rows])
@@ -80,8 +102,4 @@ def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
         spread = gmax @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
     spread = np.where(np.isnan(spread), np.inf, spread)
     err = RHS_REL * (spread + np.abs(dlo) + np.abs(dhi)) + 1e-300
-    first: dict[int, int] = {}
-    for i, t in enumerate(targets.tolist()):
-        first.setdefault(t, i)
-    pick = np.array([first[int(k)] for k in side], dtype=np.int64)
-    return dlo[pick] - spread[pick] - err[pick], dhi[pick] + spread[pick] + err[pick]
+    return RowEnclosures(dlo - spread - err, dhi + spread + err, ev)

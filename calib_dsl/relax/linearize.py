@@ -39,6 +39,14 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = 
     bounds it alone (folded into the right-hand side: fewer columns, a little looser). Over
     `max_cell_columns` such columns, they are folded anyway (the LP would grow too large).
     """
+    done = relax_evaluated(prog, lo, hi, cell_variables, max_cell_columns)
+    return None if done is None else done[0]
+
+
+def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
+                    max_cell_columns: int | None = None
+                    ) -> tuple[LinearRelaxation, Evaluation] | None:
+    """`relax`, and the Evaluation it was made from (its rows' sources and targets)."""
     ind = independents(prog)
     plo, phi = lo[ind], hi[ind]
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
@@ -48,7 +56,7 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = 
     rows = ev.run()
     if not rows:
         return None
-    return inequalities(rows, center, plo, phi, ev.e, cell_variables, max_cell_columns)
+    return inequalities(rows, center, plo, phi, ev.e, cell_variables, max_cell_columns), ev
 
 
 def inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,

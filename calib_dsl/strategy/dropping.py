@@ -21,9 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.linearize import inequalities
+from calib_dsl.relax.linearize import relax_evaluated
 from calib_dsl.relax.ownership import NONE, row_owners
 from calib_dsl.relax.relaxation import RHS_ABS, RHS_REL, LinearRelaxation, Rows
 
@@ -32,16 +31,11 @@ def relax_owned(prog: Program, lo: np.ndarray, hi: np.ndarray
                 ) -> tuple[LinearRelaxation, np.ndarray] | None:
     """The first-order relaxation of the program over the box (linearize.relax, with a column
     per measured cell) and the data row each of its rows depends on."""
+    done = relax_evaluated(prog, lo, hi, cell_variables=True)
+    if done is None:
+        return None
+    rel, ev = done
     ind = independents(prog)
-    plo, phi = lo[ind], hi[ind]
-    if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
-        return None
-    center = 0.5 * (plo + phi)
-    ev = Evaluation(prog, lo, hi, ind, center, mixed=True)
-    rows = ev.run()
-    if not rows:
-        return None
-    rel = inequalities(rows, center, plo, phi, ev.e, cell_variables=True)
     owners = row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows])
     assert rel.keys is not None
     return rel, owners[rel.keys]
