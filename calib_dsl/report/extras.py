@@ -7,6 +7,8 @@ import math
 import time
 from typing import Any
 
+import numpy as np
+
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.inner import Inner, inner_bounds
 from calib_dsl.analysis.lsq import estimate
@@ -52,7 +54,13 @@ class Extras:
         self.seconds += time.perf_counter() - start
 
     def inner_bounds(self, prog: Program, res: Solution) -> None:
-        self.inner = inner_bounds(prog, res.lo, res.hi)
+        # the inner bounds only add to a result proven already: a numerical failure of
+        # theirs is reported as such, and never costs the user the result
+        try:
+            self.inner = inner_bounds(prog, res.lo, res.hi)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            self.skipped = f"inner bounds: not computed ({type(err).__name__}: {err})"
+            return
         self.seconds += self.inner.seconds
 
     def inner_of(self, name: str) -> tuple[float, float] | None:

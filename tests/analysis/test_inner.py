@@ -252,3 +252,16 @@ def test_a_point_off_the_circles_is_not_proven(tmp_path):
     assert prove_point(prog, np.array([0.0, 0.0, 3.0009]))
     assert not prove_point(prog, np.array([0.0, 0.0, 3.0011]))  # 1.1e-3 off every cell
     assert not _circle_row_holds(np.array([0.0, 0.0, 3.0011]), "3", "0")
+
+
+def test_a_failure_of_the_inner_bounds_keeps_the_result(tmp_path, monkeypatch):
+    import calib_dsl.report.extras as extras
+
+    def fails(*args, **kwargs):
+        raise ValueError("no centre")
+
+    monkeypatch.setattr(extras, "inner_bounds", fails)
+    res, data = _solve(tmp_path)
+    assert res.exit_code == 0, res.output
+    assert "inner bounds: not computed (ValueError: no centre)" in res.stdout
+    assert data["status"] == "contracted" and "tightness" not in data
