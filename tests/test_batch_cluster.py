@@ -93,3 +93,25 @@ def test_batch_on_a_dask_cluster(cluster, calibc, tmp_path):
     assert {x["worker"] for x in lines} == workers
     table = res.stdout.splitlines()
     assert table[-1] == f"{len(STATUS)} jobs: 6 contracted, 2 error, 1 infeasible"
+
+
+def test_a_jobs_split_pieces_are_tasks_of_the_cluster(cluster):
+    """From a task on one worker (one thread: the job seceded while it waits, or the pieces
+    would wait for it), the pieces run on the cluster; the workers' events count them."""
+    from calib_dsl.strategy.cluster import EVENT
+
+    def pieces_in_a_task(n: int) -> list[int]:  # nested: Dask sends it by value
+        from calib_dsl.strategy.cluster import cluster_pieces, pieces_on_cluster
+
+        with pieces_on_cluster():
+            pieces = cluster_pieces()
+            assert pieces is not None
+            out = pieces.map(abs, [(-k,) for k in range(n)])
+            pieces.close()
+        return out or []
+
+    address, _ = cluster
+    with distributed.Client(address, timeout="60s") as client:
+        assert client.submit(pieces_in_a_task, 6, pure=False).result(timeout=120) == \
+            list(range(6))
+        assert sum(msg["pieces"] for _, msg in client.get_events(EVENT)) == 6

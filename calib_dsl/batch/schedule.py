@@ -19,6 +19,7 @@ from calib_dsl.batch.jobs import Job
 from calib_dsl.batch.output import Results, previous
 from calib_dsl.batch.run import run_job
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.strategy.cluster import pieces_on_cluster
 
 CONNECT_TIMEOUT = "20s"  # --scheduler: a wrong address fails after this, not never
 
@@ -44,7 +45,8 @@ def run_batch(jobs: list[Job], output: str, *, scheduler: str | None, workers: i
     with _client(distributed, scheduler, workers) as (client, where), \
             Results(output, force) as results:
         say(f"{len(todo)} job{'s' if len(todo) > 1 else ''} to run on {where}")
-        for k, line in enumerate(_completed(distributed, client, todo), 1):
+        for k, line in enumerate(_completed(distributed, client, todo, scheduler is not None),
+                                 1):
             results.add(line)
             done[line["id"]] = line
             say(f"[{k}/{len(todo)}] {line['id']}: {line['status']} ({line['seconds']:.2f} s)")
@@ -84,9 +86,11 @@ def _client(distributed: Any, scheduler: str | None,
         yield client, f"the Dask scheduler at {scheduler}"
 
 
-def _completed(distributed: Any, client: Any, todo: list[Job]) -> Iterator[dict]:
-    """The result lines in the order the jobs finish."""
-    futures = {client.submit(on_worker, job, pure=False): job for job in todo}
+def _completed(distributed: Any, client: Any, todo: list[Job],
+               cluster: bool = False) -> Iterator[dict]:
+    """The result lines in the order the jobs finish (with `cluster`, a split's pieces go to
+    the cluster too: strategy/cluster.py)."""
+    futures = {client.submit(on_worker, job, cluster, pure=False): job for job in todo}
     for future in distributed.as_completed(futures):
         job = futures.pop(future)
         try:
@@ -98,10 +102,12 @@ def _completed(distributed: Any, client: Any, todo: list[Job]) -> Iterator[dict]
         yield line
 
 
-def on_worker(job: Job) -> dict[str, Any]:
-    """run_job on a Dask worker, and which worker it was."""
+def on_worker(job: Job, cluster: bool = False) -> dict[str, Any]:
+    """run_job on a Dask worker (with `cluster`, its split pieces on the cluster too), and
+    which worker it was."""
     from distributed import get_worker
 
-    line = run_job(job)
+    with pieces_on_cluster(cluster):
+        line = run_job(job)
     line["worker"] = get_worker().address
     return line

@@ -21,6 +21,7 @@ from calib_dsl.lp.certify import Certificates
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.settings import Settings
+from calib_dsl.strategy.cluster import ClusterPieces, cluster_pieces
 from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.workers import Children
@@ -43,8 +44,9 @@ class Split:
         # the children that would refine the pieces start while the cut is chosen (their
         # start-up overlaps worth_splitting's relaxations)
         wide = np.any(_left(self.prog, _cuttable(self.prog, self.uncut), lo, hi) > s.left_wide)
-        children = (Children(min(s.piece_processes, s.split_pieces), __name__)
-                    if s.piece_processes > 1 and wide else None)
+        children = cluster_pieces() or (Children(min(s.piece_processes, s.split_pieces),
+                                                  __name__)
+                                         if s.piece_processes > 1 and wide else None)
         try:
             slot = worth_splitting(self.prog, lo, hi, s, self.uncut)
             if slot is None:
@@ -86,7 +88,7 @@ def refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
 
 def _refined(prog: Program, boxes: list[tuple[np.ndarray, np.ndarray]], tol: float,
              max_sweeps: int, s: Settings, certs: Certificates,
-             children: Children | None = None) -> list[Outcome]:
+             children: Children | ClusterPieces | None = None) -> list[Outcome]:
     """refine_piece of every piece, in order. The pieces are independent, and refining one is
     bound by Python (the first-order relaxations), which threads cannot share out: with two
     cores they go to `children` (child processes, workers.py; the same inputs, so the same

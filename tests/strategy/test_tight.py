@@ -477,6 +477,33 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     assert b - a <= 1.01 * (b0 - a0)  # not wider (narrower unless r2 + r3 is near its edge)
 
 
+def test_split_pieces_go_to_a_cluster_when_there_is_one(tmp_path, monkeypatch):
+    """Where a batch job runs on a cluster (strategy/cluster.py), the split hands its pieces to
+    it instead of child processes; the result is the same, bit for bit."""
+    from calib_dsl.strategy import split
+
+    sim = _parallel_arm(tmp_path, 7, 0.05)
+    handed = []
+
+    class Cluster:  # the cluster's map, run here
+        def map(self, fn, calls):
+            handed.append(len(calls))
+            return [fn(*args) for args in calls]
+
+        def close(self):
+            pass
+
+    results = []
+    for pieces in (None, Cluster()):
+        monkeypatch.setattr(split, "cluster_pieces", lambda p=pieces: p)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            results.append(solve_tight(sim.prog, combinations=False))
+    here, there = results
+    assert handed and handed[0] == len(there.pieces) >= 1
+    assert np.array_equal(here.lo, there.lo) and np.array_equal(here.hi, there.hi)
+
+
 def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
     """The pieces go to two child processes (workers.py); the result is the one the solving
     process gives when it refines them itself, bit for bit."""
