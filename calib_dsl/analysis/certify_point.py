@@ -60,11 +60,12 @@ def reading_slots(prog: Program) -> np.ndarray:
                           & np.isfinite(hi))
 
 
-def check_point(prog: Program, point: np.ndarray,
-                readings: np.ndarray | None = None) -> PointCheck:
+def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = None,
+                owners: bool = False) -> PointCheck:
     """Whether `point` (the declared unknowns, in `independents` order) satisfies every
     constraint of `prog` for some value of its measured intervals: the readings' values
-    (`reading_slots` order; their midpoints if None) and any value of the compared sides."""
+    (`reading_slots` order; their midpoints if None) and any value of the compared sides.
+    With `owners`, each row's configuration too (existence.py needs it)."""
     ind = independents(prog)
     lay = layout(prog, ind)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
@@ -87,26 +88,27 @@ def check_point(prog: Program, point: np.ndarray,
     lo[at[some]] = hi[at[some]] = values[some]
     caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
     own = np.full(len(lo), -1, dtype=np.int64)  # the configuration whose readings it uses
-    if len(at) and prog.slots.cell_row is not None:
+    if owners and len(at) and prog.slots.cell_row is not None:
         own[at] = prog.slots.cell_row[at]
-    slots, clo, chi, owners = [], [], [], []
+    slots, clo, chi, owners_of = [], [], [], []
     for g, mask in zip(prog.groups, lay.defining, strict=True):
         args = [(lo[c], hi[c]) for c in g.args.T]
-        row_own = _combine(np.where(g.args.T >= 0, own[g.args.T], -1))
+        row_own = _combine(np.where(g.args.T >= 0, own[g.args.T], -1)) if owners else None
         for j, op in enumerate(OUTPUTS.get(g.op, (g.op,))):
             flo, fhi = forward(op, args, g.param)
             out, d = g.out[:, j], mask[:, j]
             lo[out[d]], hi[out[d]] = flo[d], fhi[d]
-            own[out[d]] = row_own[d]
+            if row_own is not None:
+                own[out[d]] = row_own[d]
+                owners_of.append(_combine(np.stack([row_own[~d], own[out[~d]]])))
             slots.append(out[~d])
             clo.append(flo[~d])
             chi.append(fhi[~d])
-            owners.append(_combine(np.stack([row_own[~d], own[out[~d]]])))
     capped = np.flatnonzero(caps)  # a bounded temporary: its value within its bounds
     slots.append(capped)
     clo.append(lo[capped])
     chi.append(hi[capped])
-    owners.append(own[capped])
+    owners_of.append(own[capped])
     s = np.concatenate(slots)
     a, b = np.concatenate(clo), np.concatenate(chi)
     tlo, thi = exact_inside(prog.slots.lo[s], prog.slots.hi[s])
@@ -118,7 +120,7 @@ def check_point(prog: Program, point: np.ndarray,
         ok[computed] &= (tlo[computed] == thi[computed])
     excess = np.where(np.isnan(excess), np.inf, excess)
     return PointCheck(bool(np.all(ok)) and in_domain, s, a, b, excess, ok, computed,
-                      (tlo, thi), np.concatenate(owners), in_domain)
+                      (tlo, thi), np.concatenate(owners_of) if owners else None, in_domain)
 
 
 def _combine(owners: np.ndarray) -> np.ndarray:

@@ -30,9 +30,14 @@ def prove_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
     base = base or check_point(prog, point, readings)
     if base.holds:
         return True
-    assert base.ok is not None and base.computed is not None and base.owner is not None
+    assert base.ok is not None and base.computed is not None
     bad = ~base.ok
-    if not base.in_domain or np.any(bad & ~base.computed) or np.any(base.owner == -2):
+    if not base.in_domain or np.any(bad & ~base.computed):
+        return False
+    if base.owner is None:  # the configuration of each row: only needed from here on
+        base = check_point(prog, point, readings, owners=True)
+    assert base.owner is not None
+    if np.any(base.owner == -2):
         return False
     configs = base.owner[bad]
     if np.any(configs < 0):
