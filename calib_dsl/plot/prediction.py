@@ -23,12 +23,8 @@ def _panels(data: dict[str, Any]) -> list[ranges.Panel]:
 
 
 def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
-    panels = _panels(data)
-    axes = fig.subplots(len(panels), 1, squeeze=False)[:, 0]
-    for ax, panel in zip(axes, panels, strict=True):
-        ranges.draw(ax, panel, "not covered")
-        ax.set_ylabel("measured − predicted box")
-        ax.set_label("prediction")
+    axes = ranges.draw_panels(fig, _panels(data), "not covered", "measured − predicted box",
+                              "prediction")
     axes[0].set_title(f"held-out rows of {data.get('at', '?')}: coverage "
                       f"{data.get('coverage', float('nan')):.3f}", loc="left")
     return list(axes)

@@ -85,3 +85,14 @@ def _spacing(rows: np.ndarray) -> float:
     gaps = np.diff(np.unique(rows))
     return float(gaps.min()) if len(gaps) else 1.0
 
+
+
+def draw_panels(fig: Any, panels: list[Panel], marked: str, ylabel: str,
+                label: str) -> list[Any]:
+    """One axes per panel, stacked: the ranges, `marked` naming the marked rows."""
+    axes = fig.subplots(len(panels), 1, squeeze=False)[:, 0]
+    for ax, panel in zip(axes, panels, strict=True):
+        draw(ax, panel, marked)
+        ax.set_ylabel(ylabel)
+        ax.set_label(label)
+    return list(axes)

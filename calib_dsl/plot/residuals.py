@@ -19,12 +19,9 @@ def count(data: dict[str, Any]) -> int:
 
 def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
     panels = ranges.panels(data["residuals"]["rows"], "residual", "outlier", "used")
-    axes = fig.subplots(len(panels), 1, squeeze=False)[:, 0]
     outliers = len(data["residuals"].get("outliers", []))
-    for ax, panel in zip(axes, panels, strict=True):
-        ranges.draw(ax, panel, "outlier (no parameter vector of the box fits it)")
-        ax.set_ylabel("measured − predicted")
-        ax.set_label("residuals")
+    axes = ranges.draw_panels(fig, panels, "outlier (no parameter vector of the box fits it)",
+                              "measured − predicted", "residuals")
     axes[0].set_title(f"residual ranges over the result box ({outliers} outlier"
                       f"{'' if outliers == 1 else 's'}; grey: rows left out)", loc="left")
     return list(axes)
