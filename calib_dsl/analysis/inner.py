@@ -30,7 +30,8 @@ from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 # Each row aims inside this share of its bound: room for the rounding and for the remainder of
 # the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
 AIM = 1.0 - 1e-5
-CORRECTIONS = 4  # re-solves of one end's LP with the rows the check found violated tightened
+CORRECTIONS = 6  # re-solves of one end's LP with the rows the check found violated tightened
+ESCALATE = 4.0  # how much more a row that fails again is tightened
 OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
 # An end that a certified point reaches to within this share of the outer width gets no LP of
 # its own (an earlier end's LP often puts the other unknowns at their bounds: on Test A the 19
@@ -162,7 +163,12 @@ def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> Witness | None
         if check.holds or prove_point(prog, point, readings, check):
             return Witness(point, readings)
         excess, computed = lp.excess(check)
+        # a row that fails again was not binding in the LP: its remainder exceeds what it
+        # was tightened by, so aim further inside, fourfold
+        again = (excess > 0) & (tighten > 0)
         tighten += OVERSHOOT * excess
+        tighten[again] = np.maximum(tighten[again], ESCALATE * (tighten[again]
+                                                                - OVERSHOOT * excess[again]))
         # a row between two computed values fails by its remainder, not by its (whole)
         # difference: aim further inside, doubling
         tighten[computed] = np.maximum(2.0 * tighten[computed], COMPUTED_AIM)
