@@ -27,6 +27,7 @@ from calib_dsl import pipeline
 from calib_dsl.analysis.advice import Advice, advise
 from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import MinError
+from calib_dsl.analysis.outlier_rows import Outliers
 from calib_dsl.analysis.predict import Prediction
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs
@@ -36,11 +37,8 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.progress import Progress
-from calib_dsl.report.as_json import result_json
 from calib_dsl.report.extras import Extras
-from calib_dsl.report.min_error import conflict_json, render_conflict
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
-from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.strategy.solution import Solution
 
 __all__ = ["CalError", "Inconsistent", "Listing", "Parameter", "Problem", "Result",
@@ -187,10 +185,10 @@ class Result:
     # certified bounds of combinations the data see when their members are not identifiable
     combinations: tuple[tuple[str, float, float], ...]
     conflict: Conflict | None  # for inconsistent data: the rows without which they are not
+    outliers: Outliers | None  # with outliers=K: the rows certainly and possibly at fault
     # the solver's own result (boxes over all slots)
     solution: Solution = field(repr=False, compare=False)
-    _program: Program = field(repr=False, compare=False)
-    _extras: Extras = field(repr=False, compare=False)
+    _report: pipeline.SolveReport = field(repr=False, compare=False)
 
     def __getitem__(self, name: str) -> Parameter:
         for p in self.parameters:
@@ -199,39 +197,38 @@ class Result:
         raise KeyError(f"no declared unknown '{name}' (the unknowns: "
                        f"{', '.join(p.name for p in self.parameters)})")
 
-    def text(self) -> str:
-        """The report `calibc solve` prints."""
-        out = [render_table(self._program, self.solution, self._extras), "",
-               render_summary(self._program, self.solution, self.strategy, self._extras)]
-        if self.conflict is not None:
-            out.append(render_conflict(self.conflict))
-        return "\n".join(out)
+    def text(self, every: bool = False) -> str:
+        """The report `calibc solve` prints (`every`: as with --all)."""
+        return self._report.text(every)
 
     def as_json(self) -> dict[str, Any]:
         """What `calibc solve --json` writes."""
-        out = result_json(self._program, self.solution, self.strategy, self._extras)
-        out["warnings"] = list(self.warnings)
-        if self.conflict is not None:
-            out["conflict"] = conflict_json(self.conflict)
-        return out
+        return self._report.as_json()
 
 
 def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
           max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
-          inner: bool = True, diagnose: bool = True,
+          inner: bool = True, diagnose: bool = True, outliers: int = 0,
           progress: Progress | None = None) -> Result:
     """Contract every unknown to an interval proven to hold all its consistent values, as
-    `calibc solve` (the same options and defaults; `progress` as in calib_dsl/progress.py)."""
+    `calibc solve` (the same options and defaults; `outliers` K as --outliers: every vector
+    consistent with all data rows but at most K; `progress` as in calib_dsl/progress.py)."""
     prog = problem.program
-    run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
-                             strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
-                             progress, problem.model)
+    if outliers > 0:
+        run = pipeline.outlier_report(problem.model, prog, problem.path, outliers,
+                                      problem.formulation, problem.inputs, tol, max_sweeps,
+                                      identify, progress)
+    else:
+        run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
+                                 strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
+                                 progress, problem.model)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))
     return Result(problem.path, res.status, res.stop, strategy, res.seconds, res.sweeps,
                   res.lp_rounds, params, tuple(narrowed(prog, res)), res.split,
-                  tuple(run.warnings), tuple(extra.combinations), run.found, res, prog, extra)
+                  tuple(run.warnings), tuple(extra.combinations), run.found, run.outliers,
+                  res, run)
 
 
 def _parameter(row: dict[str, Any], extra: Extras, unident: set[str]) -> Parameter:

@@ -187,9 +187,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
           defines: tuple[str, ...]) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
-    from calib_dsl.report.min_error import render_conflict
     from calib_dsl.report.progress_line import progress_line
-    from calib_dsl.report.text import render_summary, render_table
 
     inputs = _inputs(data, rows, exclude, defines)
     if min_error is not None:
@@ -203,13 +201,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
-        click.echo(render_table(run.prog, run.res, run.extra, every))
-        click.echo()
-        click.echo(render_summary(run.prog, run.res, strategy, run.extra))
-        if run.found is not None:
-            click.echo(render_conflict(run.found))
-        if run.outliers is not None:
-            click.echo(run.outliers.render())
+        click.echo(run.text(every))
     result = run.as_json()
     if (residuals or plot_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,

@@ -34,7 +34,8 @@ from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
-from calib_dsl.report.min_error import conflict_json
+from calib_dsl.report.min_error import conflict_json, render_conflict
+from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
@@ -144,6 +145,16 @@ class SolveReport:
         if self.outliers is not None:
             more["outliers"] = self.outliers.as_json()
         return {**result_json(self.prog, self.res, self.strategy, self.extra), **more}
+
+    def text(self, every: bool = False) -> str:
+        """The report `calibc solve` prints (`every`: as with --all)."""
+        out = [render_table(self.prog, self.res, self.extra, every), "",
+               render_summary(self.prog, self.res, self.strategy, self.extra)]
+        if self.found is not None:
+            out.append(render_conflict(self.found))
+        if self.outliers is not None:
+            out.append(self.outliers.render())
+        return "\n".join(out)
 
 
 def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,

@@ -115,3 +115,17 @@ def test_results_compare_by_their_numbers():
     p = cal.load(ARM)
     a, b = cal.solve(p, "hc4", identify=False), cal.solve(p, "hc4", identify=False)
     assert a.parameters == b.parameters and a != cal.solve(p, "tight", identify=False)
+
+
+def test_solve_with_outliers_names_the_moved_row(tmp_path):
+    (tmp_path / "d.csv").write_text("x,v\n0,0.1\n1,0.6\n2,1.1\n3,3.0\n4,2.1\n5,2.6\n")
+    (tmp_path / "line.cal").write_text(
+        "param p in [0, 1]; param q in [-1, 1];\n"
+        'table m = "d.csv" { x : +- 1e-9; v : +- 0.01; }\n'
+        "for k in 1..rows(m) { m.v[k] == p * m.x[k] + q; }\n")
+    got = cal.solve(cal.load(tmp_path / "line.cal"), outliers=1)
+    assert got.status == "contracted" and [r.row for r in got.outliers.certain] == [4]
+    assert got.as_json()["outliers"]["certain"] == [4]
+    assert "outliers (at most 1 row): certain" in got.text()
+    lo, hi = got["p"].result
+    assert lo <= 0.5 <= hi and hi - lo < 0.02

@@ -245,3 +245,23 @@ def test_without_dask_one_line_of_advice(tmp_path, monkeypatch):
     res = invoke("batch", write_project(tmp_path), "-o", tmp_path / "o.jsonl")
     assert res.exit_code == 2
     assert res.stderr.count("\n") == 1 and "pip install calibc[batch]" in res.stderr
+
+
+def test_a_job_with_outliers_is_what_solve_outliers_gives(tmp_path, untimed):
+    """`outliers = 1` in a job: the line is `calibc solve --outliers 1 --json`'s document,
+    the moved row named as the certain outlier."""
+    (tmp_path / "d.csv").write_text("x,v\n0,0.1\n1,0.6\n2,1.1\n3,3.0\n4,2.1\n5,2.6\n")
+    (tmp_path / "line.cal").write_text(
+        "param p in [0, 1]; param q in [-1, 1];\n"
+        'table m = "d.csv" { x : +- 1e-9; v : +- 0.01; }\n'
+        "for k in 1..rows(m) { m.v[k] == p * m.x[k] + q; }\n")
+    (tmp_path / "jobs.toml").write_text('[[job]]\nid = "one"\nmodel = "line.cal"\n'
+                                        "outliers = 1\n")
+    (job,) = read_job_file(str(tmp_path / "jobs.toml"))
+    assert job.outliers == 1 and job.argv()[-2:] == ["--outliers", "1"]
+    line = run_job(job)
+    res = invoke("solve", *job.argv(), "--json", tmp_path / "direct.json")
+    assert res.exit_code == 0, res.output
+    expected = json.loads((tmp_path / "direct.json").read_text(encoding="utf-8"))
+    assert untimed(json.loads(json.dumps(line["result"]))) == untimed(expected)
+    assert line["result"]["outliers"]["certain"] == [4]

@@ -53,6 +53,7 @@ class Job:
     lsq: bool = False
     inner: bool = True
     diagnose: bool = True
+    outliers: int = 0  # as --outliers K: all rows but at most K (0: every row holds)
 
     def argv(self) -> list[str]:
         """The `calibc solve` arguments that run the same solve."""
@@ -65,6 +66,7 @@ class Job:
         out.append("--identify" if self.identify else "--no-identify")
         out.append("--inner" if self.inner else "--no-inner")
         out.append("--diagnose" if self.diagnose else "--no-diagnose")
+        out += ["--outliers", str(self.outliers)] if self.outliers else []
         return out + (["--lsq"] if self.lsq else [])
 
     def spec(self) -> dict[str, Any]:
@@ -79,7 +81,7 @@ Fail = Callable[[str, str], CalError]  # (key, message) -> the error, at the key
 KEYS = {"id": "id", "model": "model", "data": "data", "rows": "rows", "exclude": "exclude",
         "define": "defines", "strategy": "strategy", "formulation": "formulation",
         "tol": "tol", "max-sweeps": "max_sweeps", "identify": "identify", "lsq": "lsq",
-        "inner": "inner", "diagnose": "diagnose"}
+        "inner": "inner", "diagnose": "diagnose", "outliers": "outliers"}
 
 
 def read_job_file(path: str) -> list[Job]:
@@ -181,6 +183,10 @@ def _value(key: str, value: Any, folder: Path, fail: Fail) -> Any:
                 0 <= value < float("inf")):
             raise fail(key, "must be a finite number >= 0")
         return float(value)
+    if key == "outliers":
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise fail(key, "must be an integer >= 0")
+        return value
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:  # max-sweeps
         raise fail(key, "must be an integer >= 1")
     return value

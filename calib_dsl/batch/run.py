@@ -40,4 +40,5 @@ def solve_job(job: Job) -> dict[str, Any]:
     inputs = inputs_from_options(job.data, job.rows, job.exclude, job.defines)
     return solve_report(job.model, job.formulation, inputs, job.strategy, tol=job.tol,
                         max_sweeps=job.max_sweeps, identify=job.identify, lsq=job.lsq,
-                        inner=job.inner, diagnose=job.diagnose).as_json()
+                        inner=job.inner, diagnose=job.diagnose,
+                        outliers=job.outliers).as_json()
