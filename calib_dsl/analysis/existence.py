@@ -49,8 +49,8 @@ def prove_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
     row_of_config = dict(zip(configs.tolist(), np.flatnonzero(bad).tolist(), strict=True))
     mine = np.array([row_of_config.get(int(c), -1) for c in r.keys // r.ncol])
     moved = mine >= 0  # the readings of the failing rows' configurations
-    start = r.values(np.zeros(0)) if readings is None else readings.copy()
-    start[moved] = r.values(np.zeros(0))[moved]  # from their middles (they are theirs alone)
+    start = r.middles() if readings is None else readings.copy()
+    start[moved] = r.middles()[moved]  # from their middles (they are theirs alone)
     up, down = _directions(prog, point, r, start, moved, mine, base)
     high = _difference(check_point(prog, point, up))
     low = _difference(check_point(prog, point, down))
@@ -77,7 +77,7 @@ def _directions(prog: Program, point: np.ndarray, r: Readings, start: np.ndarray
     for col in np.unique(cols[moved]):
         step = start.copy()
         pick = moved & (cols == col)
-        step[pick] = r.values(np.zeros(0))[pick] + r.half[pick]
+        step[pick] = r.middles()[pick] + r.half[pick]
         step = np.clip(step, *r.inside)
         grew = _middle(check_point(prog, point, step)) - centre
         slope[pick] = grew[mine[pick]]

@@ -90,8 +90,8 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     found = _Points(len(ind))
     centre = _centre(prog, box)
     if centre is not None:
-        found.add(Witness(centre, Readings(prog).values(np.zeros(0))))
-        _extremes(prog, box, centre, found)
+        found.add(centre)
+        _extremes(prog, box, centre.point, found)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -112,21 +112,42 @@ class _Points:
         self.hi[higher], self.hi_at[higher] = w.point[higher], k
 
 
-def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray | None:
+def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> Witness | None:
     """A certified point near the middle of the box (the middle itself, else the point with
-    the smallest largest residual in units of each row's bound): the LPs' starting point."""
+    the smallest largest residual in units of each row's bound, else the mean of the ends of
+    the model linearized at the middle): the LPs' starting point."""
     lo, hi = box
     mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     mid = np.clip(mid, lo, hi)
-    if prove_point(prog, mid):  # a tight box's middle often is a solution
-        return mid
+    middles = Readings(prog).middles()
+    if prove_point(prog, mid, middles):  # a tight box's middle often is a solution
+        return Witness(mid, middles)
     try:
         with np.errstate(all="ignore"):
             p, need = chebyshev(prog, normalized=True, start=mid, box=box)
+        if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
+            return Witness(p, middles)
     except (ValueError, np.linalg.LinAlgError):
+        pass
+    return _mean_of_ends(prog, box, mid)
+
+
+def _mean_of_ends(prog: Program, box: tuple[np.ndarray, np.ndarray],
+                  mid: np.ndarray) -> Witness | None:
+    """The mean of the linearized model's ends, a point inside it: where the Chebyshev fit
+    cannot run (an inequality's bound is infinite, so it has no units)."""
+    free = np.flatnonzero(box[1] > box[0])
+    if not len(free):
         return None
-    ok = need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p)
-    return p if ok else None
+    lp = _LinearModel(prog, box, mid, free)
+    if not lp.finite:
+        return None
+    ends = [y for j in range(len(free)) for sign in (-1.0, 1.0)
+            if (y := lp.extreme(j, sign, np.zeros(lp.rows))) is not None]
+    if not ends:
+        return None
+    point, readings = lp.point(np.mean(ends, axis=0))
+    return Witness(point, readings) if prove_point(prog, point, readings) else None
 
 
 def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,

@@ -51,13 +51,15 @@ class Readings:
         gives the same reading: its slots may be numbered otherwise)."""
         return dict(zip(self.keys.tolist(), values.tolist(), strict=True))
 
+    def middles(self) -> np.ndarray:
+        """Each reading at the middle of its interval (kept inside its exact one)."""
+        return np.clip(self.mid, *self.inside)
+
     def from_cells(self, values: dict[int, float]) -> np.ndarray:
         """`by_cell`'s values in this program's order (the middle where a cell has none)."""
-        mid = self.values(np.zeros(0))
+        mid = self.middles()
         return np.array([values.get(k, m) for k, m in zip(self.keys.tolist(), mid, strict=True)])
 
     def values(self, z: np.ndarray) -> np.ndarray:
-        """The readings at errors z (none given: their middles)."""
-        if not len(z):
-            return np.clip(self.mid, *self.inside)
+        """The readings at errors z (in units of their half-widths)."""
         return np.clip(self.mid + self.half * z, *self.inside)

@@ -81,7 +81,7 @@ def _row(r: dict[str, Any], extra: Extras) -> list[str]:
     if extra.inner is not None:
         inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
         q = width_ratio(r["result"], inner)
-        cells += ["-" if inner is None else _iv(inner, inward=True),
+        cells += ["-" if inner is None else printed_interval(inner, inward=True),
                   "-" if q is None else f"{q:.4g}"]
     if extra.estimate is not None:
         est = extra.lsq_value(r["name"])
@@ -140,7 +140,7 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     if extra.info is not None:
         lines += ["", render(extra.info)]
         for text, lo, hi in extra.combinations:
-            lines.append(f"guaranteed: {text} in {_iv((lo, hi))}")
+            lines.append(f"guaranteed: {text} in {printed_interval((lo, hi))}")
     if extra.estimate is not None:
         e = extra.estimate
         inside = [n for n, r in ((n, _result_of(prog, res, n)) for n in e.names)
@@ -171,7 +171,7 @@ def _truth_mark(r: dict[str, Any]) -> str:
 DIGITS = 10  # significant digits of every printed bound
 
 
-def _iv(b: tuple[float, float], inward: bool = False) -> str:
+def printed_interval(b: tuple[float, float], inward: bool = False) -> str:
     """[lo, hi] rounded outward (inward: the printed interval inside the true one)."""
     down, up = (ROUND_FLOOR, ROUND_CEILING) if not inward else (ROUND_CEILING, ROUND_FLOOR)
     return f"[{_f(b[0], down)}, {_f(b[1], up)}]"

@@ -265,3 +265,36 @@ def test_a_failure_of_the_inner_bounds_keeps_the_result(tmp_path, monkeypatch):
     assert res.exit_code == 0, res.output
     assert "inner bounds: not computed (ValueError: no centre)" in res.stdout
     assert data["status"] == "contracted" and "tightness" not in data
+
+
+# -- one-sided rows (inequalities): the witnesses satisfy them exactly, the ends reach the hull
+coef = st.floats(-3, 3, allow_nan=False, width=32)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(coef, coef, st.floats(0.5, 4, width=32)), min_size=3, max_size=7))
+def test_inequality_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, rows):
+    """Half-planes a x + b y <= c (c > 0: the origin inside) in the box [-5, 5]^2: every
+    witness satisfies each in exact rationals, and the inner ends reach the LP's hull."""
+    lines = [f"{float(a)!r} * x + {float(b)!r} * y <= {float(c)!r};" for a, b, c in rows]
+    model = tmp_path_factory.mktemp("ineq") / "h.cal"
+    model.write_text("var x in [-5, 5];\nvar y in [-5, 5];\n" + "\n".join(lines) + "\n")
+    prog = load(model)
+    sol = solve(prog)
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    assert inner.consistent  # the origin is a solution
+    for w in inner.witnesses:
+        fx, fy = (Fraction(v) for v in w.point)
+        assert all(Fraction(float(a)) * fx + Fraction(float(b)) * fy <= Fraction(float(c))
+                   for a, b, c in rows)
+    A = np.array([[float(a), float(b)] for a, b, _ in rows])
+    rhs = np.array([float(c) for _, _, c in rows])
+    for k in range(2):
+        ends = []
+        for sign in (1.0, -1.0):
+            cost = np.zeros(2)
+            cost[k] = -sign
+            res = linprog(cost, A_ub=A, b_ub=rhs, bounds=[(-5, 5)] * 2, method="highs")
+            ends.append(sign * -res.fun)
+        hull = ends[0] - ends[1]
+        assert inner.hi[k] - inner.lo[k] >= hull * (1 - 1e-3)
