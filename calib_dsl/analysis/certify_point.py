@@ -15,6 +15,7 @@ test cannot prove it (an interval equals an interval only when both are points) 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import reduce
 
 import numpy as np
 
@@ -22,6 +23,7 @@ from calib_dsl.arith.projections import forward
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.gradients import OUTPUTS
 from calib_dsl.relax.layout import independents, layout
+from calib_dsl.relax.ownership import NONE, combine
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,7 @@ class PointCheck:
     # per row: whether it holds; whether it compares two computed values (then `lo, hi`
     # minus `side` is the difference of the two); its other side's enclosure (the exact
     # interval's inside for a measured value); the configuration (table row id) of the
-    # readings it depends on (-1: none, -2: more than one)
+    # readings it depends on (NONE, or MIXED for more than one: relax/ownership.py)
     ok: np.ndarray | None = None
     computed: np.ndarray | None = None
     side: tuple[np.ndarray, np.ndarray] | None = None
@@ -87,13 +89,13 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
         raise ValueError("a reading lies outside its interval")
     lo[at[some]] = hi[at[some]] = values[some]
     caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
-    own = np.full(len(lo), -1, dtype=np.int64)  # the configuration whose readings it uses
+    own = np.full(len(lo), NONE, dtype=np.int64)  # the configuration whose readings it uses
     if owners and len(at) and prog.slots.cell_row is not None:
         own[at] = prog.slots.cell_row[at]
     slots, clo, chi, owners_of = [], [], [], []
     for g, mask in zip(prog.groups, lay.defining, strict=True):
         args = [(lo[c], hi[c]) for c in g.args.T]
-        row_own = _combine(np.where(g.args.T >= 0, own[g.args.T], -1)) if owners else None
+        row_own = _combine(np.where(g.args.T >= 0, own[g.args.T], NONE)) if owners else None
         for j, op in enumerate(OUTPUTS.get(g.op, (g.op,))):
             flo, fhi = forward(op, args, g.param)
             out, d = g.out[:, j], mask[:, j]
@@ -124,14 +126,9 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
 
 
 def _combine(owners: np.ndarray) -> np.ndarray:
-    """Per column of `owners` (one row per argument): the one configuration they use, -1
-    for none, -2 for more than one (or an argument that already mixes them)."""
-    if owners.shape[0] == 0:
-        return np.full(owners.shape[1], -1, dtype=np.int64)
-    top = np.iinfo(np.int64).max
-    low = np.where(owners == -1, top, owners).min(axis=0)
-    high = owners.max(axis=0)
-    return np.where(low == top, -1, np.where((low == high) & (low >= 0), low, -2))
+    """Per column of `owners` (one row per argument): the one configuration they use, NONE
+    or MIXED (relax/ownership.py)."""
+    return reduce(combine, owners, np.full(owners.shape[1], NONE, dtype=np.int64))
 
 
 # How far the float bounds of a domain may lie outside its exact interval, relative to the

@@ -19,6 +19,7 @@ import numpy as np
 from calib_dsl.analysis.certify_point import PointCheck, check_point
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.ownership import MIXED
 
 
 def prove_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = None,
@@ -37,7 +38,7 @@ def prove_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
     if base.owner is None:  # the configuration of each row: only needed from here on
         base = check_point(prog, point, readings, owners=True)
     assert base.owner is not None
-    if np.any(base.owner == -2):
+    if np.any(base.owner == MIXED):
         return False
     configs = base.owner[bad]
     if np.any(configs < 0):
