@@ -45,11 +45,19 @@ def model_inputs(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
+UNROLL = click.option(
+    "--unroll", is_flag=True,
+    help="Compile each row of a loop over a table's rows on its own, as written, instead of "
+         "the loop's body once for all rows (the same program, slower and larger: a check).")
+
+
 def _inputs(data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-            defines: tuple[str, ...]) -> Any:
+            defines: tuple[str, ...], unroll: bool = False) -> Any:
+    from dataclasses import replace
+
     from calib_dsl.elaborate.options import inputs_from_options
 
-    return inputs_from_options(data, rows, exclude, defines)
+    return replace(inputs_from_options(data, rows, exclude, defines), unroll=unroll)
 
 
 def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -107,15 +115,17 @@ def main() -> None:
 @click.option("--json", "as_json", is_flag=True,
               help="The program's counts as JSON instead of the listing.")
 @FORMULATION
+@UNROLL
 @model_inputs
 @user_errors
 def compile(model: str, output: str | None, as_json: bool, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-            defines: tuple[str, ...]) -> None:
+            defines: tuple[str, ...],
+            unroll: bool) -> None:
     """Compile MODEL into its primitive-constraint listing."""
     from calib_dsl.compile.listing import listing_json, render_listing
 
-    prog = _load(model, formulation, _inputs(data, rows, exclude, defines))
+    prog = _load(model, formulation, _inputs(data, rows, exclude, defines, unroll))
     text = listing_json(prog) + "\n" if as_json else render_listing(prog)
     if output:
         _write(output, text)
@@ -177,6 +187,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @QUIET
 @outputs.solve_options
 @FORMULATION
+@UNROLL
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
@@ -184,12 +195,13 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
           outliers: int, min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
           export_domains: str | None, formulation: str, data: tuple[str, ...],
           rows: tuple[str, ...], exclude: tuple[str, ...],
-          defines: tuple[str, ...]) -> None:
+          defines: tuple[str, ...],
+            unroll: bool) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.progress_line import progress_line
 
-    inputs = _inputs(data, rows, exclude, defines)
+    inputs = _inputs(data, rows, exclude, defines, unroll)
     if min_error is not None:
         _min_error(model, min_error, formulation, inputs, strategy, json_path, quiet)
         return
@@ -234,15 +246,17 @@ def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: s
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print the analysis as JSON.")
 @FORMULATION
+@UNROLL
 @model_inputs
 @user_errors
 def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
-             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...]) -> None:
+             rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...],
+            unroll: bool) -> None:
     """Which parameters of MODEL the measurements can determine, which move with which, and
     a well-conditioned subset to calibrate (judged against the data's error bounds)."""
     from calib_dsl.analysis.advice import advice_json, advise, render
 
-    info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines)))
+    info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
     if as_json:
         click.echo(json.dumps(advice_json(info), indent=2))
     else:
@@ -320,18 +334,20 @@ def _out(json_path: str | None, text: str, data: dict) -> None:
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
               help="Also write the boxes as CSV (row, line, then each column's lo and hi).")
 @FORMULATION
+@UNROLL
 @model_inputs
 @user_errors
 def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
             json_path: str | None, quiet: bool, csv_path: str | None, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-            defines: tuple[str, ...]) -> None:
+            defines: tuple[str, ...],
+            unroll: bool) -> None:
     """Calibrate MODEL on its data, then give for each configuration of --at a box proven to
     hold the predicted measurement for every parameter vector consistent with the data."""
     from calib_dsl.report.prediction import prediction_csv, prediction_json, render_prediction
 
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
-                       _inputs(data, rows, exclude, defines), quiet)
+                       _inputs(data, rows, exclude, defines, unroll), quiet)
     if csv_path:
         _write(csv_path, prediction_csv(found))
     _out(json_path, render_prediction(found), {"model": model, **prediction_json(found)})
@@ -342,19 +358,21 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
 @at_options
 @outputs.PLOT
 @FORMULATION
+@UNROLL
 @model_inputs
 @user_errors
 def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
              json_path: str | None, quiet: bool, plot_path: str | None, formulation: str,
              data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-             defines: tuple[str, ...]) -> None:
+             defines: tuple[str, ...],
+            unroll: bool) -> None:
     """Calibrate MODEL on its data, predict the held-out measurements of --at and compare:
     the share of rows inside their boxes widened by the error bound, and the boxes' widths."""
     from calib_dsl.report.prediction import render_validation, validation_json
 
     outputs.plot_ready(plot_path)
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
-                       _inputs(data, rows, exclude, defines), quiet)
+                       _inputs(data, rows, exclude, defines, unroll), quiet)
     result = {"model": model, **validation_json(found)}
     _out(json_path, render_validation(found), result)
     outputs.plotted(result, plot_path)

@@ -105,6 +105,9 @@ def _measured_sides(dag: Dag, caps: list, cells: list[int], slot_of: np.ndarray,
             # the cell itself is no slot (its interval caps f's): new ids where none is
             r = rows.setdefault((table, row), len(rows))
             c = cols.setdefault((table, column), len(cols))
+            old = out.get(int(slot_of[node]))
+            if old is not None and old[0] != r:
+                slots.capped_by_rows.add(int(slot_of[node]))
             out[int(slot_of[node])] = (r, c)
     slots.row_keys, slots.col_keys = list(rows), list(cols)
     return out

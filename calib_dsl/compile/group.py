@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.compile.decompose import decompose_arrays
+from calib_dsl.compile.replicate import NotBatchable, replicate, tile_groups
 from calib_dsl.ir.dag import paused_gc
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.primitives import Primitive, PrimitiveArrays
@@ -16,13 +17,24 @@ from calib_dsl.ir.program import Group, Program
 
 
 def compile_model(model: Model) -> Program:
+    """The flat program of an elaborated model; a loop compiled once (`model.batch`) is
+    replicated for all its rows, or, if its template rows are no copies of each other,
+    elaborated again unrolled."""
     with paused_gc():  # hundreds of thousands of primitives: no cycles to look for
         slots, prims, arrays = decompose_arrays(model)
     truth = {v.name: v.true for v in model.dag.variables.values()}
     domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
     priors = {v.name: v.prior for v in model.dag.variables.values() if v.prior is not None}
-    return Program(model.path, model.formulation, slots, prims, _groups(arrays), truth,
-                   domains, priors)
+    if model.batch is None:
+        return Program(model.path, model.formulation, slots, prims, groups_of(arrays), truth,
+                       domains, priors)
+    try:
+        slots, tiled, template, layout = replicate(model, slots, prims, arrays)
+    except NotBatchable:
+        return compile_model(model.batch.unrolled())
+    return Program(model.path, model.formulation, slots, tiled,
+                   tile_groups(groups_of(template), layout), truth, domains, priors,
+                   rows=layout)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:
@@ -32,7 +44,7 @@ def make_groups(prims: list[Primitive]) -> list[Group]:
     return [_group(op, level, idx, prims) for (level, op), idx in sorted(buckets.items())]
 
 
-def _groups(a: PrimitiveArrays) -> list[Group]:
+def groups_of(a: PrimitiveArrays) -> list[Group]:
     """make_groups from the primitives' arrays (the same groups, without a pass over the
     primitive objects)."""
     if not a.op:

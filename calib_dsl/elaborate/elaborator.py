@@ -25,6 +25,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+from calib_dsl.elaborate.batching import Batching
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.elaborate.context import DEFAULT_UNITS
 from calib_dsl.elaborate.expressions import Expressions
@@ -55,6 +56,7 @@ class Inputs:
     data: Mapping[str, str | Path | Values] = field(default_factory=dict)
     rows: Mapping[str, Selection] = field(default_factory=dict)
     consts: Mapping[str, str] = field(default_factory=dict)
+    unroll: bool = False  # every loop unrolled, none compiled once for all rows (--unroll)
 
 
 def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path | None = None,
@@ -73,6 +75,8 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     if data is not None:
         inputs = replace(inputs, data={**inputs.data, "": data})
     run = Elaborator(formulation, inputs, simulate_rows)
+    run.unrolled_model = lambda: elaborate(path, formulation=formulation,
+                                           inputs=replace(inputs, unroll=True))
     try:
         run.file(str(path))
     except RecursionError:
@@ -82,7 +86,8 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
         raise CalError("the model is empty: it declares no unknown and states no constraint, "
                        "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
-                 simulation=simulate_rows is not None, consts=dict(run.const_values))
+                 simulation=simulate_rows is not None, consts=dict(run.const_values),
+                 batch=run.batch)
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -103,7 +108,7 @@ def _check_used(inputs: Inputs, run: Elaborator) -> None:
                        f"consts: {', '.join(consts)})")
 
 
-class Elaborator(Statements, Expressions, Loops, Robots, Tables):
+class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables):
     """One elaboration: the shared state, and each AST node type's part."""
 
     def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
@@ -116,6 +121,8 @@ class Elaborator(Statements, Expressions, Loops, Robots, Tables):
         self.consts_seen: set[str] = set()
         self.const_values: dict[str, Fraction] = {}
         self.loop_product = 1  # the enclosing loops' iterations, multiplied
+        self.unroll = inputs.unroll
+        self.batch = None
         self.expanded: dict[tuple, tuple[Any, Any]] = {}  # macro calls made, by their values
         self.units = dict(DEFAULT_UNITS)
         self.units_loc: Loc | None = None

@@ -10,6 +10,7 @@ Names may also denote a family of unknowns, a macro, a robot or a table (the `En
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Union
@@ -69,7 +70,7 @@ class RobotDef:
 class TableRef:
     name: str
     rows: int
-    cells: dict[str, list[int]]  # column -> node of each row (row k at index k - 1)
+    cells: dict[str, Sequence[int]]  # column -> node of each row (row k at index k - 1)
 
 
 @dataclass(frozen=True)

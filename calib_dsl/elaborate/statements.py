@@ -104,6 +104,8 @@ class Statements(Context):
         scope.define(s.name, Macro(s.name.id, s.params, s.body, scope))
 
     def _for(self, s: ast.For, scope: Scope, top: bool) -> None:
+        if top and self.batched(s, scope):
+            return
         self.unrolled(s.var, s.range, scope, s.loc, "loop",
                       lambda inner: self.block(s.body, inner, top=False))
 

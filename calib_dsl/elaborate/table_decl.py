@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
+from typing import overload
+
+import numpy as np
 
 from calib_dsl.elaborate.checks import (
     INF,
@@ -21,9 +25,42 @@ from calib_dsl.elaborate.units import UNITS, convert, dimension, factor
 from calib_dsl.elaborate.values import Values, read_values
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Column, Table
 
 OPTIONS = ("separator", "decimal", "rows", "exclude")
+
+
+class Cells(Sequence[int]):
+    """A column's cell nodes, each made when first read (row k at index k - 1): a loop
+    compiled once reads two rows of thousands (elaborate/batching.py)."""
+
+    def __init__(self, dag: Dag, table: str, column: str, lo: np.ndarray,
+                 hi: np.ndarray) -> None:
+        self.dag, self.table, self.column = dag, table, column
+        self.lo, self.hi = lo, hi  # each cell's bounds, in the model's units
+        self._made: dict[int, int] = {}
+
+    def __len__(self) -> int:
+        return len(self.lo)
+
+    @overload
+    def __getitem__(self, i: int) -> int: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[int]: ...
+
+    def __getitem__(self, i: int | slice) -> int | list[int]:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        if i < 0:
+            i += len(self)
+        node = self._made.get(i)
+        if node is None:
+            if not 0 <= i < len(self):
+                raise IndexError(i)
+            node = self._made[i] = self.dag.cell(float(self.lo[i]), float(self.hi[i]),
+                                                  self.table, self.column, i + 1)
+        return node
 
 
 class Tables(Context):
@@ -39,6 +76,7 @@ class Tables(Context):
         path = str(override) if override is not None else \
             os.path.normpath(os.path.join(os.path.dirname(s.loc.file), s.path))
         table = Table(s.name.id, path, columns, 0, s.loc, dialect.separator, dialect.decimal)
+        cells: dict[str, Sequence[int]]
         if self.simulate_rows is not None:
             table.rows = self.simulate_rows
             cells = {c.name: [self.dag.var(f"{s.name.id}.{c.name}[{k}]", -INF, INF,
@@ -57,9 +95,8 @@ class Tables(Context):
             cells = {}
             for c in columns:
                 lo, hi = cell_bounds(*convert(*data.enclosures[c.name], c.factor), c.tol)
-                cells[c.name] = [self.dag.cell(a, b, s.name.id, c.name, k)
-                                 for k, (a, b) in enumerate(zip(lo.tolist(), hi.tolist(),
-                                                                strict=True), start=1)]
+                cells[c.name] = Cells(self.dag, s.name.id, c.name, lo, hi)
+                table.bounds[c.name] = (lo, hi)
         self.tables.append(table)
         scope.define(s.name, TableRef(s.name.id, table.rows, cells))
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 MAX_MODEL_BYTES = 16 * 2**20  # a model's text; data belong in tables
 MAX_TABLE_BYTES = 256 * 2**20  # a table: about a million rows of a tracker's export
+_CHUNK = 2**20
 
 
 class TooLarge(Exception):
@@ -15,8 +16,14 @@ class TooLarge(Exception):
 
 def read_capped(path: str | Path, limit: int, encoding: str = "utf-8") -> str:
     """The file's text; TooLarge past `limit` bytes (read no further than that)."""
-    with open(path, "rb") as f:
-        data = f.read(limit + 1)
-    if len(data) > limit:
+    chunks, size = [], 0
+    with open(path, "rb") as f:  # in chunks: f.read(limit + 1) would allocate the cap
+        while size <= limit:
+            chunk = f.read(min(_CHUNK, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    if size > limit:
         raise TooLarge(f"over {limit // 2**20} MiB")
-    return data.decode(encoding)
+    return b"".join(chunks).decode(encoding)

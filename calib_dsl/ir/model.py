@@ -3,8 +3,11 @@ plus the measurement tables the model read (or, in simulation mode, will write).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
+
+import numpy as np
 
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.dag import Dag
@@ -33,6 +36,9 @@ class Table:
     # header); empty in simulation mode
     lines: list[int] = field(default_factory=list)
     numbers: list[int] = field(default_factory=list)
+    # per column, each row's cell [lo, hi] in the model's units, its error bound included
+    # (the DAG holds a node for the cells the model reads; empty in simulation mode)
+    bounds: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 @dataclass
@@ -44,3 +50,18 @@ class Model:
     # Simulation mode only: a data cell `table.col[row]` is a `data` variable of the DAG.
     simulation: bool = False
     consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts
+    batch: RowBatch | None = None  # a loop compiled once for all its rows
+
+
+@dataclass
+class RowBatch:
+    """A loop over table rows elaborated for two rows only (elaborate/batching.py): its body
+    depends on its index k through the cells `table.column[k]` alone, so every row's part of
+    the program is the first row's with that row's cells; compile/replicate.py builds it."""
+
+    rows: list[int]  # the loop's index values k, in order
+    template: tuple[int, int]  # the two rows elaborated (the first two of `rows`)
+    # (table, column) -> the bounds of each cell of the column (row k at index k - 1)
+    cells: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]]
+    loc: Loc | None
+    unrolled: Callable[[], Model]  # the same model elaborated with every loop unrolled

@@ -4,13 +4,14 @@ and the primitives as parallel arrays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from calib_dsl.arith.interval import INF
 from calib_dsl.frontend.diagnostics import Loc
+from calib_dsl.ir.rows import Tiled
 
 
 class Primitive(NamedTuple):
@@ -28,12 +29,13 @@ class Primitive(NamedTuple):
 class Slots:
     """The unknowns and constants of the program, one per class of merged DAG nodes."""
 
-    names: list[str]
-    kinds: list[str]  # "param" | "var" | "data" | "const" | "temp"
+    # one entry per slot; a loop compiled once holds its rows' as ir/rows.Tiled (by template)
+    names: list[str] | Tiled[str]
+    kinds: list[str] | Tiled[str]  # "param" | "var" | "data" | "const" | "temp"
     lo: np.ndarray
     hi: np.ndarray
     # Where each slot's initial domain was last narrowed (declaration or constraint).
-    origin: list[Loc | None]
+    origin: list[Loc | None] | Tiled[Loc | None]
     declared: list[int]  # slots of declared unknowns, in declaration order
     declared_names: list[str]
     # Measured cells: the configuration (table row) and table column a constant slot was read
@@ -45,6 +47,8 @@ class Slots:
     col_keys: list[tuple[str, str]] | None = None  # (table name, column) of each cell_col id
     # the slots whose domain a measured value caps (`f == m.x[k]`): (cell_row, cell_col) ids
     measured_sides: dict[int, tuple[int, int]] | None = None
+    # measured sides compared with cells of several table rows (`measured_sides` names one)
+    capped_by_rows: set[int] = field(default_factory=set)
 
 
 @dataclass

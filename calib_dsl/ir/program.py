@@ -6,13 +6,14 @@ program once.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
 
 from calib_dsl.ir.primitives import Primitive, Slots
+from calib_dsl.ir.rows import RowLayout, Tiled
 
 T = TypeVar("T")
 
@@ -35,7 +36,7 @@ class Program:
     source: str
     formulation: str
     slots: Slots
-    primitives: list[Primitive]
+    primitives: Sequence[Primitive]  # a list, or ir/rows.Tiled for a loop compiled once
     groups: list[Group]
     true_values: dict[str, float | None]
     domains: dict[str, tuple[float, float]] | None = None  # as declared (the search domains)
@@ -43,6 +44,8 @@ class Program:
     # estimate each was centred on, and w
     priors: dict[str, tuple[float, float]] = field(default_factory=dict)
     centred: dict[str, tuple[float, float]] = field(default_factory=dict)
+    # a loop compiled once: where its rows' slots and primitives are (ir/rows.py)
+    rows: RowLayout | None = None
     # What the solvers derive from the program whatever the box (propagation kernels,
     # layouts, plans), by kind, with the groups it was made from (see `derived`).
     derived_cache: dict[str, tuple[list[Group], Any]] = field(
@@ -54,10 +57,10 @@ class Program:
 
     @property
     def op_counts(self) -> dict[str, int]:
-        return dict(sorted(Counter(p.op for p in self.primitives).items()))
+        return dict(sorted(_count(self.primitives, lambda p: p.op).items()))
 
     def counts(self) -> dict:
-        kinds = Counter(self.slots.kinds)
+        kinds = _count(self.slots.kinds, lambda k: k)
         return {
             "variables": len(self.slots.names) - kinds["const"],
             "declared": len(self.slots.declared),
@@ -68,6 +71,16 @@ class Program:
             "levels": 1 + max((g.level for g in self.groups), default=0),
             "ops": self.op_counts,
         }
+
+
+def _count(seq: Sequence[T], key: Callable[[T], str]) -> Counter[str]:
+    """Counter(map(key, seq)); a loop compiled once counts its template once per row."""
+    if isinstance(seq, Tiled):  # (rendering a row keeps the op and the kind)
+        shared = Counter(map(key, seq.shared))
+        for k, v in Counter(map(key, seq.template)).items():
+            shared[k] += v * seq.rows
+        return shared
+    return Counter(map(key, seq))
 
 
 def derived(prog: Program, kind: str, build: Callable[[], T]) -> T:

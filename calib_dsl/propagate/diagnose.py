@@ -11,6 +11,7 @@ import numpy as np
 from calib_dsl.compile.listing import render_primitive
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.rows import tiled_mask
 from calib_dsl.propagate.kernels import backward_step, forward_step
 
 
@@ -27,7 +28,7 @@ def diagnose(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Emptied:
     """Replay the failing sweep group by group to find the primitive that emptied a domain."""
     order = ([(g, forward_step) for g in prog.groups]
              + [(g, backward_step) for g in reversed(prog.groups)])
-    known = np.array([k == "const" for k in prog.slots.kinds])
+    known = tiled_mask(prog.slots.kinds, ("const",))
     for g, step in order:
         cols = np.concatenate([g.out, g.args], axis=1)
         before = (lo[cols], hi[cols])  # a step writes only its group's slots

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.rows import tiled_mask
 from calib_dsl.propagate.diagnose import Emptied, diagnose
 from calib_dsl.propagate.kernels import fast_sweep, kernels, sweep
 
@@ -73,7 +74,7 @@ def _watched(prog: Program) -> np.ndarray:
     s = prog.slots
     idx = [i for i in s.declared if s.kinds[i] in ("param", "var")]
     if not idx:
-        idx = [i for i, k in enumerate(s.kinds) if k != "const"]
+        idx = np.flatnonzero(~tiled_mask(s.kinds, ("const",))).tolist()
     return np.array(sorted(set(idx)), dtype=np.int64)
 
 

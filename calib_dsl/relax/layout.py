@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.ir.program import Program, derived
+from calib_dsl.ir.rows import tiled_mask
 
 
 def independents(prog: Program) -> np.ndarray:
@@ -66,8 +67,8 @@ def layout(prog: Program, ind: np.ndarray | None = None) -> Layout:
 
 
 def _layout(prog: Program, ind: np.ndarray) -> Layout:
-    kinds = np.array(prog.slots.kinds)
-    temp = kinds == "temp"
+    temp = tiled_mask(prog.slots.kinds, ("temp",))
+    const = tiled_mask(prog.slots.kinds, ("const",))
     defining = _defining_masks(prog, temp)
     used = group_unknowns(prog, ind)
     first: list[np.ndarray] = []
@@ -81,13 +82,13 @@ def _layout(prog: Program, ind: np.ndarray) -> Layout:
             blocks[-1].append((at, at + len(out)))
             at += len(out)
     placed = np.concatenate([np.zeros(0, np.int64), *first]).astype(np.int64)
-    rest = np.setdiff1d(np.arange(len(kinds)), placed)
+    rest = np.setdiff1d(np.arange(len(temp)), placed)
     order = np.concatenate([placed, rest])
-    pos = np.empty(len(kinds), dtype=np.int64)
-    pos[order] = np.arange(len(kinds))
+    pos = np.empty(len(temp), dtype=np.int64)
+    pos[order] = np.arange(len(temp))
     args = [[pos[c] for c in g.args.T] for g in prog.groups]
     takes = [[np.ix_(r, u) for r in rows] for rows, u in zip(args, used, strict=True)]
-    return Layout(ind, temp, kinds == "const", defining, used, pos, order, blocks, args,
+    return Layout(ind, temp, const, defining, used, pos, order, blocks, args,
                   takes)
 
 
@@ -95,7 +96,7 @@ def measured_cells(prog: Program) -> int:
     """How many LP columns `relax` with cell_variables may need: the measured values with an
     error (one column each at most; fewer when no row uses one)."""
     s = prog.slots
-    return int(np.sum(cells(prog, np.array(s.kinds) == "const", s.lo, s.hi)))
+    return int(np.sum(cells(prog, tiled_mask(s.kinds, ("const",)), s.lo, s.hi)))
 
 
 def cells(prog: Program, const: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.rows import tiled_mask
 from calib_dsl.relax.layout import layout
 
 NONE, MIXED = -1, -2
@@ -50,7 +51,7 @@ def domain_rows(prog: Program) -> np.ndarray:
     n = len(s.lo)
     dep = np.full(n, NONE)
     if s.cell_row is not None:
-        const = np.array([k in ("const", "data") for k in s.kinds])
+        const = tiled_mask(s.kinds, ("const", "data"))
         dep = np.where(const & (s.cell_row >= 0), s.cell_row, dep)
         dep = np.where(const & (s.cell_row == -2), MIXED, dep)
     for slot, (row, _) in (s.measured_sides or {}).items():

@@ -125,7 +125,7 @@ def _intersect(prog: Program, box: OutlierBox, rest: Program,
     """The outlier box with the declared unknowns narrowed to the tight solve's of `rest`
     (matched by name: `rest` is another program)."""
     lo, hi = box.lo.copy(), box.hi.copy()
-    names = {n: i for i, n in enumerate(rest.slots.names)}
+    names = {rest.slots.names[i]: i for i in rest.slots.declared}
     for i in independents(prog):
         j = names.get(prog.slots.names[i])
         if j is not None:

@@ -164,7 +164,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
                    None if s.cell_col is None else np.concatenate([s.cell_col,
                                                                   np.full(extra, -1)]),
                    s.row_keys, s.col_keys)
-    out.prog = Program(prog.source, prog.formulation, slots2, prog.primitives + new,
+    out.prog = Program(prog.source, prog.formulation, slots2, list(prog.primitives) + new,
                        groups + prog.groups, true, domains)
     return out
 

@@ -11,7 +11,7 @@ import pytest
 
 from calib_dsl.compile.group import compile_model
 from calib_dsl.compile.listing import listing_json, render_listing, render_primitive
-from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.primitives import Primitive
 from calib_dsl.ir.program import Program
@@ -21,8 +21,9 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 NAME = r"[A-Za-z_][\w\[\]]*"
 
 
-def load(name: str, formulation: str = "matrix") -> Program:
-    return compile_model(elaborate(EXAMPLES / name, formulation=formulation))
+def load(name: str, formulation: str = "matrix", unroll: bool = False) -> Program:
+    return compile_model(elaborate(EXAMPLES / name, formulation=formulation,
+                                   inputs=Inputs(unroll=unroll)))
 
 
 def primitive_lines(listing: str) -> list[str]:
@@ -164,7 +165,7 @@ def test_listing_json_is_the_counts():
 
 
 def test_location_comments_line_up_at_most_60_columns_out():
-    text = render_listing(load("planar_arm.cal", "rotation"))
+    text = render_listing(load("planar_arm.cal", "rotation", unroll=True))
     lines = text.split("primitives:\n", 1)[1].splitlines()
     assert any(len(line.split("  # ")[0].strip()) > 60 for line in lines)  # some long ones
     columns = set()

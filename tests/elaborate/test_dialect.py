@@ -51,12 +51,10 @@ def exact_cells(path: Path, header: str, decimal_comma: bool = True) -> list[Fra
 
 
 def cell_interval(model, table: str, column: str, row: int) -> tuple[float, float]:
-    """The DAG constant of a cell: [lo, hi] (the data's error bound included)."""
-    for node, tags in model.dag.cells.items():
-        if (table, column, row) in tags:
-            lo, hi = model.dag.nodes[node].data[:2]
-            return lo, hi
-    raise KeyError((table, column, row))
+    """The interval of a cell: [lo, hi] (the data's error bound included)."""
+    (t,) = [t for t in model.tables if t.name == table]
+    lo, hi = t.bounds[column]
+    return float(lo[row - 1]), float(hi[row - 1])
 
 
 @needs_ur10

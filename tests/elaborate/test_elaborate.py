@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from calib_dsl.analysis.evaluate import evaluate
 from calib_dsl.elaborate import chains as robot
-from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
 
@@ -529,7 +529,8 @@ def test_rx90_reads_a_csv(tmp_path):
     cols = [f"q{j}" for j in range(1, 7)] + [f"a{i}{c}" for i in (1, 2, 3) for c in "xyz"]
     rows = [",".join(str(0.1 * (j + k)) for j in range(15)) for k in range(3)]
     (tmp_path / "d.csv").write_text(",".join(cols) + "\n" + "\n".join(rows) + "\n")
-    model = elaborate(MODELS / "rx90_lengths.cal", data=tmp_path / "d.csv")
+    model = elaborate(MODELS / "rx90_lengths.cal", data=tmp_path / "d.csv",
+                      inputs=Inputs(unroll=True))
     assert model.tables[0].rows == 3 and len(model.dag.constraints) == 9 * 3 + 3
     assert not [v for v in model.dag.variables.values() if v.kind == "data"]
 
@@ -543,7 +544,8 @@ def test_thousand_configurations_elaborate_fast(tmp_path, monkeypatch):
     lines = [",".join(repr(x) for x in row) for row in rng.uniform(-1, 1, (1000, 15)).tolist()]
     (tmp_path / "d.csv").write_text(",".join(cols) + "\n" + "\n".join(lines) + "\n")
     start = time.perf_counter()
-    model = elaborate(MODELS / "rx90_lengths.cal", data=tmp_path / "d.csv")
+    model = elaborate(MODELS / "rx90_lengths.cal", data=tmp_path / "d.csv",
+                      inputs=Inputs(unroll=True))
     elapsed = time.perf_counter() - start
     assert len(model.dag.constraints) == 9 * 1000 + 3
     assert elapsed < 2.0

@@ -513,18 +513,16 @@ def simulate_cal(tmp: Path, source: str, clean_source: str, rows: int, seed: int
     prog = compile_model(model)
     ind = independents(prog)
     p_true = np.array([prog.true_values[prog.slots.names[i]] for i in ind], dtype=float)
-    # cell slot -> true value: a cell's slot holds its data interval (unique here)
-    by_interval = {}
+    # cell slot -> true value, by the table row and column each measured cell was read from
+    # (unique here: a cell shared by several rows, cell_row -2, is no configuration's)
     col_index = {c.name: j for j, c in enumerate(table.columns)}
-    for node, tags in model.dag.cells.items():
-        if len(tags) != 1:
-            continue  # equal data intervals share a node: not a cell of one configuration
-        ((tname, cname, row),) = tags
-        by_interval[model.dag.nodes[node].data[:2]] = float(clean[tname][row - 1, col_index[cname]])
     s = prog.slots
-    cell_true = {slot: by_interval[(float(s.lo[slot]), float(s.hi[slot]))]
-                 for slot in range(len(s.names))
-                 if s.kinds[slot] == "const" and s.cell_row[slot] >= 0}
+    const = np.array([s.kinds[i] == "const" for i in range(len(s.lo))])
+    cell_true = {}
+    for slot in np.flatnonzero(const & (s.cell_row >= 0)).tolist():
+        tname, row = s.row_keys[s.cell_row[slot]]
+        _, cname = s.col_keys[s.cell_col[slot]]
+        cell_true[slot] = float(clean[tname][row - 1, col_index[cname]])
     return Simulated(prog, p_true, cell_true)
 
 
