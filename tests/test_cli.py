@@ -117,7 +117,12 @@ def test_compile_formulation_rotation():
     mat = run("compile", EXAMPLES / "planar_arm.cal")
     assert rot.exit_code == mat.exit_code == 0
     assert "(formulation: rotation)" in rot.stdout and "(formulation: matrix)" in mat.stdout
-    assert len(re.findall(r"^  \(.+\) = rot\(.+, \(\S+, \S+\)\)  ", rot.stdout, re.M)) == 10
+    # two rotations per row: the loop's body once (5 rows), or each row's with --unroll
+    assert len(re.findall(r"^    \(.+\) = rot\(.+, \(\S+, \S+\)\)  ", rot.stdout, re.M)) == 2
+    unrolled = run("compile", EXAMPLES / "planar_arm.cal", "--formulation", "rotation",
+                   "--unroll")
+    assert len(re.findall(r"^  \(.+\) = rot\(.+, \(\S+, \S+\)\)  ", unrolled.stdout,
+                          re.M)) == 10
     assert "rot(" not in mat.stdout
     bad = run("compile", PAPER_CSE, "--formulation", "angles")
     assert bad.exit_code == 2  # click's own usage error

@@ -49,9 +49,8 @@ def replicate(model: Model, slots: Slots, prims: list[Primitive], arrays: Primit
     template = [Primitive(small.op[i], _tuple(small.out[i]), _tuple(small.args[i], small.arity[i]),
                           small.param[i], prims[int(keep[i])].loc, int(small.level[i]))
                 for i in range(len(keep))]
-    primitives: Tiled[Primitive] = Tiled(
-        template[:len(shared_prims)], template[len(shared_prims):], n,
-        lambda p, r, _j: p._replace(out=layout.shift(p.out, r), args=layout.shift(p.args, r)))
+    primitives: Tiled[Primitive] = Tiled(template[:len(shared_prims)],
+                                         template[len(shared_prims):], n, _RowPrimitive(layout))
     return out_slots, primitives, small, layout
 
 
@@ -227,20 +226,39 @@ def _slots(batch: RowBatch, s: Slots, dep: np.ndarray, shared: np.ndarray, s0: n
                 sides[base + r * width] = (r * len(layout.tables) + ti, col)
     names_t = [s.names[i] for i in s0.tolist()]
     kinds_t = [s.kinds[i] for i in s0.tolist()]
-
-    def name(item: str, r: int, j: int) -> str:
-        if kinds_t[j] == "const":
-            i = layout.shared + r * width + j
-            return format_const(float(lo[i]), float(hi[i]))
-        return f"{item}@{ks[r]}"
-
     return Slots(
-        Tiled([s.names[i] for i in shared.tolist()], names_t, n, name),
+        Tiled([s.names[i] for i in shared.tolist()], names_t, n,
+              _RowSlotName(layout, kinds_t, lo, hi)),
         Tiled([s.kinds[i] for i in shared.tolist()], kinds_t, n),
         lo, hi,
         Tiled([s.origin[i] for i in shared.tolist()], [s.origin[i] for i in s0.tolist()], n),
         [int(new[i]) for i in s.declared], list(s.declared_names),
         cell_row, cell_col, row_keys, list(s.col_keys or []), sides)
+
+
+class _RowPrimitive:
+    """Row r's copy of a template primitive (a class, not a closure: programs are pickled
+    for child processes and Dask workers)."""
+
+    def __init__(self, layout: RowLayout) -> None:
+        self.layout = layout
+
+    def __call__(self, p: Primitive, r: int, _j: int) -> Primitive:
+        return p._replace(out=self.layout.shift(p.out, r), args=self.layout.shift(p.args, r))
+
+
+class _RowSlotName:
+    """Row r's name of a template slot: a constant's value, else `t7@k` (k: the row)."""
+
+    def __init__(self, layout: RowLayout, kinds: list[str], lo: np.ndarray,
+                 hi: np.ndarray) -> None:
+        self.layout, self.kinds, self.lo, self.hi = layout, kinds, lo, hi
+
+    def __call__(self, name: str, r: int, j: int) -> str:
+        if self.kinds[j] == "const":
+            i = self.layout.shared + r * self.layout.width + j
+            return format_const(float(self.lo[i]), float(self.hi[i]))
+        return f"{name}@{self.layout.rows[r]}"
 
 
 def _mapped_arrays(a: PrimitiveArrays, keep: np.ndarray, new: np.ndarray) -> PrimitiveArrays:
