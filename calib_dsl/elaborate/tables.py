@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import csv
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from calib_dsl.arith.exact import add_rounded, enclose_decimal
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection, select
 from calib_dsl.frontend.diagnostics import CalError, Loc
-from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, capped_lines
 
 FloatArray = NDArray[np.float64]
 
@@ -60,17 +60,8 @@ def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = No
     `selection_loc` a selection that does not fit the file.
     """
     name = str(path)
-    text = _read_text(name, decl_loc)
-    records = [(line, row) for line, row in _records(text, name, dialect) if not _blank(row)]
-    if not records:
-        raise CalError(f"data file '{name}' is empty: it needs a header row naming the "
-                       "columns, then one row per configuration", Loc(name, 1, 1))
-    (head_line, header), data = records[0], records[1:]
     shown = {c: (headers or {}).get(c, c) for c in columns}
-    where = _column_positions(name, head_line, [h.strip() for h in header], shown, dialect)
-    if not data:
-        raise CalError(f"data file '{name}' has a header but no data rows",
-                       Loc(name, head_line + 1, 1))
+    _, header, data = _stream(name, decl_loc, dialect, shown)
     try:
         keep = select(selection, len(data))
     except ValueError as err:
@@ -78,16 +69,17 @@ def read_csv(path: str | Path, columns: Sequence[str], decl_loc: Loc | None = No
     out = CsvData(name, len(keep), lines=[data[k][0] for k in keep],
                   numbers=[int(k) + 1 for k in keep])
     values = np.empty((3, len(columns), len(keep)))  # nearest, lo, hi
+    field_no = [header.index(shown[c]) + 1 for c in columns]  # (names are unique)
     for i, k in enumerate(keep.tolist()):
-        line, row = data[k]
-        if len(row) != len(header):
-            raise CalError(f"data file '{name}', row {k + 1}: {len(row)} fields, but the "
+        line, fields = data[k]
+        if isinstance(fields, int):
+            raise CalError(f"data file '{name}', row {k + 1}: {fields} fields, but the "
                            f"header has {len(header)}",
-                           Loc(name, line, min(len(row), len(header)) + 1, field=True,
+                           Loc(name, line, min(fields, len(header)) + 1, field=True,
                                sep=dialect.separator))
         for j, col in enumerate(columns):
-            values[:, j, i] = _cell(row[where[col]], name, line, k + 1, _named(col, shown),
-                                    where[col] + 1, dialect)
+            values[:, j, i] = _cell(fields[j], name, line, k + 1, _named(col, shown),
+                                    field_no[j], dialect)
     out.columns = {col: values[0, j] for j, col in enumerate(columns)}
     out.enclosures = {col: (values[1, j], values[2, j]) for j, col in enumerate(columns)}
     return out
@@ -104,9 +96,44 @@ def cell_bounds(lo: FloatArray, hi: FloatArray, tol: float) -> tuple[FloatArray,
 
 
 # -- steps ----------------------------------------------------------------------------------
-def _read_text(name: str, decl_loc: Loc | None) -> str:
+def _stream(name: str, decl_loc: Loc | None, dialect: Dialect, shown: Mapping[str, str]
+            ) -> tuple[int, list[str], list[tuple[int, tuple[str, ...] | int]]]:
+    """The file read a line at a time: the header's line and fields, and per data row its
+    line and the fields of the declared columns (in their order), or its number of fields
+    when that is not the header's (an error if the row is used). Nothing else is kept."""
+    lines = _lines(name, decl_loc)
+    reader = csv.reader(lines, delimiter=dialect.separator)
+    header: list[str] | None = None
+    at: list[int] = []
+    data: list[tuple[int, tuple[str, ...] | int]] = []
     try:
-        return read_capped(name, MAX_TABLE_BYTES, encoding="utf-8-sig")
+        for row in reader:
+            if _blank(row):
+                continue
+            if header is None:
+                header, head_line = row, reader.line_num
+                where = _column_positions(name, head_line, [h.strip() for h in header], shown,
+                                          dialect)
+                at = [where[c] for c in shown]
+                continue
+            data.append((reader.line_num, tuple(row[j] for j in at)
+                         if len(row) == len(header) else len(row)))
+    except csv.Error as err:
+        raise CalError(f"data file '{name}' is not valid CSV: {err}",
+                       Loc(name, reader.line_num, 1)) from None
+    if header is None:
+        raise CalError(f"data file '{name}' is empty: it needs a header row naming the "
+                       "columns, then one row per configuration", Loc(name, 1, 1))
+    if not data:
+        raise CalError(f"data file '{name}' has a header but no data rows",
+                       Loc(name, head_line + 1, 1))
+    return head_line, [h.strip() for h in header], data
+
+
+def _lines(name: str, decl_loc: Loc | None) -> Iterator[str]:
+    """capped_lines, its failures as one clear message each."""
+    try:
+        yield from capped_lines(name, MAX_TABLE_BYTES)
     except TooLarge as err:
         raise CalError(f"data file '{name}' is {err}: too large for a table", decl_loc) from None
     except FileNotFoundError:
@@ -118,18 +145,6 @@ def _read_text(name: str, decl_loc: Loc | None) -> str:
                        decl_loc) from None
     except OSError as err:
         raise CalError(f"cannot read data file '{name}': {err.strerror}", decl_loc) from None
-
-
-def _records(text: str, name: str, dialect: Dialect) -> list[tuple[int, list[str]]]:
-    reader = csv.reader(text.splitlines(), delimiter=dialect.separator)
-    out = []
-    try:
-        for row in reader:
-            out.append((reader.line_num, row))
-    except csv.Error as err:
-        raise CalError(f"data file '{name}' is not valid CSV: {err}",
-                       Loc(name, reader.line_num, 1)) from None
-    return out
 
 
 def _blank(row: list[str]) -> bool:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 MAX_MODEL_BYTES = 16 * 2**20  # a model's text; data belong in tables
@@ -12,6 +13,25 @@ _CHUNK = 2**20
 
 class TooLarge(Exception):
     """The file holds more than the cap."""
+
+
+def capped_lines(path: str | Path, limit: int) -> Iterator[str]:
+    """The file's lines (UTF-8, a leading byte-order mark dropped), read one at a time:
+    TooLarge past `limit` bytes, UnicodeDecodeError on a line that is not UTF-8; a line never
+    holds more than the cap (a file without a newline, as /dev/zero, is said so)."""
+    size, first = 0, True
+    with open(path, "rb") as f:
+        while size <= limit:
+            raw = f.readline(limit + 1 - size)
+            if not raw:
+                return
+            size += len(raw)
+            if size > limit:
+                break
+            text = raw.decode("utf-8-sig" if first else "utf-8")
+            first = False
+            yield from text.splitlines()  # (also splits a lone \r, as old files end lines)
+    raise TooLarge(f"over {limit // 2**20} MiB")
 
 
 def read_capped(path: str | Path, limit: int, encoding: str = "utf-8") -> str:
