@@ -16,7 +16,7 @@ from typing import Any
 from calib_dsl.analysis.conflict import Conflict, find_conflict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
-from calib_dsl.analysis.outlier_rows import Outliers, data_rows, excluding
+from calib_dsl.analysis.outlier_rows import Outliers, Row, data_rows, excluding
 from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -39,6 +39,7 @@ from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.strategy.outlier_proof import pinned, prove_outliers
 from calib_dsl.strategy.outliers import solve_outliers
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
@@ -52,8 +53,9 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
 
 
 def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
-               inputs: Inputs | None = None) -> tuple[Model, Program]:
-    """`load`, with the elaborated model too (its tables and consts)."""
+               inputs: Inputs | None = None, centre: bool = True) -> tuple[Model, Program]:
+    """`load`, with the elaborated model too (its tables and consts); `centre=False` leaves
+    `lsq +- w` domains unbounded (for a caller that gives them another program's)."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
@@ -62,7 +64,8 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
         prog = compile_model(elaborated)
     finally:
         gc.enable()
-    centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
+    if centre:
+        centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
     return elaborated, prog
 
 
@@ -182,20 +185,37 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
     if not elaborated.tables:
         raise CalError(f"{model}: --outliers needs data rows, and the model has no table")
     given = inputs or Inputs()
+    first = elaborated.tables[0].name
+    # every program below on this one's domains (S_K is over them)
+    loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
+    proofs = prove_outliers(given, loader, k, elaborated, prog, progress=progress)
+    proven = [Row(p.row.table, p.row.file, p.row.line, p.row.row) for p in proofs]
+    if proven:  # S_K lies in S_{K - len(proven)} of the other rows
+        given = excluding(given, proven, first)
+        elaborated, prog = loader(given)
+    left = k - len(proven)
 
     def without(rows: list[int]) -> Program:
-        out = data_rows(elaborated, prog, rows)
-        return load(model, formulation,
-                    inputs=excluding(given, out, elaborated.tables[0].name))
+        return loader(excluding(given, data_rows(elaborated, prog, rows), first))[1]
 
-    found = solve_outliers(prog, k, without, tol=tol, max_sweeps=max_sweeps,
-                           progress=progress)
-    res = found.solution
+    more: list[Row] = []
+    if left == 0:
+        res = solve(prog, tol=tol, max_sweeps=max_sweeps, progress=progress)
+        certain, possible = [], []
+        found_more = find_conflict(given, loader) if res.status == "infeasible" else None
+        if found_more is not None and found_more.consistent:  # S_K is empty: name why
+            more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
+    else:
+        found = solve_outliers(prog, left, without, tol=tol, max_sweeps=max_sweeps,
+                               progress=progress)
+        res, certain, possible = found.solution, found.certain, found.possible
     extra = Extras()
     if res.status == "contracted" and identify:
         extra.identify(prog, res, use_lp=True)
-    rows = Outliers(k, data_rows(elaborated, prog, found.certain),
-                    data_rows(elaborated, prog, found.possible))
+    rows = Outliers(k, sorted(proven + more + data_rows(elaborated, prog, certain),
+                              key=lambda r: (r.table, r.row)),
+                    [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
+                    proven=len(proven))
     return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows)
 
 

@@ -50,7 +50,7 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
     if not model.tables:
         return None
     try:
-        ranked = _ranked(model, prog)
+        ranked = ranked_rows(model, prog)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return None  # no least-squares ranking here (an empty domain, say): nothing to name
     if not ranked:
@@ -66,7 +66,7 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
     return Conflict(ranked[:MAX_ROWS], False, None)
 
 
-def _ranked(model: Model, prog: Program) -> list[DataRow]:
+def ranked_rows(model: Model, prog: Program) -> list[DataRow]:
     """The data rows by their largest least-squares residual (in bounds), largest first."""
     est = estimate(prog, max_evaluations=200)
     d, _ = residuals(prog, est.values)

@@ -28,9 +28,12 @@ class Outliers:
     k: int
     certain: list[Row]  # fail on the whole enclosure: outliers for every vector in it
     possible: list[Row]  # not proven to hold on the whole enclosure
+    # the first `proven` certain rows were proven before any LP, each by disjoint sets of the
+    # other rows inconsistent with it (strategy/outlier_proof.py)
+    proven: int = 0
 
     def as_json(self) -> dict[str, Any]:
-        return {"k": self.k, "certain": [r.row for r in self.certain],
+        return {"k": self.k, "certain": [r.row for r in self.certain], "proven": self.proven,
                 "possible": [r.row for r in self.possible],
                 "rows": [{"table": r.table, "row": r.row, "line": r.line, "file": r.file,
                           "certain": r in self.certain}
@@ -44,7 +47,9 @@ class Outliers:
             return shown + more or "none"
 
         most = f"at most {self.k} row{'s' if self.k > 1 else ''}"
-        return (f"outliers ({most}): certain {listed(self.certain)}\n"
+        how = f"\n({self.proven} proven first: each with disjoint sets of the other rows, as " \
+            "many as outliers were left, proven inconsistent with it)" if self.proven else ""
+        return (f"outliers ({most}): certain {listed(self.certain)}{how}\n"
                 f"possible outliers (not proven to hold on the whole result): "
                 f"{listed(self.possible)}")
 

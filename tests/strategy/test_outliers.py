@@ -78,6 +78,18 @@ def test_the_enclosure_holds_the_exact_hull(seed, k, n):
         assert run.res.hi[i] >= hull[row, 1] - slack[1]
     assert run.outliers is not None
     assert len(run.outliers.certain) <= k
+    for r in run.outliers.certain:  # fails for every vector of S_K
+        assert not _satisfiable_with(x, v, k, r.row - 1), r
+
+
+def _satisfiable_with(x: np.ndarray, v: np.ndarray, k: int, row: int) -> bool:
+    """Whether a vector satisfies row `row` and all the other rows but at most k."""
+    others = [i for i in range(len(x)) if i != row]
+    for out in itertools.combinations(others, min(k, len(others))):
+        keep = np.setdiff1d(np.arange(len(x)), out)
+        if _hull(x[keep], v[keep], 0) is not None:
+            return True
+    return False
 
 
 COLUMNS = [f"a{i}{c}" for i in (1, 2, 3) for c in "xyz"]
@@ -116,6 +128,35 @@ def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, 
         i, j = names.index(name), ref_prog.slots.names.index(name)
         assert true is not None and run.res.lo[i] <= true <= run.res.hi[i]
         assert run.res.hi[i] - run.res.lo[i] <= 2 * (ref.hi[j] - ref.lo[j])
+
+
+UR10 = ROOT / "models" / "ur10_tracker.cal"
+
+
+def test_a_ur10_row_moved_by_a_centimetre_is_proven_an_outlier(tmp_path):
+    """Realistic priors, where the outlier LPs alone narrow little: the row is proven an
+    outlier of every vector that fails at most one row (two disjoint halves of the other rows
+    are each inconsistent with it), so the result is the tight solve of the others."""
+    lines = (ROOT / "models" / "data" / "ur10_sim.csv").read_text().splitlines()
+    row = 37
+    cells = lines[row].split(";")
+    cells[7] = repr(float(cells[7].replace(",", ".")) + 10.0).replace(".", ",")  # y + 1 cm
+    lines[row] = ";".join(cells)
+    (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
+    run = solve_report(UR10, inputs=Inputs(data={"": tmp_path / "bad.csv"}), outliers=1,
+                       identify=False)
+    ref_prog = load(UR10, inputs=Inputs(data={"": tmp_path / "bad.csv"},
+                                        rows={"": Selection((), (row,))}))
+    ref = solve(ref_prog)
+    assert run.res.status == "contracted"
+    assert run.outliers is not None and [r.row for r in run.outliers.certain] == [row]
+    assert run.outliers.proven == 1 and run.outliers.possible == []
+    names = run.prog.slots.names
+    for name in (ref_prog.slots.names[i] for i in ref_prog.slots.declared):
+        i, j = names.index(name), ref_prog.slots.names.index(name)
+        true = run.prog.true_values.get(name)
+        assert true is None or run.res.lo[i] <= true <= run.res.hi[i]
+        assert run.res.hi[i] - run.res.lo[i] <= 1.0001 * (ref.hi[j] - ref.lo[j])
 
 
 def test_the_command_line_writes_the_outliers(tmp_path):
