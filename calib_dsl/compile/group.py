@@ -25,16 +25,17 @@ def compile_model(model: Model) -> Program:
     truth = {v.name: v.true for v in model.dag.variables.values()}
     domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
     priors = {v.name: v.prior for v in model.dag.variables.values() if v.prior is not None}
+    stated = {v.name for v in model.dag.variables.values() if v.true_stated}
     if model.batch is None:
         return Program(model.path, model.formulation, slots, prims, groups_of(arrays), truth,
-                       domains, priors)
+                       domains, priors, true_stated=stated)
     try:
         slots, tiled, template, layout = replicate(model, slots, prims, arrays)
     except NotBatchable:
         return compile_model(model.batch.unrolled())
     return Program(model.path, model.formulation, slots, tiled,
                    tile_groups(groups_of(template), layout), truth, domains, priors,
-                   rows=layout)
+                   true_stated=stated, rows=layout)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:

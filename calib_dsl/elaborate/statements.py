@@ -146,6 +146,7 @@ class Statements(Context):
                 t = self._check_true(true, s, dn.name.id, lo, hi)
                 node = self.dag.var(dn.name.id, lo, hi, dn.name.loc, kind=s.kind, true=t)
                 self.dag.variables[dn.name.id].prior = prior
+                self.dag.variables[dn.name.id].true_stated = s.true is not None
                 scope.define(dn.name, node)
 
     def _lsq_prior(self, e: ast.Expr | None, scope: Scope) -> tuple[float, float] | None:
@@ -185,6 +186,7 @@ class Statements(Context):
             name = dn.name.id + "".join(f"[{i}]" for i in idx)
             t = self._check_true(true[n] if isinstance(true, tuple) else true, s, name, *dom)
             nodes[idx] = self.dag.var(name, dom[0], dom[1], dn.name.loc, kind=s.kind, true=t)
+            self.dag.variables[name].true_stated = s.true is not None
         return Family(dn.name.id, dims, nodes)
 
     def _dim(self, r: ast.Range, scope: Scope) -> tuple[int, int]:

@@ -52,6 +52,7 @@ class Variable:
     node: int
     kind: str = "param"
     true: float | None = None
+    true_stated: bool = False  # `true v` written (else `true` is a `c +- w` domain's centre)
     # `param x in lsq(start) +- w`: the domain is to be centred on a least-squares estimate
     # of the data at hand, as (start, w); [lo, hi] is unbounded until then
     prior: tuple[float, float] | None = None

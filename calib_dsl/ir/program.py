@@ -44,6 +44,9 @@ class Program:
     # estimate each was centred on, and w
     priors: dict[str, tuple[float, float]] = field(default_factory=dict)
     centred: dict[str, tuple[float, float]] = field(default_factory=dict)
+    # the unknowns whose true value the model states (`true v`); the others' `true_values`
+    # are their `c +- w` centres, what `calibc simulate` draws data from, not a known truth
+    true_stated: set[str] = field(default_factory=set)
     # a loop compiled once: where its rows' slots and primitives are (ir/rows.py)
     rows: RowLayout | None = None
     # What the solvers derive from the program whatever the box (propagation kernels,

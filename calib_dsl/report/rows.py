@@ -22,7 +22,9 @@ def parameter_rows(prog: Program, res: Solution) -> list[dict[str, Any]]:
             else (float(s.lo[slot]), float(s.hi[slot])),
             "result": None if res.status == "infeasible"
             else (float(res.lo[slot]), float(res.hi[slot])),
-            "true": prog.true_values.get(name),
+            # a truth the model states; else the centre of a `c +- w` domain, a nominal value
+            "true": prog.true_values.get(name) if name in prog.true_stated else None,
+            "centre": None if name in prog.true_stated else prog.true_values.get(name),
         })
     return rows
 

@@ -36,7 +36,8 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None,
         return " ".join(c.rjust(w) if h in right else c.ljust(w)
                         for c, w, h in zip(cells, widths, head, strict=False)).rstrip()
 
-    out = [_legend(extra), line(head), "-" * len(line(head))]
+    centres = any(r["true"] is None and r.get("centre") is not None for r in rows)
+    out = [_legend(extra, centres), line(head), "-" * len(line(head))]
     for r, cells in zip(rows, table, strict=True):
         out.append(line(cells) + _marks(r, extra))
     if kept:
@@ -46,13 +47,16 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None,
     return "\n".join(out)
 
 
-def _legend(extra: Extras) -> str:
+def _legend(extra: Extras, centres: bool = False) -> str:
     """What the columns mean, above them (docs/tutorial.md, section 5)."""
     lines = ["# result: proven to hold every consistent value (rounded outward); "
              "ratio: its width / the domain's"]
     if extra.inner is not None:
         lines.append("# certified inner: values proven to be taken (rounded inward); "
                      "outer/inner: 1 = the best possible enclosure")
+    if centres:
+        lines.append("# centre: c of a `c +- w` domain, a nominal value the data may exclude; "
+                     "`true v` in the model marks a true value instead")
     return "\n".join(lines)
 
 
@@ -161,11 +165,16 @@ def _result_of(prog: Program, res: Solution, name: str) -> tuple[float, float] |
 
 
 def _truth_mark(r: dict[str, Any]) -> str:
-    t = r["true"]
-    if t is None or r["result"] is None:
+    """A stated true value must lie in the result (outside: a bug); a `c +- w` domain's
+    centre is a nominal value, which the data may well exclude (the robot is not nominal)."""
+    if r["result"] is None:
         return ""
     lo, hi = r["result"]
-    return "  true inside" if lo <= t <= hi else "  TRUE VALUE OUTSIDE"
+    if r["true"] is not None:
+        return "  true inside" if lo <= r["true"] <= hi else "  TRUE VALUE OUTSIDE"
+    if r.get("centre") is not None:
+        return "  centre inside" if lo <= r["centre"] <= hi else "  centre outside"
+    return ""
 
 
 DIGITS = 10  # significant digits of every printed bound

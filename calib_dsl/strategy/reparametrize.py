@@ -108,6 +108,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
     lo, hi = list(s.lo), list(s.hi)
     origin = list(s.origin)
     true = dict(prog.true_values)
+    stated = set(prog.true_stated)
     domains = dict(prog.domains or {})
     prims: list[tuple[str, tuple[int, ...], int]] = []  # (op, (out, a, b), chain step)
 
@@ -128,6 +129,8 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
         values = [prog.true_values.get(m) for m in members]
         true[text] = (None if any(v is None for v in values)
                       else float(np.dot(coef, np.array(values, dtype=float))))
+        if all(m in prog.true_stated for m in members):
+            stated.add(text)
         domains[text] = (a, b)
         # pivot = top - sum over the others of coef * member, one term per step
         terms = [(int(slots[k]), float(coef[k])) for k in range(len(slots))
@@ -165,7 +168,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
                                                                   np.full(extra, -1)]),
                    s.row_keys, s.col_keys)
     out.prog = Program(prog.source, prog.formulation, slots2, list(prog.primitives) + new,
-                       groups + prog.groups, true, domains)
+                       groups + prog.groups, true, domains, true_stated=stated)
     return out
 
 
