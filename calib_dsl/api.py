@@ -78,14 +78,15 @@ def load(model: str | Path, data: Source | None = None, *,
          defines: Mapping[str, int | float | Fraction | str] | None = None,
          rows: Rows | Mapping[str, Rows] | None = None,
          exclude: Rows | Mapping[str, Rows] | None = None,
-         formulation: str = "matrix") -> Problem:
+         formulation: str = "matrix", unroll: bool = False) -> Problem:
     """Load the `.cal` file `model`. `data` replaces its first table (a CSV path, or cells),
     `tables` any table by name; `defines` sets top-level consts (-D); `rows` and `exclude`
-    select rows, of the first table or by table name (--rows, --exclude)."""
+    select rows, of the first table or by table name (--rows, --exclude); `unroll` compiles
+    each row of a loop over a table's rows on its own (--unroll)."""
     sources = {**({"": data} if data is not None else {}), **dict(tables or {})}
     inputs = Inputs({t: _source(t, s) for t, s in sources.items()},
                     _selections(rows, exclude),
-                    {n: _const_text(v) for n, v in (defines or {}).items()})
+                    {n: _const_text(v) for n, v in (defines or {}).items()}, unroll)
     elaborated, prog = pipeline.load_model(model, formulation, inputs=inputs)
     return Problem(str(model), formulation, inputs, elaborated, prog)
 
