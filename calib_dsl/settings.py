@@ -60,6 +60,12 @@ class Settings:
     narrowed_rounds: int = 10
     narrowed_gain: float = 0.01
 
+    # A program over this many slots whose loop over table rows was compiled once is
+    # relaxed and evaluated a chunk of rows at a time (compile/chunks.py): each slot holds a
+    # gradient or a model in every unknown during a pass, so memory follows the chunk, not
+    # the rows.
+    chunk_slots: int = 150_000
+
     # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------
     # A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its
     # outputs' models in the unknowns they depend on only). Above it (the RX90 with 33

@@ -14,9 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.ownership import row_owners
 
 
 @dataclass
@@ -60,7 +59,7 @@ def linearized(prog: Program, p: np.ndarray) -> Linearized:
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = Evaluation(prog, lo, hi, ind, p, point=True)
+    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=True)
     rows = ev.run()
     if not rows:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
@@ -76,7 +75,7 @@ def linearized(prog: Program, p: np.ndarray) -> Linearized:
                       np.concatenate([r[3] for r in rows]),
                       np.concatenate([r[0][0] for r in rows]),
                       np.concatenate([r[0][1] for r in rows]),
-                      row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows]))
+                      ev.data_rows())
 
 
 def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

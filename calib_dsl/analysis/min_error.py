@@ -30,7 +30,7 @@ from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 
 BINDING = 0.01  # a row within this share of the bound's value binds it
@@ -186,6 +186,6 @@ def row_owners(prog: Program) -> list[tuple[str, int] | None]:
     p = 0.5 * (s.lo[ind] + s.hi[ind])
     lo, hi = s.lo.copy(), s.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = Evaluation(prog, lo, hi, ind, p, point=True).run()
+    rows = evaluation(prog, lo, hi, ind, p, point=True).run()
     owner = np.concatenate([r[3] for r in rows])
     return [s.row_keys[o] if 0 <= o < len(s.row_keys) else None for o in owner.tolist()]

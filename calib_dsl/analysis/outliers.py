@@ -19,7 +19,7 @@ import numpy as np
 from calib_dsl.analysis.residuals import residual_ranges, row_enclosures
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.ownership import NONE, row_owners
+from calib_dsl.relax.ownership import NONE
 
 
 @dataclass(frozen=True)
@@ -45,14 +45,14 @@ def _violated_rows(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarra
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per constraint row: whether its enclosure over the box excludes 0, its data row, and
     whether it compares with a measured value (one that residual_ranges encloses)."""
-    ranges = row_enclosures(prog, lo, hi, ind)
+    ranges = row_enclosures(prog, lo, hi, ind, owners=True)
     ev = ranges.ev
     if not len(ranges.lo):
         none = np.zeros(0, dtype=bool)
         return none, np.zeros(0, dtype=np.int64), none
     with np.errstate(invalid="ignore"):
         violated = (ranges.lo > 0) | (ranges.hi < 0)
-    owners = row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows])
+    owners = ev.data_rows()
     targets = ev.targets()
     measured = np.isin(targets, np.array(sorted(prog.slots.measured_sides or {}), dtype=int))
     return violated, owners, measured

@@ -31,7 +31,7 @@ from calib_dsl.ir.model import Model, Table
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import box_max_up
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import mid_rad
 from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
@@ -129,7 +129,7 @@ def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
     original = (lo.copy(), hi.copy())
     lo[measured_side], hi[measured_side] = 0.0, 0.0
     center = 0.5 * (lo[ind] + hi[ind])
-    ev = Evaluation(prog, lo, hi, ind, center)
+    ev = evaluation(prog, lo, hi, ind, center)
     rows = ev.run()
     targets = ev.targets()
     dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))

@@ -14,7 +14,7 @@ from scipy.optimize import linprog
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import inequalities
 
@@ -32,7 +32,7 @@ def linearized_hull(prog: Program,
     p = np.array(truth, dtype=float)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = Evaluation(prog, lo, hi, ind, p)
+    ev = evaluation(prog, lo, hi, ind, p)
     rel = inequalities(ev.run(), p, p, p, ev.e, cell_variables=True)
     domains = prog.domains or {}
     box = [domains.get(n, (-np.inf, np.inf)) for n in all_names]

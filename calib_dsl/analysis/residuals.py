@@ -18,7 +18,7 @@ import numpy as np
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import Evaluated, evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import RHS_REL
 
@@ -84,13 +84,13 @@ class RowEnclosures:
 
     lo: np.ndarray
     hi: np.ndarray
-    ev: Evaluation
+    ev: Evaluated
 
 
 def row_enclosures(prog: Program, lo: np.ndarray, hi: np.ndarray,
-                   ind: np.ndarray) -> RowEnclosures:
+                   ind: np.ndarray, owners: bool = False) -> RowEnclosures:
     center = 0.5 * (lo[ind] + hi[ind])
-    ev = Evaluation(prog, lo, hi, ind, center)
+    ev = evaluation(prog, lo, hi, ind, center, owners=owners)
     rows = ev.run()
     if not rows:
         return RowEnclosures(np.zeros(0), np.zeros(0), ev)

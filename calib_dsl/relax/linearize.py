@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.chunked import Evaluated, evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 
@@ -44,15 +44,16 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = 
 
 
 def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
-                    max_cell_columns: int | None = None
-                    ) -> tuple[LinearRelaxation, Evaluation] | None:
-    """`relax`, and the Evaluation it was made from (its rows' sources and targets)."""
+                    max_cell_columns: int | None = None, owners: bool = False
+                    ) -> tuple[LinearRelaxation, Evaluated] | None:
+    """`relax`, and the evaluation it was made from (its rows' sources and targets; with
+    `owners`, their data rows)."""
     ind = independents(prog)
     plo, phi = lo[ind], hi[ind]
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
         return None
     center = 0.5 * (plo + phi)
-    ev = Evaluation(prog, lo, hi, ind, center, mixed=True)
+    ev = evaluation(prog, lo, hi, ind, center, mixed=True, owners=owners)
     rows = ev.run()
     if not rows:
         return None
@@ -153,7 +154,7 @@ def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None 
     blo = prog.slots.lo.copy() if lo is None else lo.copy()
     bhi = prog.slots.hi.copy() if hi is None else hi.copy()
     blo[ind], bhi[ind] = point, point
-    rows = Evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float), point=True).run()
+    rows = evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float), point=True).run()
     if not rows:
         return np.zeros((0, len(ind)))
     return np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])

@@ -21,9 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax_evaluated
-from calib_dsl.relax.ownership import NONE, row_owners
+from calib_dsl.relax.ownership import NONE
 from calib_dsl.relax.relaxation import RHS_ABS, RHS_REL, LinearRelaxation, Rows
 
 
@@ -31,12 +30,11 @@ def relax_owned(prog: Program, lo: np.ndarray, hi: np.ndarray
                 ) -> tuple[LinearRelaxation, np.ndarray] | None:
     """The first-order relaxation of the program over the box (linearize.relax, with a column
     per measured cell) and the data row each of its rows depends on."""
-    done = relax_evaluated(prog, lo, hi, cell_variables=True)
+    done = relax_evaluated(prog, lo, hi, cell_variables=True, owners=True)
     if done is None:
         return None
     rel, ev = done
-    ind = independents(prog)
-    owners = row_owners(prog, ind, ev.sources, [r[5] for r in ev.rows])
+    owners = ev.data_rows()
     assert rel.keys is not None
     return rel, owners[rel.keys]
 

@@ -1,0 +1,143 @@
+"""A program whose loop over a table's rows was compiled once, in chunks of rows.
+
+The relaxations and the point evaluations keep, per slot, a gradient or a Taylor model in
+every unknown: over 10,000 rows of a robot that is gigabytes at once. Every row's part of
+such a program is a copy of the first row's (compile/replicate.py), and a row's constraints
+read only the shared slots and the row's own, so the same passes can run over a few hundred
+rows at a time, the shared part again with each, and keep only what each chunk yields.
+
+The program of `size` rows is a prefix of the whole program: its shared slots, then the
+first `size` rows' blocks, and each group's entries up to the end of those rows (the groups
+are laid out shared entries first, then row after row: replicate.tile_groups). It is built
+once per size, and chunk `[a, b)` is that program on the box of rows a..b-1, read off the
+whole box as two contiguous slices. Slot numbers and table-row ids (`Slots.cell_row`) of a
+chunk map back to the whole program's by an offset.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from calib_dsl.ir.primitives import Slots
+from calib_dsl.ir.program import Group, Program, derived
+from calib_dsl.ir.rows import RowLayout, Tiled
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Some rows of a program (`rows`: loop row indices, increasing): `prog` is the program
+    of that many rows, whose slots and table row ids map to the whole program's by
+    `slots` and `row_ids`."""
+
+    prog: Program
+    rows: np.ndarray
+    layout: RowLayout  # of the whole program
+    first: bool  # the first chunk: the only one whose shared-only rows are kept
+
+    @property
+    def span(self) -> slice | None:
+        """The rows as a slice when they are contiguous (a view, not a copy, reads them)."""
+        a, b = int(self.rows[0]), int(self.rows[-1]) + 1
+        return slice(a, b) if b - a == len(self.rows) else None
+
+    def box(self, x: np.ndarray) -> np.ndarray:
+        """The whole program's per-slot array x, read for this chunk's slots."""
+        lay = self.layout
+        blocks = x[lay.shared: lay.shared + len(lay.rows) * lay.width].reshape(-1, lay.width)
+        span = self.span
+        part = blocks[span] if span is not None else blocks[self.rows]
+        return np.concatenate([x[:lay.shared], part.ravel()])
+
+    def slots(self, local: np.ndarray) -> np.ndarray:
+        """This chunk's slot numbers as the whole program's (negative ones unchanged)."""
+        lay = self.layout
+        r, j = np.divmod(np.maximum(local - lay.shared, 0), lay.width)
+        moved = lay.shared + self.rows[np.minimum(r, len(self.rows) - 1)] * lay.width + j
+        return np.where(local >= lay.shared, moved, local)
+
+    def row_ids(self, local: np.ndarray) -> np.ndarray:
+        """Table row ids (Slots.cell_row, owners) of this chunk as the whole program's: a
+        loop row's id is its row's; a shared table row's and the markers (negative) are
+        unchanged."""
+        per = len(self.layout.tables)
+        mine = (local >= 0) & (local < len(self.rows) * per)
+        r, t = np.divmod(np.where(mine, local, 0), per)
+        return np.where(mine, self.rows[r] * per + t, local)
+
+    def shared_only(self, targets: np.ndarray) -> np.ndarray:
+        """Which constraint rows (by their target slots, local) are the shared part's: they
+        read no row (a shared slot is defined from shared slots only) and every chunk has
+        them."""
+        return targets < self.layout.shared
+
+
+def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
+            ) -> list[Chunk] | None:
+    """The program's loop rows `rows` (all if None) in chunks of about `max_slots` slots
+    each, or None when the program has no loop compiled once, or all of it fits in one
+    chunk (then passes run on the whole program)."""
+    lay = prog.rows
+    if lay is None:
+        return None
+    if rows is None:
+        if len(prog.slots.lo) <= max_slots:
+            return None
+        rows = np.arange(len(lay.rows))
+    size = max(1, (max_slots - lay.shared) // max(lay.width, 1))
+    out = []
+    for a in range(0, len(rows), size):
+        part = np.asarray(rows[a: a + size], dtype=np.int64)
+        out.append(Chunk(prefix(prog, len(part)), part, lay, a == 0))
+    return out
+
+
+def prefix(prog: Program, rows: int) -> Program:
+    """The program of the first `rows` rows of the loop (made once per program and size)."""
+    return derived(prog, f"rows prefix {rows}", lambda: _prefix(prog, rows))
+
+
+def _prefix(prog: Program, rows: int) -> Program:
+    lay = prog.rows
+    assert lay is not None and 0 < rows <= len(lay.rows)
+    n_slots = lay.shared + rows * lay.width
+    n_prims = lay.shared_prims + rows * lay.count
+    small = replace(lay, rows=lay.rows[:rows])
+    return Program(prog.source, prog.formulation, _slots(prog.slots, small, n_slots),
+                   _primitives(prog, rows), [_group(g, n_prims) for g in prog.groups],
+                   prog.true_values, prog.domains, prog.priors, prog.centred,
+                   prog.true_stated, small)
+
+
+def _group(g: Group, n_prims: int) -> Group:
+    # shared entries first, then row after row: the prefix that ends with the last row kept
+    k = int(np.count_nonzero(g.prim < n_prims))
+    assert bool(np.all(g.prim[:k] < n_prims))
+    return Group(g.op, g.level, g.out[:k], g.args[:k],
+                 None if g.param is None else g.param[:k], g.prim[:k], g.out_unique,
+                 g.args_unique)
+
+
+def _primitives(prog: Program, rows: int) -> Tiled:
+    p = prog.primitives
+    assert isinstance(p, Tiled)
+    return Tiled(p.shared, p.template, rows, p.render)
+
+
+def _tiled(x: Tiled, rows: int) -> Tiled:
+    return Tiled(x.shared, x.template, rows, x.render)
+
+
+def _slots(s: Slots, lay: RowLayout, n: int) -> Slots:
+    assert isinstance(s.names, Tiled) and isinstance(s.kinds, Tiled)
+    assert isinstance(s.origin, Tiled)
+    rows = len(lay.rows)
+    sides = None if s.measured_sides is None else \
+        {k: v for k, v in s.measured_sides.items() if k < n}
+    return Slots(_tiled(s.names, rows), _tiled(s.kinds, rows), s.lo[:n].copy(),
+                 s.hi[:n].copy(), _tiled(s.origin, rows), list(s.declared),
+                 list(s.declared_names),
+                 None if s.cell_row is None else s.cell_row[:n].copy(),
+                 None if s.cell_col is None else s.cell_col[:n].copy(),
+                 s.row_keys, s.col_keys, sides, set(s.capped_by_rows))

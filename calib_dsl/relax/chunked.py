@@ -1,0 +1,144 @@
+"""An Evaluation of a large program with its rows compiled once, a chunk of rows at a time.
+
+`evaluation(...)` is what callers make instead of an `Evaluation`: on a program that fits
+in one chunk (settings.chunk_slots) it is one; on a larger program with a loop compiled
+once it runs one per chunk of rows (compile/chunks.py) and joins their constraint rows,
+with slots and table rows numbered as in the whole program. The per-slot arrays (gradients
+in every unknown) then live for one chunk at a time: memory grows with the rows' results,
+not with their slots.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib_dsl.compile.chunks import Chunk, chunked
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.evaluation import Evaluation
+from calib_dsl.relax.gradients import Iv
+from calib_dsl.relax.ownership import row_owners
+from calib_dsl.settings import DEFAULT
+
+Row = tuple[Iv, Iv, Iv, np.ndarray]  # what Evaluation.run gives per block of rows
+CHUNK_SLOTS = DEFAULT.chunk_slots  # (a module attribute: tests make chunks small)
+
+
+class Evaluated:
+    """The surface of an Evaluation the callers read: `run()` (the constraint rows),
+    then `rows` (raw forms whose index 5 holds the target slots), `sources`, `targets()`,
+    `e`, and `data_rows()`."""
+
+    rows: list[tuple]
+    sources: list[np.ndarray]
+    e: np.ndarray
+
+    def run(self) -> list[Row]:
+        raise NotImplementedError
+
+    def targets(self) -> np.ndarray:
+        return np.concatenate([r[5] for r in self.rows]) if self.rows else np.zeros(0, int)
+
+    def data_rows(self) -> np.ndarray:
+        raise NotImplementedError
+
+
+class Whole(Evaluated):
+    """One Evaluation of the whole program."""
+
+    def __init__(self, prog: Program, ind: np.ndarray, ev: Evaluation) -> None:
+        self.prog, self.ind, self.ev = prog, ind, ev
+
+    def run(self) -> list[Row]:
+        out = self.ev.run()
+        self.rows, self.sources, self.e = self.ev.rows, self.ev.sources, self.ev.e
+        return out
+
+    def data_rows(self) -> np.ndarray:
+        return row_owners(self.prog, self.ind, self.sources, [r[5] for r in self.rows])
+
+
+class Chunked(Evaluated):
+    """Evaluations of the program's rows a chunk at a time, joined."""
+
+    def __init__(self, chunks: list[Chunk], lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
+                 center: np.ndarray, point: bool, mixed: bool, owners: bool) -> None:
+        self.chunks, self.box, self.ind = chunks, (lo, hi), ind
+        self.center, self.point, self.mixed, self.owners = center, point, mixed, owners
+        self.rows, self.sources = [], []
+        self.e = np.zeros(0)
+        self._owners: list[np.ndarray] = []
+
+    def run(self) -> list[Row]:
+        out: list[Row] = []
+        lo, hi = self.box
+        for ch in self.chunks:
+            ev = Evaluation(ch.prog, ch.box(lo), ch.box(hi), self.ind, self.center,
+                            point=self.point, mixed=self.mixed)
+            diffs = ev.run()
+            owners = (row_owners(ch.prog, self.ind, ev.sources, [r[5] for r in ev.rows])
+                      if self.owners else None)
+            at = 0
+            for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
+                size = len(raw[5])
+                keep = (np.ones(size, dtype=bool) if ch.first
+                        else ~ch.shared_only(raw[5]))
+                mine = owners[at: at + size] if owners is not None else None
+                at += size
+                if not np.any(keep):
+                    continue
+                pick = None if bool(np.all(keep)) else np.flatnonzero(keep)
+                out.append(_mapped_row(diff, ch, pick))
+                self.rows.append(_mapped_raw(raw, ch, pick))
+                self.sources.append(ch.slots(src if pick is None else src[pick]))
+                if mine is not None:
+                    self._owners.append(ch.row_ids(mine if pick is None else mine[pick]))
+            self.e = _widest(self.e, ev.e)
+        return out
+
+    def data_rows(self) -> np.ndarray:
+        assert self.owners, "made without owners=True"
+        return (np.concatenate(self._owners).astype(np.int64) if self._owners
+                else np.zeros(0, dtype=np.int64))
+
+
+def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
+               center: np.ndarray, point: bool = False, mixed: bool = False,
+               owners: bool = False, max_slots: int | None = None,
+               rows: np.ndarray | None = None) -> Evaluated:
+    """An Evaluation of the program over [lo, hi] (see relax/evaluation.py), in chunks of
+    rows where the program is large and its rows were compiled once. With `owners`,
+    `data_rows()` then gives each constraint row's data row (relax/ownership.py). `rows`:
+    only these rows of the loop compiled once (indices; a program without one: all rows),
+    with the shared part's constraints."""
+    chunks = chunked(prog, CHUNK_SLOTS if max_slots is None else max_slots, rows)
+    if chunks is None:
+        return Whole(prog, ind, Evaluation(prog, lo, hi, ind, center, point=point,
+                                           mixed=mixed))
+    return Chunked(chunks, lo, hi, ind, center, point, mixed, owners)
+
+
+def _take(x: Iv, pick: np.ndarray | None) -> Iv:
+    return x if pick is None else (x[0][pick], x[1][pick])
+
+
+def _mapped_row(row: Row, ch: Chunk, pick: np.ndarray | None) -> Row:
+    d, h, q, owner = row
+    owner = owner if pick is None else owner[pick]
+    return _take(d, pick), _take(h, pick), _take(q, pick), ch.row_ids(owner)
+
+
+def _mapped_raw(raw: tuple, ch: Chunk, pick: np.ndarray | None) -> tuple:
+    f, c, gr, dd, owner, slots, flag = raw
+    if pick is not None:
+        f, c, gr, dd = (_take(x, pick) for x in (f, c, gr, dd))
+        owner, slots = owner[pick], slots[pick]
+    return f, c, gr, dd, ch.row_ids(owner), ch.slots(slots), flag
+
+
+def _widest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The larger of two per-column error bounds (of different lengths: the longer's tail)."""
+    if len(a) < len(b):
+        a, b = b, a
+    out = a.copy()
+    out[: len(b)] = np.maximum(out[: len(b)], b)
+    return out

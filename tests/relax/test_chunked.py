@@ -1,0 +1,117 @@
+"""Passes over a program in chunks of rows (compile/chunks.py, relax/chunked.py) give what
+one pass over the whole program gives: the same constraint rows (as a set: the order
+follows the chunks), the same targets, sources, data rows and cell error bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import calib_dsl.relax.chunked as chunked_module
+from calib_dsl.compile.chunks import chunked
+from calib_dsl.relax.chunked import evaluation
+from calib_dsl.relax.layout import independents
+from calib_dsl.relax.linearize import relax
+from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
+
+
+def _rows(ev, out) -> dict[int, tuple]:
+    """Each constraint row by its target slot (unique in these programs) and what it reads:
+    (D, H, Q, owner, data row, sources)."""
+    targets = ev.targets()
+    sources = np.concatenate([np.pad(s, ((0, 0), (0, 3 - s.shape[1])), constant_values=-1)
+                              for s in ev.sources])
+    data = ev.data_rows()
+    pieces = {}
+    k = 0
+    for r in out:
+        for i in range(len(r[3])):
+            pieces[(int(targets[k]), tuple(sources[k].tolist()))] = (
+                tuple(np.concatenate([r[0][0][i:i + 1], r[0][1][i:i + 1]]).tolist()),
+                tuple(np.concatenate([r[1][0][i].ravel(), r[1][1][i].ravel()]).tolist()),
+                tuple(np.concatenate([r[2][0][i].ravel(), r[2][1][i].ravel()]).tolist()),
+                int(r[3][i]), int(data[k]))
+            k += 1
+    assert k == len(targets) == len(data)
+    return pieces
+
+
+@settings(max_examples=10, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(5, 14),
+       formulation=st.sampled_from(["matrix", "rotation"]), point=st.booleans())
+def test_chunks_give_the_whole_programs_rows(tmp_path_factory, seed, joints, rows,
+                                             formulation, point):
+    rng = np.random.default_rng(seed)
+    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
+    sim = simulate_cal(tmp_path_factory.mktemp("chunks"), source, clean_version(source), rows,
+                       seed, formulation)
+    prog = sim.prog
+    if prog.rows is None:  # (a planar arm's shared measured side: unrolled)
+        return
+    ind = independents(prog)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    center = 0.5 * (lo[ind] + hi[ind])
+    if point:
+        lo[ind], hi[ind] = center, center
+    width = prog.rows.width
+    small = prog.rows.shared + 2 * width  # two rows a chunk (the last may have one)
+    assert len(chunked(prog, small)) == (rows + 1) // 2
+    whole = evaluation(prog, lo, hi, ind, center, point=point, mixed=not point, owners=True,
+                       max_slots=10**9)
+    parts = evaluation(prog, lo, hi, ind, center, point=point, mixed=not point, owners=True,
+                       max_slots=small)
+    a, b = _rows(whole, whole.run()), _rows(parts, parts.run())
+    same(a, b)
+    assert np.array_equal(whole.e, parts.e)
+
+
+def same(a: dict, b: dict) -> None:
+    """The same rows; their floats up to the last bits (matrix products round differently
+    on arrays of other sizes: each enclosure is rigorous all the same)."""
+    assert a.keys() == b.keys()
+    for k in a:
+        for x, y in zip(a[k][:3], b[k][:3], strict=True):
+            assert np.allclose(x, y, rtol=1e-12, atol=1e-300), k
+        assert a[k][3:] == b[k][3:], k
+
+
+def test_a_relaxation_in_chunks_is_the_same_relaxation(tmp_path, monkeypatch):
+    rng = np.random.default_rng(5)
+    source = robot_source(rng, 2, 1e-6, 1e-4, spatial=True)
+    prog = simulate_cal(tmp_path, source, clean_version(source), 12, 5, "matrix").prog
+    assert prog.rows is not None
+    lo, hi = prog.slots.lo, prog.slots.hi
+    one = relax(prog, lo, hi, max_cell_columns=3000)
+    monkeypatch.setattr(chunked_module, "CHUNK_SLOTS", prog.rows.shared + 2 * prog.rows.width)
+    two = relax(prog, lo, hi, max_cell_columns=3000)
+    assert one is not None and two is not None
+    assert one.A.shape == two.A.shape
+    key = np.lexsort(np.vstack([one.b, one.b_lo]))
+    key2 = np.lexsort(np.vstack([two.b, two.b_lo]))
+    assert np.allclose(one.b[key], two.b[key2], rtol=1e-12)
+    assert np.allclose(one.b_lo[key], two.b_lo[key2], rtol=1e-12)
+
+
+def test_a_subset_of_rows(tmp_path):
+    """evaluation(rows=...) gives exactly the rows of those configurations, and the shared
+    part's once."""
+    rng = np.random.default_rng(11)
+    source = robot_source(rng, 2, 1e-6, 1e-4, spatial=True)
+    prog = simulate_cal(tmp_path, source, clean_version(source), 10, 11, "matrix").prog
+    assert prog.rows is not None
+    ind = independents(prog)
+    lo, hi = prog.slots.lo, prog.slots.hi
+    center = 0.5 * (lo[ind] + hi[ind])
+    whole = evaluation(prog, lo, hi, ind, center, owners=True, max_slots=10**9)
+    whole_rows = _rows(whole, whole.run())
+    pick = np.array([1, 4, 5, 9])
+    part = evaluation(prog, lo, hi, ind, center, owners=True, rows=pick, max_slots=10**9)
+    part_rows = _rows(part, part.run())
+    lay = prog.rows
+    ids = {int(r) * len(lay.tables) for r in pick}
+    expect = {k: v for k, v in whole_rows.items()
+              if v[4] in ids or k[0] < lay.shared}
+    same(part_rows, expect)
+    assert len(expect) < len(whole_rows)
