@@ -30,7 +30,7 @@ class Estimate:
 def rows_at(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every constraint row at p (floating point): its residual (predicted minus measured),
     its bound (the half-width of its measured side), and the residual's Jacobian."""
-    lin = linearized(prog, p)
+    lin = linearized(prog, p, owners=False)
     return lin.d, lin.half, lin.jac
 
 
@@ -55,58 +55,91 @@ class Linearized:
     data_row: np.ndarray
 
 
-def linearized(prog: Program, p: np.ndarray) -> Linearized:
+def linearized(prog: Program, p: np.ndarray, owners: bool = True,
+               rows: np.ndarray | None = None) -> Linearized:
+    """Every constraint row at p (of the loop's rows `rows` only, if given); `data_row`
+    is -1 throughout without `owners`."""
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=True)
-    rows = ev.run()
-    if not rows:  # every constraint was a merge of slots: nothing left to evaluate
+    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=owners, rows=rows)
+    done = ev.run()
+    if not done:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
         return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
                           np.zeros((0, 0)), np.zeros(0, np.int64), none, none,
                           np.zeros(0, np.int64))
 
     def mid(part: int) -> np.ndarray:
-        return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in rows])
+        return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in done])
 
-    half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in rows])
+    half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in done])
     return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
-                      np.concatenate([r[3] for r in rows]),
-                      np.concatenate([r[0][0] for r in rows]),
-                      np.concatenate([r[0][1] for r in rows]),
-                      ev.data_rows())
+                      np.concatenate([r[3] for r in done]),
+                      np.concatenate([r[0][0] for r in done]),
+                      np.concatenate([r[0][1] for r in done]),
+                      ev.data_rows() if owners else np.full(len(ev.targets()), -1))
 
 
-def residuals(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Normalized residuals of every constraint row at p, and their Jacobian."""
-    d, half, jac = rows_at(prog, p)
-    scale = np.maximum(half, 1e-12)
-    return d / scale, jac / scale[:, None]
+def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized residuals of every constraint row at p (of the loop's rows `rows` only,
+    if given), and their Jacobian."""
+    lin = linearized(prog, p, owners=False, rows=rows)
+    scale = np.maximum(lin.half, 1e-12)
+    return lin.d / scale, lin.jac / scale[:, None]
 
 
 def estimate(prog: Program, start: np.ndarray | None = None,
              max_evaluations: int = 30) -> Estimate:
+    """The least-squares estimate from `start` (the middle of the domains if None). Over
+    SAMPLE_ROWS configurations of a loop compiled once, it is first found on an evenly
+    spread sample of them, then polished on all: the sample brings it near, where the
+    problem is nearly linear and a few evaluations of every row finish it."""
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    if start is None:
+        start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
+                         np.clip(0.0, lo, hi))
+    sample = _sample(prog)
+    if sample is not None:
+        near = _fit(prog, start, max_evaluations, sample)
+        if near.converged and np.all(np.isfinite(near.values)):
+            start, max_evaluations = near.values, POLISH_EVALUATIONS
+    return _fit(prog, start, max_evaluations, None)
+
+
+SAMPLE_ROWS = 1000  # a least-squares estimate over more configurations starts on a sample
+POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate
+
+
+def _sample(prog: Program) -> np.ndarray | None:
+    n = len(prog.rows.rows) if prog.rows is not None else 0
+    if n <= 2 * SAMPLE_ROWS:
+        return None
+    return np.unique(np.linspace(0, n - 1, SAMPLE_ROWS).astype(np.int64))
+
+
+def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
+         rows: np.ndarray | None) -> Estimate:
     from scipy.optimize import least_squares
 
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
-    if start is None:
-        start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
-                         np.clip(0.0, lo, hi))
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     def both(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = p.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = residuals(prog, p)
+            cache[key] = residuals(prog, p, rows)
         return cache[key]
 
     # Trust-region reflective keeps the estimate inside the search domain; the problem is
     # nearly linear near its solution, so a few Jacobian evaluations suffice.
     bounds = (np.where(np.isfinite(lo), lo, -np.inf), np.where(np.isfinite(hi), hi, np.inf))
+    start = np.clip(start, bounds[0], bounds[1])
     sol = least_squares(lambda p: both(p)[0], start, jac=lambda p: both(p)[1], bounds=bounds,
                         method="trf", x_scale="jac", max_nfev=max_evaluations)
     r = both(sol.x)[0]

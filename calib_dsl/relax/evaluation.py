@@ -5,6 +5,8 @@ with the unknowns after j at the center).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from calib_dsl.arith.projections import forward
@@ -46,6 +48,7 @@ class Evaluation:
         self.prog = prog
         # point mode (a Jacobian for analysis, no guarantee): gradients in plain floats
         self.chain = chain_point if point else chain
+        self.point = point
         self.layout = layout(prog, ind)
         self.temp, self.const = self.layout.temp, self.layout.const
         self.box = (lo, hi)
@@ -57,7 +60,8 @@ class Evaluation:
         self.C[0][ind], self.C[1][ind] = center, center
         # G, FM and D are kept by rows in the layout's order (pos: a slot's row)
         self.pos = pos = self.layout.pos
-        self.G = [np.zeros((n, k)), np.zeros((n, k))]
+        # (point mode: the gradients are floats, lower and upper ends one array)
+        self.G = _pair(np.zeros((n, k)), point)
         self.G[0][pos[ind], np.arange(k)] = 1.0
         self.G[1][pos[ind], np.arange(k)] = 1.0
         self._init_cells(lo, hi)
@@ -94,7 +98,7 @@ class Evaluation:
             self.e = self.e * (1 + 4 * RHS_REL) + 1e-300
         self.C[0][cell], self.C[1][cell] = mid[cell], mid[cell]
         self.owner = np.where(cell, rows, -1)
-        self.D = [np.zeros((n, ncol)), np.zeros((n, ncol))]
+        self.D = _pair(np.zeros((n, ncol)), self.point)
         idx = np.flatnonzero(cell)
         self.D[0][self.pos[idx], cols[idx]] = 1.0
         self.D[1][self.pos[idx], cols[idx]] = 1.0
@@ -133,9 +137,8 @@ class Evaluation:
         fa = [(self.F[0][c], self.F[1][c]) for c in cols]
         ca = [self._center(c, f) for c, f in zip(cols, fold, strict=True)]
         every = len(used) == self.G[0].shape[1]
-        ga = [(self.G[0][r], self.G[1][r]) if every else (self.G[0][at], self.G[1][at])
-              for r, at in zip(rows, takes, strict=True)]
-        da = [zero_rows((self.D[0][r], self.D[1][r]), f) for r, f in zip(rows, fold, strict=True)]
+        ga = [_gather(self.G, r if every else at) for r, at in zip(rows, takes, strict=True)]
+        da = [zero_rows(_gather(self.D, r), f) for r, f in zip(rows, fold, strict=True)]
         centers = [forward(op, ca, g.param) for op in OUTPUTS.get(g.op, (g.op,))]
         signs = LINEAR.get(g.op) if self.chain is chain else None
         if signs is not None:  # partials +-1: the chain rule is a signed sum, no product
@@ -194,11 +197,18 @@ class Evaluation:
             self.FM[0][at], self.FM[1][at] = rows(fm[0]), rows(fm[1])
         self.F[0][slots], self.F[1][slots] = f[0][d], f[1][d]
         self.C[0][slots], self.C[1][slots] = c[0][d], c[1][d]
+        one = self.G[1] is self.G[0]  # (point mode: the ends are equal)
         if len(used) == self.G[0].shape[1]:
-            self.G[0][at], self.G[1][at] = rows(gr[0]), rows(gr[1])
+            self.G[0][at] = rows(gr[0])
+            if not one:
+                self.G[1][at] = rows(gr[1])
         else:
-            self.G[0][at, used], self.G[1][at, used] = rows(gr[0]), rows(gr[1])
-        self.D[0][at], self.D[1][at] = rows(dd[0]), rows(dd[1])
+            self.G[0][at, used] = rows(gr[0])
+            if not one:
+                self.G[1][at, used] = rows(gr[1])
+        self.D[0][at] = rows(dd[0])
+        if self.D[1] is not self.D[0]:
+            self.D[1][at] = rows(dd[1])
         self.owner[slots] = owner[d]
 
     def _capped_temporaries(self) -> None:
@@ -233,3 +243,13 @@ class Evaluation:
             return c
         spread = fold_spread(dd[0], dd[1], self.e)
         return widen(c[0] - spread, c[1] + spread)
+
+
+def _pair(a: np.ndarray, point: bool) -> list[np.ndarray]:
+    """The lower and upper ends of per-slot arrays: one array twice in point mode."""
+    return [a, a] if point else [a, np.zeros_like(a)]
+
+
+def _gather(ends: list[np.ndarray], at: Any) -> Iv:
+    lo = ends[0][at]
+    return (lo, lo) if ends[1] is ends[0] else (lo, ends[1][at])
