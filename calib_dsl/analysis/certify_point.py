@@ -20,9 +20,9 @@ from functools import reduce
 import numpy as np
 
 from calib_dsl.arith.projections import forward
-from calib_dsl.ir.program import Program
+from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.gradients import OUTPUTS
-from calib_dsl.relax.layout import independents, layout
+from calib_dsl.relax.layout import definitions, independents
 from calib_dsl.relax.ownership import NONE, combine
 
 
@@ -48,7 +48,12 @@ class PointCheck:
 
 def reading_slots(prog: Program) -> np.ndarray:
     """The measured values that only enter the model (joint readings: arguments, never a
-    compared side): the witness may give each a value within its interval."""
+    compared side): the witness may give each a value within its interval (made once per
+    program)."""
+    return derived(prog, "reading slots", lambda: _reading_slots(prog))
+
+
+def _reading_slots(prog: Program) -> np.ndarray:
     n = len(prog.slots.lo)
     compared, argument = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     for g in prog.groups:
@@ -69,7 +74,7 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
     (`reading_slots` order; their midpoints if None) and any value of the compared sides.
     With `owners`, each row's configuration too (existence.py needs it)."""
     ind = independents(prog)
-    lay = layout(prog, ind)
+    lay = definitions(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     if np.any(point < lo[ind]) or np.any(point > hi[ind]):
         raise ValueError("the point lies outside the search domains")

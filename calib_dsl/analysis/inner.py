@@ -26,6 +26,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import load, optimal
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.settings import DEFAULT
 
 # Each row aims inside this share of its bound: room for the rounding and for the remainder of
 # the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
@@ -230,11 +231,16 @@ class _LinearModel:
         if not self.finite:
             return
         self.readings = Readings(prog)
-        rows, cols, vals = self.readings.entries(lin)
-        self.width = len(self.readings.mid)
+        # the readings as LP columns (each may take its own value within its interval), up
+        # to a few thousand; beyond, they stay at their middles (a narrower inner interval,
+        # as certain: the LP would be tens of thousands of columns wide)
+        free_readings = len(self.readings.mid) <= DEFAULT.max_cell_columns
+        rows, cols, vals = self.readings.entries(lin) if free_readings else \
+            (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+        self.width = len(self.readings.mid) if free_readings else 0
         A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
         ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
-        zlo, zhi = self.readings.bounds()
+        zlo, zhi = self.readings.bounds() if free_readings else (np.zeros(0), np.zeros(0))
         b_lo, b = self.bounds(np.zeros(self.rows))
         self.h = load(LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo))
         self.tightened = np.zeros(self.rows)
@@ -267,6 +273,8 @@ class _LinearModel:
         step to an edge may round out of it)."""
         p = self.centre.copy()
         p[self.free] = self.centre[self.free] + self.scale * step[:self.n]
+        if not self.width:
+            return np.clip(p, *self.box), self.readings.middles()
         return np.clip(p, *self.box), self.readings.values(step[self.n:])
 
     def excess(self, check: PointCheck) -> tuple[np.ndarray, np.ndarray]:

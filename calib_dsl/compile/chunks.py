@@ -85,6 +85,8 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
         if len(prog.slots.lo) <= max_slots:
             return None
         rows = np.arange(len(lay.rows))
+    if len(rows) == 0:
+        raise ValueError("no rows to take")
     size = max(1, (max_slots - lay.shared) // max(lay.width, 1))
     out = []
     for a in range(0, len(rows), size):

@@ -66,10 +66,31 @@ def layout(prog: Program, ind: np.ndarray | None = None) -> Layout:
     return derived(prog, "layout", lambda: _layout(prog, mine))
 
 
-def _layout(prog: Program, ind: np.ndarray) -> Layout:
+@dataclass(frozen=True)
+class Definitions:
+    """Which slots are temporaries and constants, and which rows of each group define their
+    output (the rest are constraints): what a plain forward pass needs (certify_point.py),
+    without the gradients' layout."""
+
+    temp: np.ndarray
+    const: np.ndarray
+    defining: list[np.ndarray]
+
+
+def definitions(prog: Program) -> Definitions:
+    """The program's Definitions (made once per program)."""
+    return derived(prog, "definitions", lambda: _definitions(prog))
+
+
+def _definitions(prog: Program) -> Definitions:
     temp = tiled_mask(prog.slots.kinds, ("temp",))
-    const = tiled_mask(prog.slots.kinds, ("const",))
-    defining = _defining_masks(prog, temp)
+    return Definitions(temp, tiled_mask(prog.slots.kinds, ("const",)),
+                       _defining_masks(prog, temp))
+
+
+def _layout(prog: Program, ind: np.ndarray) -> Layout:
+    d = definitions(prog)
+    temp, const, defining = d.temp, d.const, d.defining
     used = group_unknowns(prog, ind)
     first: list[np.ndarray] = []
     blocks: list[list[tuple[int, int]]] = []

@@ -30,7 +30,8 @@ from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 
 
 def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
-          max_cell_columns: int | None = None) -> LinearRelaxation | None:
+          max_cell_columns: int | None = None, rows: np.ndarray | None = None
+          ) -> LinearRelaxation | None:
     """Valid inequalities A x <= b over the box [lo, hi]; x = (p, dq).
 
     p are the declared unknowns (the first `main` columns). With `cell_variables`, each
@@ -38,13 +39,16 @@ def relax(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = 
     tolerance), so the rows of a configuration share it, as they should; without, each row
     bounds it alone (folded into the right-hand side: fewer columns, a little looser). Over
     `max_cell_columns` such columns, they are folded anyway (the LP would grow too large).
+    `rows`: the constraints of these rows of the loop compiled once only (and the shared
+    part's): fewer valid inequalities, a valid relaxation still.
     """
-    done = relax_evaluated(prog, lo, hi, cell_variables, max_cell_columns)
+    done = relax_evaluated(prog, lo, hi, cell_variables, max_cell_columns, rows=rows)
     return None if done is None else done[0]
 
 
 def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variables: bool = True,
-                    max_cell_columns: int | None = None, owners: bool = False
+                    max_cell_columns: int | None = None, owners: bool = False,
+                    rows: np.ndarray | None = None
                     ) -> tuple[LinearRelaxation, Evaluated] | None:
     """`relax`, and the evaluation it was made from (its rows' sources and targets; with
     `owners`, their data rows)."""
@@ -53,11 +57,11 @@ def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variable
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
         return None
     center = 0.5 * (plo + phi)
-    ev = evaluation(prog, lo, hi, ind, center, mixed=True, owners=owners)
-    rows = ev.run()
-    if not rows:
+    ev = evaluation(prog, lo, hi, ind, center, mixed=True, owners=owners, rows=rows)
+    done = ev.run()
+    if not done:
         return None
-    return inequalities(rows, center, plo, phi, ev.e, cell_variables, max_cell_columns), ev
+    return inequalities(done, center, plo, phi, ev.e, cell_variables, max_cell_columns), ev
 
 
 def inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,

@@ -35,10 +35,12 @@ FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 
 
 def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = DEFAULT.prune,
-                    mccormick: bool = False) -> tuple[LinearRelaxation, Expansion] | None:
-    """Valid inequalities over the box in the columns (t, y); None if the program has no
-    second-order models (a primitive without one, or an unbounded unknown)."""
-    ex = expand(prog, lo, hi)
+                    mccormick: bool = False, rows: np.ndarray | None = None
+                    ) -> tuple[LinearRelaxation, Expansion] | None:
+    """Valid inequalities over the box in the columns (t, y) (of the loop's rows `rows`
+    only, if given); None if the program has no second-order models (a primitive without
+    one, or an unbounded unknown)."""
+    ex = expand(prog, lo, hi, rows)
     if ex is None:
         return None
     m = ex.rows.models
@@ -62,14 +64,14 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
         b_lo = dn1(tlo - m.c0) - slack - err
     dense = np.hstack([m.c1, m.c2[:, keep]])
     ncols = n + len(keep)
-    rows = Rows.join(dense, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 0)
+    matrix = Rows.join(dense, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 0)
     clo = np.concatenate([-np.ones(n), np.where(pairs.diagonal[keep], 0.0, -1.0)])
     chi = np.ones(ncols)
     if mccormick:
-        rows, b_up, b_lo = _with_mccormick(rows, b_up, b_lo, pairs, keep, n)
+        matrix, b_up, b_lo = _with_mccormick(matrix, b_up, b_lo, pairs, keep, n)
         # a McCormick row is known by its product and its place among the product's 4 rows
         keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
-    rel = LinearRelaxation(rows, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
+    rel = LinearRelaxation(matrix, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
                            scale=ex.half, family=FAMILY,
                            col_keys=np.concatenate([np.arange(n), n + keep]),
                            curvature=_curvature(m))

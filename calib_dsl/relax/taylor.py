@@ -27,18 +27,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl import settings
+from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import Layout, independents, layout
 from calib_dsl.relax.models import SUPPORTED, Models, Pairs, add, apply, constant, up
 
+CHUNK_SLOTS = settings.DEFAULT.chunk_slots  # (a module attribute: tests make chunks small)
+
 
 @dataclass
 class Constraints:
-    """Each constraint row as `model in [lo, hi]`: the row's model and its target interval."""
+    """Each constraint row as `model in [lo, hi]`: the row's model and its target interval,
+    and the slot it compares with (its target)."""
 
     models: Models
     lo: np.ndarray
     hi: np.ndarray
+    slots: np.ndarray
+
+    def take(self, pick: np.ndarray) -> Constraints:
+        return Constraints(self.models.take(pick), self.lo[pick], self.hi[pick],
+                           self.slots[pick])
 
 
 @dataclass
@@ -54,11 +63,35 @@ def supported(prog: Program) -> bool:
     return all(g.op in SUPPORTED for g in prog.groups)
 
 
-def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
+def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
+           rows: np.ndarray | None = None) -> Expansion | None:
     """Second-order models of every constraint row over the box [lo, hi] (the unknowns'
-    entries; the other slots' entries give the constants' and the targets' ranges). None when
-    a primitive has no model, an unknown is unbounded, or the models would not fit in
-    settings.DEFAULT.max_table_bytes."""
+    entries; the other slots' entries give the constants' and the targets' ranges); of the
+    loop's rows `rows` only, if given. None when a primitive has no model, an unknown is
+    unbounded, or the models would not fit in settings.DEFAULT.max_table_bytes. A large
+    program whose rows were compiled once is expanded a chunk of rows at a time
+    (compile/chunks.py): the models live for one chunk; the rows' models are kept."""
+    chunks = chunked(prog, CHUNK_SLOTS, rows)
+    if chunks is None:
+        return _expand(prog, lo, hi)
+    parts = []
+    ex: Expansion | None = None
+    for ch in chunks:
+        ex = _expand(ch.prog, ch.box(lo), ch.box(hi))
+        if ex is None:
+            return None
+        keep = np.flatnonzero(~ch.shared_only(ex.rows.slots) | ch.first)
+        part = ex.rows.take(keep)
+        part.slots = ch.slots(part.slots)
+        parts.append(part)
+    assert ex is not None  # (chunks are never empty)
+    return Expansion(ex.center, ex.half, ex.pairs,
+                     Constraints(_concat([c.models for c in parts]),
+                                 *(np.concatenate([getattr(c, a) for c in parts])
+                                   for a in ("lo", "hi", "slots"))))
+
+
+def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     ind = independents(prog)
     if len(ind) == 0 or not supported(prog):
         return None
@@ -80,7 +113,7 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     c0, r = base.c0, base.r
     c0[ind], r[ind] = center, 0.0
     store: list[list[Models]] = []
-    found: list[tuple[Models, np.ndarray, np.ndarray]] = []
+    found: list[tuple[Models, np.ndarray, np.ndarray, np.ndarray]] = []
     for g, mask, cols, gathers in zip(prog.groups, plan.layout.defining, plan.layout.used,
                                       plan.gathers, strict=True):
         local = Pairs.of(len(cols))
@@ -96,16 +129,18 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
                 whole = _widened(out.take(nd), cols, plan.at[len(store) - 1], n, p)
                 others = slots[nd][~known[slots[nd]]]
                 models = _global(plan, c0, r, store, half, others, n, p)
-                found.append(_constraint(whole, models, slots[nd], known, lo, hi))
+                found.append((*_constraint(whole, models, slots[nd], known, lo, hi),
+                              slots[nd]))
         for done in plan.freed[len(store) - 1]:  # no later group reads these models
             store[done] = _FREED
     capped = np.flatnonzero(temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
     if len(capped):
-        found.append((_global(plan, c0, r, store, half, capped, n, p), lo[capped], hi[capped]))
+        found.append((_global(plan, c0, r, store, half, capped, n, p), lo[capped], hi[capped],
+                      capped))
     if not found:
         return None
-    rows = Constraints(_concat([f[0] for f in found]), np.concatenate([f[1] for f in found]),
-                np.concatenate([f[2] for f in found]))
+    rows = Constraints(_concat([f[0] for f in found]),
+                       *(np.concatenate([f[k] for f in found]) for k in (1, 2, 3)))
     return Expansion(center, half, pairs, rows)
 
 

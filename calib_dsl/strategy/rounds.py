@@ -64,6 +64,9 @@ class LPRounds:
     threads: int | None = None  # LP threads (settings.lp_workers unless given)
     unsolved: np.ndarray | None = None
     history: History | None = None
+    # the loop's rows whose constraints the relaxations take (all if None): a sample of
+    # many rows relaxes fast, and every relaxation of some rows is valid
+    rows: np.ndarray | None = None
     name: str = "rounds of LPs"
     progress: Meter | None = None  # told the box after each round
 
@@ -147,7 +150,8 @@ class _Rounds:
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
         self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
         if self.fine:
-            fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True)
+            fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
+                                   rows=self.spec.rows)
             if fine is None:  # (beyond the models' memory bound)
                 return None
             this = _Round(None, fine, True)
@@ -160,11 +164,11 @@ class _Rounds:
         first = None
         if not ((self.reuse and certs.family == SECOND_ORDER and order2) or ending):
             first = relax(prog, self.lo, self.hi, cell_variables=self.cells,
-                          max_cell_columns=s.max_cell_columns)
+                          max_cell_columns=s.max_cell_columns, rows=self.spec.rows)
             if first is None:
                 return None
         wide = order2 and (first is None or first.curvature > s.wide)
-        quad = relax_quadratic(prog, self.lo, self.hi) if wide else None
+        quad = relax_quadratic(prog, self.lo, self.hi, rows=self.spec.rows) if wide else None
         if quad is None and first is None:  # (cannot happen: a first round built them)
             return None
         this = _Round(first, quad, True)
@@ -221,6 +225,8 @@ class _Rounds:
             return
         n = self.work.lp_rounds + self.work.reused_rounds + 1
         kind = "second order" if this.target.family == SECOND_ORDER else "first order"
+        if self.spec.rows is not None:
+            kind += f", {len(self.spec.rows)} sampled rows"
         history.record(f"LP round {n} ({kind}{'' if this.fresh else ', reused'})",
                        self.lo, self.hi)
 

@@ -24,6 +24,7 @@ from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.reparametrize import along_combinations, back
 from calib_dsl.strategy.rounds import LPRounds
+from calib_dsl.strategy.sampled import SampledRounds
 from calib_dsl.strategy.solution import Solution, solution
 from calib_dsl.strategy.split import Split
 
@@ -79,16 +80,28 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
     certificates of the LPs solved (a split's pieces start from the whole box's); with
     `history`, the box after each step and each round is recorded there."""
     certs = Certificates()
-    steps: list[Contractor] = [
-        Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
-        LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order, unsolved=uncut,
-                 progress=progress, history=history),
-        Propagation(prog, tol, max_sweeps),
-    ]
+    steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
+    sample = row_sample(prog, s.sample_rows)
+    if sample is None:
+        steps.append(LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order,
+                              unsolved=uncut, progress=progress, history=history))
+    else:  # thousands of rows: on a sample, checked on all (strategy/sampled.py)
+        steps.append(SampledRounds(prog, s, tol, max_sweeps, sample, second_order,
+                                   unsolved=uncut, progress=progress, history=history))
+    steps.append(Propagation(prog, tol, max_sweeps))
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
     return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress,
                     history=history)
+
+
+def row_sample(prog: Program, size: int) -> np.ndarray | None:
+    """`size` rows of the program's loop compiled once, evenly spread, when it has more than
+    twice as many; else None."""
+    n = len(prog.rows.rows) if prog.rows is not None else 0
+    if n <= 2 * size:
+        return None
+    return np.unique(np.linspace(0, n - 1, size).astype(np.int64))
 
 
 def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | None:

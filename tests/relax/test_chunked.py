@@ -9,10 +9,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import calib_dsl.relax.chunked as chunked_module
+import calib_dsl.relax.taylor as taylor
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
+from calib_dsl.relax.taylor import expand
 from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
 
 
@@ -115,3 +117,41 @@ def test_a_subset_of_rows(tmp_path):
               if v[4] in ids or k[0] < lay.shared}
     same(part_rows, expect)
     assert len(expect) < len(whole_rows)
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(5, 12),
+       formulation=st.sampled_from(["matrix", "rotation"]))
+def test_second_order_models_in_chunks(tmp_path_factory, monkeypatch, seed, joints, rows,
+                                       formulation):
+    """taylor.expand in chunks of two rows gives every row's model of the whole expansion
+    (matched by target slot), and a subset of rows gives those rows' models."""
+    rng = np.random.default_rng(seed)
+    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
+    prog = simulate_cal(tmp_path_factory.mktemp("taylor"), source, clean_version(source),
+                        rows, seed, formulation).prog
+    if prog.rows is None:
+        return
+    lo, hi = prog.slots.lo, prog.slots.hi
+    whole = expand(prog, lo, hi)
+    assert whole is not None
+    monkeypatch.setattr(taylor, "CHUNK_SLOTS", prog.rows.shared + 2 * prog.rows.width)
+    parts = expand(prog, lo, hi)
+    pick = np.array([0, rows - 1])
+    some = expand(prog, lo, hi, rows=pick)
+    assert parts is not None and some is not None
+    by_slot = {int(s): k for k, s in enumerate(whole.rows.slots)}
+    assert len(by_slot) == len(whole.rows.slots)  # (one row per target here)
+    for ex in (parts, some):
+        for k, s in enumerate(ex.rows.slots.tolist()):
+            w = by_slot[s]
+            for a in ("c0", "c1", "c2", "r"):
+                x, y = getattr(ex.rows.models, a)[k], getattr(whole.rows.models, a)[w]
+                assert np.allclose(x, y, rtol=1e-12, atol=1e-300), (a, s)
+            assert ex.rows.lo[k] == whole.rows.lo[w] and ex.rows.hi[k] == whole.rows.hi[w]
+    assert sorted(parts.rows.slots.tolist()) == sorted(whole.rows.slots.tolist())
+    lay = prog.rows
+    owned = (whole.rows.slots - lay.shared) // lay.width
+    expect = whole.rows.slots[(whole.rows.slots < lay.shared) | np.isin(owned, pick)]
+    assert sorted(some.rows.slots.tolist()) == sorted(expect.tolist())
