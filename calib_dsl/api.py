@@ -209,7 +209,7 @@ class Result:
 
 def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
           max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
-          inner: bool = True, diagnose: bool = True, outliers: int = 0,
+          inner: bool | None = None, diagnose: bool = True, outliers: int = 0,
           progress: Progress | None = None) -> Result:
     """Contract every unknown to an interval proven to hold all its consistent values, as
     `calibc solve` (the same options and defaults; `outliers` K as --outliers: every vector

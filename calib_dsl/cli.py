@@ -17,6 +17,7 @@ import click
 from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import STRATEGIES
 
 FORMULATION = click.option("--formulation", type=click.Choice(FORMULATIONS),
@@ -171,9 +172,10 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--lsq", is_flag=True, help="Also report a least-squares estimate.")
 @click.option("--all", "every", is_flag=True,
               help="List every unknown, also those that kept their whole search domain.")
-@click.option("--inner/--no-inner", default=True, show_default=True,
-              help="Certify inner bounds: values each unknown provably takes at parameter "
-                   "vectors that satisfy every constraint (how much of the result is real).")
+@click.option("--inner/--no-inner", default=None,
+              help="Certify inner bounds: values each unknown provably takes at solutions "
+                   "(how much of the result is real). Default: on up to "
+                   f"{DEFAULT.inner_max_primitives:,} primitives (thousands of rows).")
 @click.option("--diagnose/--no-diagnose", default=True, show_default=True,
               help="When the data are inconsistent, find the rows without which the rest is "
                    "proven consistent.")
@@ -191,12 +193,11 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, every: bool, inner: bool, diagnose: bool,
+          identify: bool, lsq: bool, every: bool, inner: bool | None, diagnose: bool,
           outliers: int, min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
           export_domains: str | None, formulation: str, data: tuple[str, ...],
-          rows: tuple[str, ...], exclude: tuple[str, ...],
-          defines: tuple[str, ...],
-            unroll: bool) -> None:
+          rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...],
+          unroll: bool) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.progress_line import progress_line

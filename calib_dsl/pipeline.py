@@ -162,7 +162,7 @@ class SolveReport:
 
 def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
                  strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
-                 identify: bool = True, lsq: bool = False, inner: bool = True,
+                 identify: bool = True, lsq: bool = False, inner: bool | None = None,
                  diagnose: bool = True, progress: Progress | None = None,
                  outliers: int = 0) -> SolveReport:
     """Load and solve `model`, with the report's optional sections (the command line's
@@ -222,10 +222,11 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
 def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
               max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
-              inner: bool = True, diagnose: bool = True,
+              inner: bool | None = None, diagnose: bool = True,
               progress: Progress | None = None, elaborated: Model | None = None) -> SolveReport:
     """`solve_report` on a program already loaded from `model` (with these inputs; the
-    elaborated model, when given, names the data rows of the warnings)."""
+    elaborated model, when given, names the data rows of the warnings). `inner`: True or
+    False, or None for the default (up to settings.inner_max_primitives)."""
     res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
     extra = Extras()
     if res.status == "contracted":
@@ -233,8 +234,8 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
-        if inner:
-            extra.inner_bounds(prog, res)
+        if inner is not False:
+            extra.inner_bounds(prog, res, asked=bool(inner))
     found = None
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)

@@ -10,6 +10,7 @@ import json
 import os
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -61,7 +62,8 @@ def test_job_file_defaults_paths_and_values(tmp_path):
     assert jobs["circle"].lsq and not jobs["circle"].identify
     assert rows.argv() == [str(folder / "line.cal"), "--strategy", "tight", "--formulation",
                            "matrix", "--tol", "1e-05", "--max-sweeps", "1000", "--rows", "1..3",
-                           "--exclude", "m=2", "--identify", "--inner", "--diagnose"]
+                           "--exclude", "m=2", "--identify", "--diagnose"]
+    assert replace(rows, inner=False).argv()[-2:] == ["--no-inner", "--diagnose"]
 
 
 BAD_FILES = [  # (job file text, line, col, message part)

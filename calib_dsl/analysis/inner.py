@@ -232,9 +232,9 @@ class _LinearModel:
             return
         self.readings = Readings(prog)
         # the readings as LP columns (each may take its own value within its interval), up
-        # to a few thousand; beyond, they stay at their middles (a narrower inner interval,
-        # as certain: the LP would be tens of thousands of columns wide)
-        free_readings = len(self.readings.mid) <= DEFAULT.max_cell_columns
+        # to inner_reading_columns; beyond, they stay at their middles (a narrower inner
+        # interval, as certain: the LP would be tens of thousands of columns wide)
+        free_readings = len(self.readings.mid) <= DEFAULT.inner_reading_columns
         rows, cols, vals = self.readings.entries(lin) if free_readings else \
             (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
         self.width = len(self.readings.mid) if free_readings else 0

@@ -51,7 +51,7 @@ class Job:
     max_sweeps: int = 1000
     identify: bool = True
     lsq: bool = False
-    inner: bool = True
+    inner: bool | None = None  # None: calibc solve's default
     diagnose: bool = True
     outliers: int = 0  # as --outliers K: all rows but at most K (0: every row holds)
 
@@ -64,7 +64,8 @@ class Job:
             for v in values:
                 out += [option, v]
         out.append("--identify" if self.identify else "--no-identify")
-        out.append("--inner" if self.inner else "--no-inner")
+        if self.inner is not None:
+            out.append("--inner" if self.inner else "--no-inner")
         out.append("--diagnose" if self.diagnose else "--no-diagnose")
         out += ["--outliers", str(self.outliers)] if self.outliers else []
         return out + (["--lsq"] if self.lsq else [])

@@ -29,13 +29,13 @@ class Extras:
         self.estimate: Any = None  # lsq.Estimate
         self.inner: Inner | None = None
         self.seconds = 0.0
-        self.skipped = ""
+        self.skipped: list[str] = []  # a line each: a section not computed, and why
 
     def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
         start = time.perf_counter()
         if len(prog.primitives) > DEFAULT.routine_max_primitives:
-            self.skipped = (f"identifiability: not analysed in solve for a program of "
-                            f"{len(prog.primitives)} primitives (run `calibc identify`)")
+            self.skipped.append(f"identifiability: not analysed in solve for a program of "
+                                f"{len(prog.primitives)} primitives (run `calibc identify`)")
             return
         try:
             self.info = analyse(prog)
@@ -53,13 +53,19 @@ class Extras:
         self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
         self.seconds += time.perf_counter() - start
 
-    def inner_bounds(self, prog: Program, res: Solution) -> None:
+    def inner_bounds(self, prog: Program, res: Solution, asked: bool = False) -> None:
+        """Certified inner bounds; unless `asked`, not on a program over
+        inner_max_primitives (each certified point is checked on every row)."""
+        if not asked and len(prog.primitives) > DEFAULT.inner_max_primitives:
+            self.skipped.append(f"inner bounds: not computed by default for a program of "
+                                f"{len(prog.primitives)} primitives (--inner computes them)")
+            return
         # the inner bounds only add to a result proven already: a numerical failure of
         # theirs is reported as such, and never costs the user the result
         try:
             self.inner = inner_bounds(prog, res.lo, res.hi)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
-            self.skipped = f"inner bounds: not computed ({type(err).__name__}: {err})"
+            self.skipped.append(f"inner bounds: not computed ({type(err).__name__}: {err})")
             return
         self.seconds += self.inner.seconds
 

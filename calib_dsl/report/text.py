@@ -140,7 +140,7 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     if t is not None:
         lines += ["", *render_tightness(t)]
     if extra.skipped:
-        lines += ["", extra.skipped]
+        lines += ["", *extra.skipped]
     if extra.info is not None:
         lines += ["", render(extra.info)]
         for text, lo, hi in extra.combinations:

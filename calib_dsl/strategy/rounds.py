@@ -244,15 +244,18 @@ class _Rounds:
         # as a relaxation (folded first-order rounds), or the second-order phase is over
         # (a round without a first-order relaxation: the second-order one's estimate of the
         # curvature)
+        # (not in the fine rounds: on the UR10 their multipliers certified nothing narrower
+        # on the next box, each costing an expansion)
         wide = this.quad is not None
-        self.reuse = self.cells or (wide and (self.fine
-                                              or (this.first or this.target).curvature > s.wide))
+        self.reuse = self.cells or (wide and not self.fine
+                                    and (this.first or this.target).curvature > s.wide)
         self.reused_in_a_row = 0
         if wide:
             # every unknown in the next one: rounds of LPs are rare between reused rounds,
             # and one that did not move may move after them
             self.skip = np.zeros_like(self.skip)
-            return best >= s.wide_min_gain  # else neither order contracts this box
+            # else neither order contracts this box
+            return best >= (s.fine_min_gain if self.fine else s.wide_min_gain)
         return self._next_first_order(this, gains, best)
 
     def _next_first_order(self, this: _Round, gains: np.ndarray, best: float) -> bool:
@@ -268,6 +271,13 @@ class _Rounds:
             return True
         if settled and not self.cellular:
             return self._fine_rounds(this)  # the next round would solve the same LP
+        if (best < s.folded_until or settled) and not self.cellular:
+            # a round with the errors as columns would fold them again (too many): the same
+            # relaxation; folded rounds go on while they pay
+            if best < s.min_gain:
+                return self._fine_rounds(this)
+            self.skip = (gains < s.stalled) & ~self.skip
+            return True
         if best < s.folded_until or settled:
             # a tighter relaxation: every unknown again, but one that no round has moved
             # (a parameter known beforehand)
