@@ -13,7 +13,7 @@ back towards the centre. Every certified point adds to every unknown's interval.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.highs import load, optimal
+from calib_dsl.lp.highs import RowCheck, add_rows, load, optimal
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 from calib_dsl.settings import DEFAULT
@@ -242,7 +242,13 @@ class _LinearModel:
         ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
         zlo, zhi = self.readings.bounds() if free_readings else (np.zeros(0), np.zeros(0))
         b_lo, b = self.bounds(np.zeros(self.rows))
-        self.h = load(LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo))
+        self.rel = LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo)
+        # a tall model holds some of its rows, and those an optimum violates are added (row
+        # generation: each LP is small; the optimum is the whole model's)
+        tall = self.rows > DEFAULT.rows_at_once
+        self.in_lp = (np.unique(np.linspace(0, self.rows - 1, 8 * self.n).astype(np.int64))
+                      if tall else np.arange(self.rows))  # (a few rows per unknown)
+        self.h = load(self.rel, self.in_lp if tall else None)
         self.tightened = np.zeros(self.rows)
 
     def bounds(self, tighten: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -257,13 +263,22 @@ class _LinearModel:
         cost[j] = -sign  # HiGHS minimizes
         h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
         if np.any(tighten != self.tightened):
-            m = self.rows
             b_lo, b = self.bounds(tighten)
+            self.rel = replace(self.rel, b=b, b_lo=b_lo)
             inf = 1e300  # HiGHS's infinity: anything beyond 1e20
-            h.changeRowsBounds(m, np.arange(m, dtype=np.int32), np.maximum(b_lo, -inf),
-                               np.minimum(b, inf))
+            at = self.in_lp
+            h.changeRowsBounds(len(at), np.arange(len(at), dtype=np.int32),
+                               np.maximum(b_lo[at], -inf), np.minimum(b[at], inf))
             self.tightened = tighten.copy()
         h.run()
+        while optimal(h) and len(self.in_lp) < self.rows:
+            more = RowCheck(self.rel).violated(np.asarray(h.getSolution().col_value),
+                                              self.in_lp)
+            if not len(more):
+                break
+            add_rows(h, self.rel, more)
+            self.in_lp = np.concatenate([self.in_lp, more])
+            h.run()
         if not optimal(h):
             return None
         return np.array(h.getSolution().col_value)
