@@ -9,9 +9,11 @@ rows at a time, the shared part again with each, and keep only what each chunk y
 The program of `size` rows is a prefix of the whole program: its shared slots, then the
 first `size` rows' blocks, and each group's entries up to the end of those rows (the groups
 are laid out shared entries first, then row after row: replicate.tile_groups). It is built
-once per size, and chunk `[a, b)` is that program on the box of rows a..b-1, read off the
-whole box as two contiguous slices. Slot numbers and table-row ids (`Slots.cell_row`) of a
-chunk map back to the whole program's by an offset.
+once (with what the passes derive from it), and a chunk is that program on the box of some
+`size` rows, read off the whole box (two slices when the rows are contiguous). A last,
+shorter chunk repeats its last row to fill the size, and the copies' results are dropped:
+one program serves every chunk. Slot numbers and table-row ids (`Slots.cell_row`) of a
+chunk map back to the whole program's by its rows.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ class Chunk:
     rows: np.ndarray
     layout: RowLayout  # of the whole program
     first: bool  # the first chunk: the only one whose shared-only rows are kept
+    real: int  # the rows before the copies of the last that fill a short chunk
 
     @property
     def span(self) -> slice | None:
@@ -66,11 +69,14 @@ class Chunk:
         r, t = np.divmod(np.where(mine, local, 0), per)
         return np.where(mine, self.rows[r] * per + t, local)
 
-    def shared_only(self, targets: np.ndarray) -> np.ndarray:
-        """Which constraint rows (by their target slots, local) are the shared part's: they
-        read no row (a shared slot is defined from shared slots only) and every chunk has
-        them."""
-        return targets < self.layout.shared
+    def kept(self, targets: np.ndarray) -> np.ndarray:
+        """Which constraint rows (by their target slots, local) this chunk contributes: not a
+        copy's that fills the chunk, and the shared part's only in the first chunk (a
+        shared slot is defined from shared slots only, so every chunk has those rows)."""
+        lay = self.layout
+        shared = targets < lay.shared
+        row = (targets - lay.shared) // max(lay.width, 1)
+        return np.where(shared, self.first, row < self.real)
 
 
 def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
@@ -87,11 +93,14 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
         rows = np.arange(len(lay.rows))
     if len(rows) == 0:
         raise ValueError("no rows to take")
-    size = max(1, (max_slots - lay.shared) // max(lay.width, 1))
+    size = min(max(1, (max_slots - lay.shared) // max(lay.width, 1)), len(rows))
+    whole = prefix(prog, size)
     out = []
     for a in range(0, len(rows), size):
         part = np.asarray(rows[a: a + size], dtype=np.int64)
-        out.append(Chunk(prefix(prog, len(part)), part, lay, a == 0))
+        real = len(part)
+        part = np.concatenate([part, np.full(size - real, part[-1], dtype=np.int64)])
+        out.append(Chunk(whole, part, lay, a == 0, real))
     return out
 
 

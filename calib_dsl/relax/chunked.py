@@ -80,8 +80,7 @@ class Chunked(Evaluated):
             at = 0
             for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
                 size = len(raw[5])
-                keep = (np.ones(size, dtype=bool) if ch.first
-                        else ~ch.shared_only(raw[5]))
+                keep = ch.kept(raw[5])
                 mine = owners[at: at + size] if owners is not None else None
                 at += size
                 if not np.any(keep):

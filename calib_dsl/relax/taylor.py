@@ -80,7 +80,7 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
         ex = _expand(ch.prog, ch.box(lo), ch.box(hi))
         if ex is None:
             return None
-        keep = np.flatnonzero(~ch.shared_only(ex.rows.slots) | ch.first)
+        keep = np.flatnonzero(ch.kept(ex.rows.slots))
         part = ex.rows.take(keep)
         part.slots = ch.slots(part.slots)
         parts.append(part)
