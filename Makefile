@@ -26,8 +26,12 @@ lint: install
 	$(BIN)/mypy calib_dsl
 
 # bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
-# note where the data set is absent), then the certified inner bounds. The venv's python once `make install` made it; else $(PY) when calibc already runs
-# there (no install needed); else install first.
+# note where the data set is absent), then the certified inner bounds, then thousands of
+# configurations (RX90 and a Series-A-sized UR10 table) beside calibc as of $(BASELINE), the
+# last commit before rows were compiled once.
+BASELINE ?= 404e2ec
+# The venv's python once `make install` made it; else $(PY) when calibc already runs there
+# (no install needed); else install first.
 ifneq ($(filter bench,$(MAKECMDGOALS)),)
 BENCH_PY := $(shell if [ -x $(BIN)/python ]; then echo $(BIN)/python; \
 	elif $(PY) -c "import calib_dsl, lark, numpy, click, scipy, highspy" 2>/dev/null; \
@@ -38,6 +42,7 @@ bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/ur10.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/inner.py
+	$(or $(BENCH_PY),$(BIN)/python) bench/scale.py --baseline $(BASELINE)
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.
