@@ -250,7 +250,8 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
         "its phases in wall seconds: *import* (Python start and the modules), *elab* "
         "(parsing and elaboration, robot chains expanded), *compile* (decomposition and the "
         "flat program), *solve* (propagation, or the tight strategy with its LP rounds), *rest* "
-        "(the report: identifiability analysis, tables); *peak MB* is the peak resident memory "
+        "(the report: identifiability analysis, certified inner bounds, tables); *peak MB* is the "
+        "peak resident memory "
         "of the process.",
         "",
         "| formulation | configs | strategy | primitives | sweeps | wall s | CPU s | import | "
@@ -392,11 +393,29 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
     out.write_text("\n".join(lines) + _kept_history(out), encoding="utf-8")
 
 
+# the sections the other bench scripts write (bench/ur10.py, inner.py, scale.py): kept as
+# they are, so the scripts may run in any order
+OTHERS = ("## Real data: UR10 (Series B)", "## Certified inner bounds", "## Scale")
+
+
 def _kept_history(out: Path) -> str:
-    """The file's measured history (from HISTORY on), which a new bench keeps as it is."""
+    """The other scripts' sections and the file's measured history (from HISTORY on), which
+    a new bench keeps as they are."""
     old = out.read_text(encoding="utf-8") if out.exists() else ""
-    at = old.find(HISTORY)
-    return "\n" + old[at:] if at >= 0 else ""
+    kept = []
+    for title in OTHERS:
+        at = _heading(old, title)
+        if at >= 0:
+            end = old.find("\n## ", at + len(title))
+            kept.append(old[at: end + 1 if end >= 0 else len(old)])
+    at = _heading(old, HISTORY)
+    return "".join("\n" + k for k in kept) + ("\n" + old[at:] if at >= 0 else "")
+
+
+def _heading(text: str, title: str) -> int:
+    """Where the line `title` starts in text (-1: nowhere; a longer heading is not it)."""
+    at = ("\n" + text).find("\n" + title + "\n")
+    return at
 
 
 def main() -> None:

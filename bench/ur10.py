@@ -123,7 +123,7 @@ def report(data: Path, runs: int) -> str:
 def write(out: Path, section: str, title: str = SECTION) -> None:
     """Replace the section `title` in `out` (or put it before the history)."""
     text = out.read_text(encoding="utf-8") if out.exists() else ""
-    start = text.find(title)
+    start = ("\n" + text).find("\n" + title + "\n")  # the heading's own line
     if start >= 0:
         end = text.find("\n## ", start + len(title))
         text = text[:start] + section + (text[end + 1:] if end >= 0 else "")
