@@ -2,13 +2,16 @@
 that satisfies all data rows but at most K (S_K, the union over the sets J of at most K data
 rows of the solutions of the rest).
 
-Propagation treats every constraint as hard, so it could remove a vector that fails a row:
-here only LPs contract, over relaxations made from the box alone (relax/evaluation.py
-recomputes every temporary's range from the unknowns' box), with the rows of each data row
-allowed to fail through the big-M columns of strategy/dropping.py. Each round relaxes on the
-box the last one left (a smaller box: smaller M, a tighter relaxation), from the search
-domains, until no unknown narrows by `gain`. Every bound is certified (lp/), so the box holds
-S_K whatever the LP solver did.
+Propagation treats every constraint as hard, so it could remove a vector that fails a row.
+Two steps contract S_K's box instead. First, blocks: cut the data rows into K + 1 blocks; a
+vector that fails at most K rows satisfies some whole block, so S_K lies in the union of the
+blocks' solution sets, and the hull of their tight solves (each with every row of its block
+hard: propagation, LPs, second order) encloses it. Then LPs alone, over relaxations made
+from the box (relax/evaluation.py recomputes every temporary's range from the unknowns'
+box), with the rows of each data row allowed to fail through the big-M columns of
+strategy/dropping.py. Each round relaxes on the box the last one left (a smaller box:
+smaller M, a tighter relaxation) until no unknown narrows by `gain`. Every bound is
+certified (lp/), so the box holds S_K whatever the LP solver did.
 """
 
 from __future__ import annotations
@@ -48,12 +51,48 @@ class OutlierBox:
     seconds: float
 
 
+def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
+              tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
+              progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray, Work] | None:
+    """The hull of the tight solves of k + 1 blocks of the data rows (round robin: every
+    (k+1)-th row), over `prog`'s slots (the declared unknowns narrowed, matched by name), or
+    None when every block is proven inconsistent (then no vector fails at most k rows)."""
+    ids = list(range(len(prog.slots.row_keys or [])))
+    if len(ids) <= k:  # (every row may fail: no block is sure to hold)
+        return prog.slots.lo.copy(), prog.slots.hi.copy(), Work()
+    ind = independents(prog)
+    lo, hi = np.full(len(ind), np.inf), np.full(len(ind), -np.inf)
+    work = Work()
+    for b in range(k + 1):
+        part = without([i for i in ids if i % (k + 1) != b])
+        sol = solve_tight(part, tol=tol, max_sweeps=max_sweeps, settings=settings,
+                          progress=progress)
+        work = work + sol.work
+        if sol.status == "infeasible":
+            continue
+        names = {part.slots.names[i]: i for i in part.slots.declared}
+        for n, i in enumerate(ind):
+            j = names.get(prog.slots.names[i])
+            a, c = (sol.lo[j], sol.hi[j]) if j is not None else (prog.slots.lo[i],
+                                                                  prog.slots.hi[i])
+            lo[n], hi[n] = min(lo[n], a), max(hi[n], c)
+    if np.all(lo > hi):
+        return None
+    out_lo, out_hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    out_lo[ind] = np.maximum(out_lo[ind], lo)
+    out_hi[ind] = np.minimum(out_hi[ind], hi)
+    return out_lo, out_hi, work
+
+
 def outlier_box(prog: Program, k: int, meter: Meter | None = None,
-                max_rounds: int = MAX_ROUNDS) -> OutlierBox:
-    """Rounds of certified LPs over the relaxations that let at most k data rows fail."""
+                max_rounds: int = MAX_ROUNDS,
+                box: tuple[np.ndarray, np.ndarray] | None = None) -> OutlierBox:
+    """Rounds of certified LPs over the relaxations that let at most k data rows fail, from
+    `box` (the program's domains if None)."""
     start = time.perf_counter()
     ind = independents(prog)
-    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    lo, hi = ((prog.slots.lo.copy(), prog.slots.hi.copy()) if box is None
+              else (box[0].copy(), box[1].copy()))
     rounds = 0
     while rounds < max_rounds:
         made = relax_owned(prog, lo, hi)
@@ -97,8 +136,14 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     outlier of any such vector: none is possible)."""
     start = time.perf_counter()
     meter = Meter(progress, independents(prog), start) if progress is not None else None
-    box = outlier_box(prog, k, meter)
-    work = Work(lp_rounds=box.rounds)
+    blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress)
+    if blocks is None:  # every block inconsistent: no vector fails at most k rows
+        empty = OutlierBox(prog.slots.lo, prog.slots.hi, True, 0, time.perf_counter() - start)
+        return _none(prog, k, empty, Work(), start, [])
+    if meter is not None:
+        meter("blocks", blocks[0], blocks[1])
+    box = outlier_box(prog, k, meter, box=blocks[:2])
+    work = blocks[2] + Work(lp_rounds=box.rounds)
     if box.empty:
         return _none(prog, k, box, work, start, [])
     found = classify(prog, box.lo, box.hi)
