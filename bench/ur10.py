@@ -51,7 +51,9 @@ def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, fl
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
 
-    inputs = Inputs(data={"m": data}, rows={"m": Selection(parse_ranges(rows), ())},
+    rows, _, without = rows.partition(" without ")
+    excluded = tuple(int(r) for r in without.split(",")) if without else ()
+    inputs = Inputs(data={"m": data}, rows={"m": Selection(parse_ranges(rows), excluded)},
                     consts={"e": e})
     prog = load(MODEL, inputs=inputs)
     hull = hull_at_estimate(prog)
@@ -95,12 +97,6 @@ def report(data: Path, runs: int) -> str:
                 named = r["json"].get("conflict", {}).get("rows", [])
                 lines.append(head + (f"; rows named: {', '.join(str(x['row']) for x in named)}"
                                      if named else "") + ".")
-                continue
-            if "without" in rows:  # (no yardstick: the least-squares point of other rows)
-                widths = [(p["result"][1] - p["result"][0]) / (p["domain"][1] - p["domain"][0])
-                          for p in r["json"]["parameters"].values()]
-                lines.append(head + f"; width / domain: median {statistics.median(widths):.2f}"
-                             f", worst {max(widths):.2f}.")
                 continue
             yard = yardstick(rows, e, data)
             ratios = {}

@@ -6,13 +6,17 @@ hope, like least squares: certify_point.py proves what it claims.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from calib_dsl.analysis.certify_point import exact_inside
 from calib_dsl.analysis.lsq import estimate, linearized, rows_at
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
+from calib_dsl.lp.highs import minimize
 from calib_dsl.relax.layout import independents
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 ITERATIONS = 8  # linear programs lowering the largest residual
 TRUST = 0.5  # each LP step within this share of the domains
@@ -25,8 +29,6 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
     residuals in units of each row's bound. From `start`, else the least-squares estimate;
     within `box` (the unknowns' bounds), else the search domains."""
-    from scipy.optimize import linprog
-
     ind = independents(prog)
     lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
     # inside the declared domains exactly (their floats are rounded outward), so that the
@@ -54,17 +56,24 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
                        np.hstack([-A_o, np.zeros((len(r_o), 1))])])
         b = np.concatenate([-r_b, r_b, h_o - r_o, h_o + r_o])
         step = TRUST * width
-        bounds = [(max(lo[k] - p[k], -step[k]), min(hi[k] - p[k], step[k])) for k in range(n)]
-        res = linprog(np.r_[np.zeros(n), 1.0], A_ub=A, b_ub=b, bounds=[*bounds, (0, None)],
-                      method="highs")
-        if res.status != 0:
+        x = _minimize(np.r_[np.zeros(n), 1.0], A, b, np.r_[np.maximum(lo - p, -step), 0.0],
+                      np.r_[np.minimum(hi - p, step), np.inf])
+        if x is None:
             break
-        q = np.clip(p + res.x[:n], lo, hi)
+        q = np.clip(p + x[:n], lo, hi)
         dq, _, jq = rows_at(prog, q)
         if _largest(dq, rows, unit) >= need * (1 - 1e-6):
             break
         p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
     return p, need
+
+
+def _minimize(cost: np.ndarray, A: Any, b: np.ndarray, lo: np.ndarray,
+              hi: np.ndarray) -> np.ndarray | None:
+    """min cost.x subject to A x <= b (A dense or scipy CSR), lo <= x <= hi."""
+    rows = (Rows.join(A, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 0)
+            if isinstance(A, np.ndarray) else A)
+    return minimize(LinearRelaxation(rows, b, lo, hi, len(cost)), cost)
 
 
 def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
@@ -79,7 +88,6 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
     readings (Readings order) and the linear model's largest residual on `rows`; None
     when the model has no readings or the LP fails. A point and a hope, as above."""
     from scipy import sparse
-    from scipy.optimize import linprog
 
     readings = Readings(prog)
     if not len(readings.at):
@@ -104,10 +112,10 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
     ones = np.ones(len(other))
     b = np.concatenate([-d[fit], d[fit], ones - d[other], ones + d[other]])
     zlo, zhi = readings.bounds()
-    bounds = [*zip(lo - point, hi - point, strict=True), *zip(zlo, zhi, strict=True), (0, None)]
-    res = linprog(np.r_[np.zeros(n + k), 1.0], A_ub=A, b_ub=b, bounds=bounds, method="highs")
-    if res.status != 0:
+    x = _minimize(np.r_[np.zeros(n + k), 1.0], A, b, np.r_[lo - point, zlo, 0.0],
+                  np.r_[hi - point, zhi, np.inf])
+    if x is None:
         return None
-    q = np.clip(point + res.x[:n], lo, hi)
+    q = np.clip(point + x[:n], lo, hi)
     scale = float(np.max(lin.half[fit])) if len(fit) else 1.0  # the bound rows share it
-    return q, readings.values(res.x[n:n + k]), float(res.x[-1]) * scale
+    return q, readings.values(x[n:n + k]), float(x[-1]) * scale

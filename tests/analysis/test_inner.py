@@ -298,3 +298,18 @@ def test_inequality_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, 
             ends.append(sign * -res.fun)
         hull = ends[0] - ends[1]
         assert inner.hi[k] - inner.lo[k] >= hull * (1 - 1e-3)
+
+
+def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
+    """Importing scipy.optimize costs 0.3-0.4 s, most of the inner bounds' time on Test A: the
+    Chebyshev fit that finds their centre calls HiGHS itself."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from calib_dsl.pipeline import solve_report; "
+            f"r = solve_report({str(ROOT / 'models' / 'rx90_lengths.cal')!r}); "
+            "assert r.extra.inner is not None and r.extra.inner.consistent, 'no inner bounds'; "
+            "print('scipy.optimize' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "False"

@@ -803,3 +803,28 @@ def test_highs_prints_nothing_on_stdout():
             "load(rel).run(); load(rel).run(); print('done')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "done\n"
+
+
+# -- a plain LP (the Chebyshev fit's) ------------------------------------------------------
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 40))
+def test_minimize_agrees_with_scipys_linprog(seed, n, m):
+    from calib_dsl.lp.highs import minimize
+
+    rng = np.random.default_rng(seed)
+    x_hat = rng.uniform(-1, 1, n)
+    A = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.7) * 10.0 ** rng.integers(-3, 4, n)
+    b = A @ x_hat + rng.exponential(0.5, m)
+    lo = np.where(rng.random(n) < 0.2, -np.inf, -3.0)
+    hi = np.full(n, 3.0)
+    cost = rng.normal(size=n)
+    x = minimize(LinearRelaxation(rows_of(A), b, lo, hi, n), cost)
+    ref = linprog(cost, A_ub=A, b_ub=b, bounds=[(None if not np.isfinite(a) else a, 3.0)
+                                                 for a in lo], method="highs")
+    if ref.status == 3:  # unbounded below
+        assert x is None
+        return
+    assert ref.status == 0 and x is not None
+    assert abs(cost @ x - ref.fun) <= 1e-7 * (1 + abs(ref.fun))
+    assert np.all(A @ x <= b + 1e-7 * (1 + np.abs(A) @ np.abs(x)))
