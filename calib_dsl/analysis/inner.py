@@ -89,10 +89,10 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind))
-    centre = _centre(prog, box)
+    centre, ends = _centre(prog, box)
     if centre is not None:
         found.add(centre)
-        _extremes(prog, box, centre.point, found)
+        _extremes(prog, box, centre.point, found, ends)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -113,52 +113,68 @@ class _Points:
         self.hi[higher], self.hi_at[higher] = w.point[higher], k
 
 
-def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]) -> Witness | None:
+@dataclass(frozen=True)
+class _Ends:
+    """The model linearized at the box's middle and its LP optima at the ends of the free
+    unknowns ((j, sign): step): the ends' first candidates where the centre is their mean."""
+
+    lp: _LinearModel
+    steps: dict[tuple[int, float], np.ndarray]
+
+
+def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]
+            ) -> tuple[Witness | None, _Ends | None]:
     """A certified point near the middle of the box (the middle itself, else the point with
     the smallest largest residual in units of each row's bound, else the mean of the ends of
-    the model linearized at the middle): the LPs' starting point."""
+    the model linearized at the middle): the LPs' starting point; and those ends, where
+    they were computed."""
     lo, hi = box
     mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     mid = np.clip(mid, lo, hi)
     middles = Readings(prog).middles()
     if prove_point(prog, mid, middles):  # a tight box's middle often is a solution
-        return Witness(mid, middles)
+        return Witness(mid, middles), None
     try:
         with np.errstate(all="ignore"):
             p, need = chebyshev(prog, normalized=True, start=mid, box=box)
         if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
-            return Witness(p, middles)
+            return Witness(p, middles), None
     except (ValueError, np.linalg.LinAlgError):
         pass
     return _mean_of_ends(prog, box, mid)
 
 
 def _mean_of_ends(prog: Program, box: tuple[np.ndarray, np.ndarray],
-                  mid: np.ndarray) -> Witness | None:
+                  mid: np.ndarray) -> tuple[Witness | None, _Ends | None]:
     """The mean of the linearized model's ends, a point inside it: where the Chebyshev fit
-    cannot run (an inequality's bound is infinite, so it has no units)."""
+    cannot run (an inequality's bound is infinite, so it has no units) or does not reach
+    inside every bound (the joint readings at their middles)."""
     free = np.flatnonzero(box[1] > box[0])
     if not len(free):
-        return None
+        return None, None
     lp = _LinearModel(prog, box, mid, free)
     if not lp.finite:
-        return None
-    ends = [y for j in range(len(free)) for sign in (-1.0, 1.0)
-            if (y := lp.extreme(j, sign, np.zeros(lp.rows))) is not None]
-    if not ends:
-        return None
-    point, readings = lp.point(np.mean(ends, axis=0))
-    return Witness(point, readings) if prove_point(prog, point, readings) else None
+        return None, None
+    steps = {(j, sign): y for j in range(len(free)) for sign in (-1.0, 1.0)
+             if (y := lp.extreme(j, sign, np.zeros(lp.rows))) is not None}
+    if not steps:
+        return None, None
+    point, readings = lp.point(np.mean(list(steps.values()), axis=0))
+    if not prove_point(prog, point, readings):
+        return None, None
+    return Witness(point, readings), _Ends(lp, steps)
 
 
 def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
-              found: _Points) -> None:
-    """Both ends of every unknown that can move, over the model linearized at the centre."""
+              found: _Points, start: _Ends | None) -> None:
+    """Both ends of every unknown that can move, over the model linearized at the centre (or
+    at the middle, where the centre is the mean of that model's ends: their LPs are not
+    solved twice)."""
     lo, hi = box
     free = np.flatnonzero(hi > lo)
     if not len(free):
         return
-    lp = _LinearModel(prog, box, centre, free)
+    lp = start.lp if start is not None else _LinearModel(prog, box, centre, free)
     if not lp.finite:  # the model cannot be linearized there (an infinite derivative)
         return
     for j, k in enumerate(free):
@@ -166,17 +182,19 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
             reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
             if abs(bound - reached) <= REACHED * (hi[k] - lo[k]):
                 continue  # a certified point already reaches the outer bound
-            w = _end(prog, lp, j, sign)
+            w = _end(prog, lp, j, sign, None if start is None else start.steps.get((j, sign)))
             if w is not None:
                 found.add(w)
 
 
-def _end(prog: Program, lp: _LinearModel, j: int, sign: float) -> Witness | None:
-    """A certified point far along the free unknown j in the direction `sign`."""
+def _end(prog: Program, lp: _LinearModel, j: int, sign: float,
+         first: np.ndarray | None = None) -> Witness | None:
+    """A certified point far along the free unknown j in the direction `sign` (`first`: the
+    LP's optimum with no row tightened, when already known)."""
     tighten = np.zeros(lp.rows)
     step = np.zeros(0)
-    for _ in range(CORRECTIONS):
-        y = lp.extreme(j, sign, tighten)
+    for k in range(CORRECTIONS):
+        y = first if k == 0 and first is not None else lp.extreme(j, sign, tighten)
         if y is None:  # tightened beyond what the LP can meet
             break
         step = y
