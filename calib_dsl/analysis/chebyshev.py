@@ -24,11 +24,13 @@ TRUST = 0.5  # each LP step within this share of the domains
 
 def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
               start: np.ndarray | None = None,
-              box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
+              box: tuple[np.ndarray, np.ndarray] | None = None,
+              target: float = 0.0) -> tuple[np.ndarray, float]:
     """A point with a small largest residual on `rows` (all if None; the others within their
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
     residuals in units of each row's bound. From `start`, else the least-squares estimate;
-    within `box` (the unknowns' bounds), else the search domains."""
+    within `box` (the unknowns' bounds), else the search domains. Stops early once the
+    linearized model cannot bring the largest residual below `target` (its LP's optimum)."""
     ind = independents(prog)
     lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
     # inside the declared domains exactly (their floats are rounded outward), so that the
@@ -65,6 +67,8 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
         if _largest(dq, rows, unit) >= need * (1 - 1e-6):
             break
         p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
+        if x[-1] >= target * (1 + 1e-9) > 0:
+            break
     return p, need
 
 

@@ -136,7 +136,7 @@ def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]
         return Witness(mid, middles), None
     try:
         with np.errstate(all="ignore"):
-            p, need = chebyshev(prog, normalized=True, start=mid, box=box)
+            p, need = chebyshev(prog, normalized=True, start=mid, box=box, target=1.0)
         if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
             return Witness(p, middles), None
     except (ValueError, np.linalg.LinAlgError):
