@@ -189,6 +189,22 @@ def test_two_certain_outliers_with_one_allowed_are_inconsistent(tmp_path):
     assert json.loads(res.output)["outliers"]["certain"] == [3, 6]
 
 
+def test_a_row_passed_over_is_proven_once_another_row_is(tmp_path):
+    """Row 9 has the largest residual but fits one of the thirds of the other rows (one holds
+    row 4, also off); once row 4 is proven, row 9 is proven against halves."""
+    x = np.arange(9.0)
+    v = np.array([0.122, 0.282, 0.547, 0.561, 0.896, 1.071, 1.25, 1.528, 1.403])
+    rows = zip(x.tolist(), v.tolist(), strict=True)
+    (tmp_path / "d.csv").write_text("x,v\n" + "".join(f"{a},{b}\n" for a, b in rows))
+    (tmp_path / "line.cal").write_text(LINE)
+    run = solve_report(tmp_path / "line.cal", outliers=2, identify=False)
+    assert run.outliers is not None
+    assert sorted(r.row for r in run.outliers.certain) == [4, 9]
+    assert run.outliers.proven == 2  # both by the proof, before the LPs
+    for r in run.outliers.certain:  # fails for every vector of S_2 (brute force)
+        assert not _satisfiable_with(x, v, 2, r.row - 1)
+
+
 def test_a_model_without_a_table_is_a_user_error():
     res = CliRunner().invoke(main, ["solve", str(ROOT / "models/examples/paper_cse.cal"),
                                     "--outliers", "1"])
