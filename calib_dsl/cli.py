@@ -174,8 +174,8 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
               help="List every unknown, also those that kept their whole search domain.")
 @click.option("--inner/--no-inner", default=None,
               help="Certify inner bounds: values each unknown provably takes at solutions "
-                   "(how much of the result is real). Default: on up to "
-                   f"{DEFAULT.inner_max_primitives:,} primitives (thousands of rows).")
+                   "(how much of the result is real). Default: on with the tight strategy, "
+                   f"up to {DEFAULT.inner_max_primitives:,} primitives (thousands of rows).")
 @click.option("--diagnose/--no-diagnose", default=True, show_default=True,
               help="When the data are inconsistent, find the rows without which the rest is "
                    "proven consistent.")

@@ -195,6 +195,19 @@ def test_cli_no_inner(tmp_path):
     assert "certified inner" not in res.stdout
 
 
+def test_cli_hc4_skips_inner_bounds_unless_asked(tmp_path):
+    res, data = _solve(tmp_path, "--strategy", "hc4")
+    assert res.exit_code == 0, res.output
+    assert "tightness" not in data and "certified inner" not in res.stdout
+    assert "inner bounds: not computed by default after --strategy hc4" in res.stdout
+    res, data = _solve(tmp_path, "--strategy", "hc4", "--inner")
+    assert res.exit_code == 0, res.output
+    assert data["tightness"]["consistent"] and data["tightness"]["certified"] == 33
+    for p in data["parameters"].values():
+        (lo, hi), (a, b) = p["result"], p["inner"]
+        assert lo <= a <= b <= hi
+
+
 # -- rows between two computed values: existence by the intermediate value theorem ----------
 CIRCLE = """param cx in [-10, 10]; param cy in [-10, 10]; param radius in [0, 10];
 table m = "c.csv" { x, y : +- 1e-3; }
