@@ -407,7 +407,7 @@ def _kept_history(out: Path) -> str:
         at = _heading(old, title)
         if at >= 0:
             end = old.find("\n## ", at + len(title))
-            kept.append(old[at: end + 1 if end >= 0 else len(old)])
+            kept.append(old[at: end if end >= 0 else len(old)].rstrip("\n") + "\n")
     at = _heading(old, HISTORY)
     return "".join("\n" + k for k in kept) + ("\n" + old[at:] if at >= 0 else "")
 
