@@ -13,6 +13,7 @@ back towards the centre. Every certified point adds to every unknown's interval.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -155,8 +156,7 @@ def _mean_of_ends(prog: Program, box: tuple[np.ndarray, np.ndarray],
     lp = _LinearModel(prog, box, mid, free)
     if not lp.finite:
         return None, None
-    steps = {(j, sign): y for j in range(len(free)) for sign in (-1.0, 1.0)
-             if (y := lp.extreme(j, sign, np.zeros(lp.rows))) is not None}
+    steps = lp.extremes([(j, sign) for j in range(len(free)) for sign in (-1.0, 1.0)])
     if not steps:
         return None, None
     point, readings = lp.point(np.mean(list(steps.values()), axis=0))
@@ -224,8 +224,8 @@ class _LinearModel:
     """The rows linearized at the centre: each row's residual r + A y + B z (in units of the
     row's bound; y the free unknowns' step in units of their widths, z the readings' errors
     in units of their bounds) within its interval, narrowed by 1 - AIM and `tighten` at each
-    finite end, the variables within the box: one HiGHS model whose objective and row bounds
-    change from one end to the next."""
+    finite end, the variables within the box; solved by HiGHS models (_Solver) whose
+    objective and row bounds change from one end to the next."""
 
     def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
                  free: np.ndarray) -> None:
@@ -261,13 +261,7 @@ class _LinearModel:
         zlo, zhi = self.readings.bounds() if free_readings else (np.zeros(0), np.zeros(0))
         b_lo, b = self.bounds(np.zeros(self.rows))
         self.rel = LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo)
-        # a tall model holds some of its rows, and those an optimum violates are added (row
-        # generation: each LP is small; the optimum is the whole model's)
-        tall = self.rows > DEFAULT.rows_at_once
-        self.in_lp = (np.unique(np.linspace(0, self.rows - 1, 8 * self.n).astype(np.int64))
-                      if tall else np.arange(self.rows))  # (a few rows per unknown)
-        self.h = load(self.rel, self.in_lp if tall else None)
-        self.tightened = np.zeros(self.rows)
+        self.solver = _Solver(self)
 
     def bounds(self, tighten: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The rows' bounds narrowed by 1 - AIM and `tighten` (an infinite end stays)."""
@@ -276,30 +270,24 @@ class _LinearModel:
 
     def extreme(self, j: int, sign: float, tighten: np.ndarray) -> np.ndarray | None:
         """The LP's optimum (y, z) for the largest (sign > 0) or smallest free unknown j."""
-        h, cols = self.h, self.n + self.width
-        cost = np.zeros(cols)
-        cost[j] = -sign  # HiGHS minimizes
-        h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
-        if np.any(tighten != self.tightened):
-            b_lo, b = self.bounds(tighten)
-            self.rel = replace(self.rel, b=b, b_lo=b_lo)
-            inf = 1e300  # HiGHS's infinity: anything beyond 1e20
-            at = self.in_lp
-            h.changeRowsBounds(len(at), np.arange(len(at), dtype=np.int32),
-                               np.maximum(b_lo[at], -inf), np.minimum(b[at], inf))
-            self.tightened = tighten.copy()
-        h.run()
-        while optimal(h) and len(self.in_lp) < self.rows:
-            more = RowCheck(self.rel).violated(np.asarray(h.getSolution().col_value),
-                                              self.in_lp)
-            if not len(more):
-                break
-            add_rows(h, self.rel, more)
-            self.in_lp = np.concatenate([self.in_lp, more])
-            h.run()
-        if not optimal(h):
-            return None
-        return np.array(h.getSolution().col_value)
+        return self.solver.extreme(j, sign, tighten)
+
+    def extremes(self, ends: list[tuple[int, float]]) -> dict[tuple[int, float], np.ndarray]:
+        """The optima of these ends with no row tightened (those the LP found), shared among
+        lp_workers threads, each with its own HiGHS model (HiGHS releases the GIL)."""
+        workers = max(1, min(DEFAULT.lp_workers, len(ends)))
+        solvers = [self.solver] + [_Solver(self) for _ in range(workers - 1)]
+        untightened = np.zeros(self.rows)
+
+        def share(w: int) -> list[tuple[tuple[int, float], np.ndarray | None]]:
+            return [(e, solvers[w].extreme(*e, untightened)) for e in ends[w::workers]]
+
+        if workers == 1:
+            found = share(0)
+        else:
+            with ThreadPoolExecutor(workers) as pool:
+                found = [x for part in pool.map(share, range(workers)) for x in part]
+        return {e: y for e, y in found if y is not None}
 
     def point(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The unknowns and the readings at `step` from the centre (kept in their bounds: a
@@ -321,3 +309,45 @@ class _LinearModel:
         failed = np.zeros(self.nslots, dtype=bool)
         failed[check.slots[check.computed & ~check.ok]] = True
         return out[self.slots] / self.unit, failed[self.slots]
+
+
+class _Solver:
+    """A HiGHS model of a _LinearModel's LP: its rows' bounds as last tightened, and the rows
+    it holds (a tall model holds some, and those an optimum violates are added: row
+    generation, each LP small, the optimum the whole model's). One per thread."""
+
+    def __init__(self, model: _LinearModel) -> None:
+        self.model, self.rel = model, model.rel
+        tall = model.rows > DEFAULT.rows_at_once
+        self.in_lp = (np.unique(np.linspace(0, model.rows - 1, 8 * model.n).astype(np.int64))
+                      if tall else np.arange(model.rows))  # (a few rows per unknown)
+        self.h = load(self.rel, self.in_lp if tall else None)
+        self.tightened = np.zeros(model.rows)
+
+    def extreme(self, j: int, sign: float, tighten: np.ndarray) -> np.ndarray | None:
+        """The LP's optimum (y, z) for the largest (sign > 0) or smallest free unknown j."""
+        m = self.model
+        h, cols = self.h, m.n + m.width
+        cost = np.zeros(cols)
+        cost[j] = -sign  # HiGHS minimizes
+        h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
+        if np.any(tighten != self.tightened):
+            b_lo, b = m.bounds(tighten)
+            self.rel = replace(self.rel, b=b, b_lo=b_lo)
+            inf = 1e300  # HiGHS's infinity: anything beyond 1e20
+            at = self.in_lp
+            h.changeRowsBounds(len(at), np.arange(len(at), dtype=np.int32),
+                               np.maximum(b_lo[at], -inf), np.minimum(b[at], inf))
+            self.tightened = tighten.copy()
+        h.run()
+        while optimal(h) and len(self.in_lp) < m.rows:
+            more = RowCheck(self.rel).violated(np.asarray(h.getSolution().col_value),
+                                              self.in_lp)
+            if not len(more):
+                break
+            add_rows(h, self.rel, more)
+            self.in_lp = np.concatenate([self.in_lp, more])
+            h.run()
+        if not optimal(h):
+            return None
+        return np.array(h.getSolution().col_value)
