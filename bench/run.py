@@ -250,9 +250,8 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
         "its phases in wall seconds: *import* (Python start and the modules), *elab* "
         "(parsing and elaboration, robot chains expanded), *compile* (decomposition and the "
         "flat program), *solve* (propagation, or the tight strategy with its LP rounds), *rest* "
-        "(the report: identifiability analysis, certified inner bounds, tables); *peak MB* is the "
-        "peak resident memory "
-        "of the process.",
+        "(the report: identifiability analysis, certified inner bounds after tight, tables); "
+        "*peak MB* is the peak resident memory of the process.",
         "",
         "| formulation | configs | strategy | primitives | sweeps | wall s | CPU s | import | "
         "elab | compile | solve | rest | peak MB |",
