@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
@@ -101,7 +102,7 @@ def estimate(prog: Program, start: np.ndarray | None = None,
     if start is None:
         start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
                          np.clip(0.0, lo, hi))
-    sample = _sample(prog)
+    sample = spread_rows(prog, SAMPLE_ROWS)
     if sample is not None:
         near = _fit(prog, start, max_evaluations, sample)
         if near.converged and np.all(np.isfinite(near.values)):
@@ -111,13 +112,6 @@ def estimate(prog: Program, start: np.ndarray | None = None,
 
 SAMPLE_ROWS = 1000  # a least-squares estimate over more configurations starts on a sample
 POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate
-
-
-def _sample(prog: Program) -> np.ndarray | None:
-    n = len(prog.rows.rows) if prog.rows is not None else 0
-    if n <= 2 * SAMPLE_ROWS:
-        return None
-    return np.unique(np.linspace(0, n - 1, SAMPLE_ROWS).astype(np.int64))
 
 
 def _fit(prog: Program, start: np.ndarray, max_evaluations: int,

@@ -104,6 +104,15 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
     return out
 
 
+def spread_rows(prog: Program, size: int) -> np.ndarray | None:
+    """`size` rows of the program's loop compiled once, evenly spread (loop row indices),
+    when it has more than twice as many; else None (a sample would save little)."""
+    n = len(prog.rows.rows) if prog.rows is not None else 0
+    if n <= 2 * size:
+        return None
+    return np.unique(np.linspace(0, n - 1, size).astype(np.int64))
+
+
 def prefix(prog: Program, rows: int) -> Program:
     """The program of the first `rows` rows of the loop (made once per program and size)."""
     return derived(prog, f"rows prefix {rows}", lambda: _prefix(prog, rows))
@@ -116,7 +125,7 @@ def _prefix(prog: Program, rows: int) -> Program:
     n_prims = lay.shared_prims + rows * lay.count
     small = replace(lay, rows=lay.rows[:rows])
     return Program(prog.source, prog.formulation, _slots(prog.slots, small, n_slots),
-                   _primitives(prog, rows), [_group(g, n_prims) for g in prog.groups],
+                   _tiled(prog.primitives, rows), [_group(g, n_prims) for g in prog.groups],
                    prog.true_values, prog.domains, prog.priors, prog.centred,
                    prog.true_stated, small)
 
@@ -130,13 +139,9 @@ def _group(g: Group, n_prims: int) -> Group:
                  g.args_unique)
 
 
-def _primitives(prog: Program, rows: int) -> Tiled:
-    p = prog.primitives
-    assert isinstance(p, Tiled)
-    return Tiled(p.shared, p.template, rows, p.render)
-
-
-def _tiled(x: Tiled, rows: int) -> Tiled:
+def _tiled(x: object, rows: int) -> Tiled:
+    """A tiled list (of a program whose loop was compiled once) for its first `rows` rows."""
+    assert isinstance(x, Tiled)
     return Tiled(x.shared, x.template, rows, x.render)
 
 

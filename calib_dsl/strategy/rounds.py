@@ -271,7 +271,7 @@ class _Rounds:
             return True
         if settled and not self.cellular:
             return self._fine_rounds(this)  # the next round would solve the same LP
-        if (best < s.folded_until or settled) and not self.cellular:
+        if best < s.folded_until and not self.cellular:
             # a round with the errors as columns would fold them again (too many): the same
             # relaxation; folded rounds go on while they pay
             if best < s.min_gain:

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter, Progress
@@ -81,7 +82,7 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
     `history`, the box after each step and each round is recorded there."""
     certs = Certificates()
     steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
-    sample = row_sample(prog, s.sample_rows)
+    sample = spread_rows(prog, s.sample_rows)
     if sample is None:
         steps.append(LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order,
                               unsolved=uncut, progress=progress, history=history))
@@ -93,15 +94,6 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
     return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress,
                     history=history)
-
-
-def row_sample(prog: Program, size: int) -> np.ndarray | None:
-    """`size` rows of the program's loop compiled once, evenly spread, when it has more than
-    twice as many; else None."""
-    n = len(prog.rows.rows) if prog.rows is not None else 0
-    if n <= 2 * size:
-        return None
-    return np.unique(np.linspace(0, n - 1, size).astype(np.int64))
 
 
 def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | None:

@@ -10,9 +10,10 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
-from calib_dsl.strategy.tight import row_sample, solve_tight
+from calib_dsl.strategy.tight import solve_tight
 from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
 
 SMALL = replace(DEFAULT, sample_rows=6, sample_gain=0.0)  # a sample of 6 rows, grown always
@@ -30,7 +31,7 @@ def test_a_sampled_solve_holds_the_truth(tmp_path_factory, seed, joints, rows, f
     prog = sim.prog
     if prog.rows is None:
         return
-    assert row_sample(prog, SMALL.sample_rows) is not None
+    assert spread_rows(prog, SMALL.sample_rows) is not None
     # (in the original unknowns: a program rewritten along combinations has its rows
     # unrolled, and is never sampled)
     sol = solve_tight(prog, settings=SMALL, combinations=False)
@@ -46,7 +47,7 @@ def test_the_sample_is_spread_over_the_rows(tmp_path):
     rng = np.random.default_rng(3)
     source = robot_source(rng, 2, 1e-6, 1e-4, spatial=True)
     prog = simulate_cal(tmp_path, source, clean_version(source), 25, 3, "matrix").prog
-    assert row_sample(prog, 13) is None  # 25 rows: not over twice the sample
-    sample = row_sample(prog, 10)
+    assert spread_rows(prog, 13) is None  # 25 rows: not over twice the sample
+    sample = spread_rows(prog, 10)
     assert sample is not None and len(sample) == 10
     assert sample[0] == 0 and sample[-1] == 24 and np.all(np.diff(sample) > 0)
