@@ -340,9 +340,9 @@ class _Solver:
                                np.maximum(b_lo[at], -inf), np.minimum(b[at], inf))
             self.tightened = tighten.copy()
         h.run()
-        while optimal(h) and len(self.in_lp) < m.rows:
-            more = RowCheck(self.rel).violated(np.asarray(h.getSolution().col_value),
-                                              self.in_lp)
+        check = RowCheck(self.rel) if len(self.in_lp) < m.rows else None
+        while check is not None and optimal(h) and len(self.in_lp) < m.rows:
+            more = check.violated(np.asarray(h.getSolution().col_value), self.in_lp)
             if not len(more):
                 break
             add_rows(h, self.rel, more)
