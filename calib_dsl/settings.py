@@ -42,6 +42,12 @@ class Settings:
     # data from realistic priors: the UR10's is about 0.7), and fine second-order rounds
     # follow: every product kept and tied to its factors by McCormick's inequalities.
     remainder_wide: float = 0.5
+    # Below that but above this share, where the model reads measured values (joint
+    # readings) as arguments, the fine rounds keep their errors as LP columns instead
+    # (quadratic_readings.py), without McCormick's inequalities (on the RX90's 33
+    # parameters they narrowed 0.2 % more at 15 times the LP time). The RX90's Test A ends
+    # at 0.0003 (nothing to gain), its 33-parameter models at 0.026 and 0.18.
+    remainder_readings: float = 0.005
     # A fine round gaining less than this (the largest share of an unknown's width) is the
     # last: on all 1495 UR10 rows the rounds gained 0.83, 0.45, 0.12, 0.026, then 0.005 for
     # a sixth of the solve.

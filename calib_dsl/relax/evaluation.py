@@ -27,7 +27,7 @@ from calib_dsl.relax.gradients import (
     widen,
     zero_rows,
 )
-from calib_dsl.relax.layout import cells, layout
+from calib_dsl.relax.layout import cells, layout, row_key
 from calib_dsl.relax.relaxation import RHS_REL
 
 
@@ -81,6 +81,7 @@ class Evaluation:
         # the argument slots of each row's computed side (-1 past the arity), by rows as in
         # `rows`: which data rows a row depends on (relax/ownership.py)
         self.sources: list[np.ndarray] = []
+        self.keys: list[np.ndarray] = []  # each row's row_key, by rows as in `rows`
 
     def _init_cells(self, lo: np.ndarray, hi: np.ndarray) -> None:
         s = self.prog.slots
@@ -119,6 +120,7 @@ class Evaluation:
                         if len(pick):
                             self.rows.append((*take(form, pick), slots[pick], flag))
                             self.sources.append(g.args[pick])
+                            self.keys.append(row_key(k, j, pick))
         self._capped_temporaries()
         return [self._difference(*r) for r in self.rows]
 
@@ -222,6 +224,7 @@ class Evaluation:
                     (self.D[0][r], self.D[1][r]), self.owner[capped])
             self.rows.append((*form, capped, True))
             self.sources.append(capped[:, None])  # the capped slot's own value
+            self.keys.append(row_key(len(self.prog.groups), 0, capped))
 
     def _difference(self, f: Iv, c: Iv, gr: Iv, dd: Iv, owner: np.ndarray,
                     slots: np.ndarray, by_domain: bool) -> tuple[Iv, Iv, Iv, np.ndarray]:

@@ -120,6 +120,13 @@ def measured_cells(prog: Program) -> int:
     return int(np.sum(cells(prog, tiled_mask(s.kinds, ("const",)), s.lo, s.hi)))
 
 
+def row_key(group: int, output: int, at: np.ndarray) -> np.ndarray:
+    """Constraint rows as one id each (int64), the same in every pass over a program: the
+    rows `at` of output `output` of group `group` (a group past the last: the capped
+    temporaries, `at` their slots)."""
+    return (np.int64(group) << 40) + (np.int64(output) << 32) + np.asarray(at, np.int64)
+
+
 def cells(prog: Program, const: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """The slots that are measured values with an error (an LP column each, at most)."""
     rows = prog.slots.cell_row

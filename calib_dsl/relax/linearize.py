@@ -97,7 +97,7 @@ def inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarra
                   + np.abs(dlo) + np.abs(dhi) + np.abs(hc)) + 1e-300
     b_up = -dlo + slack + hc + err
     b_dn = dhi + slack - hc + err
-    (rows_, cols_, vals), xlo, xhi, cells = _cell_columns(q, owner, e)
+    (rows_, cols_, vals), xlo, xhi, cells = cell_columns(q, owner, e)
     A = Rows.join(h, rows_, cols_, vals, len(xlo))
     # one two-sided row per constraint: -b_dn <= h.p + q.dq <= b_up
     b_lo = -b_dn
@@ -132,7 +132,7 @@ def mid_rad(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return mid, rad
 
 
-def _cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
+def cell_columns(q: np.ndarray, owner: np.ndarray, e: np.ndarray):
     """One LP column per (configuration, table column) that some row uses: q's midpoints
     scattered into those columns (as row, column, value triples); bounds +- e; and which cell
     each column is (ids as in `Slots.cell_row` / `Slots.cell_col`)."""

@@ -52,7 +52,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     keys = np.flatnonzero(ok)
     m = m.take(keys)
     tlo, thi = ex.rows.lo[ok], ex.rows.hi[ok]
-    keep, dropped = _kept_products(m, tlo, thi, prune)
+    keep, dropped = kept_products(m, tlo, thi, prune)
     ex.kept = keep
     n = m.c1.shape[1]
     pairs = ex.pairs
@@ -68,7 +68,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
     clo = np.concatenate([-np.ones(n), np.where(pairs.diagonal[keep], 0.0, -1.0)])
     chi = np.ones(ncols)
     if mccormick:
-        matrix, b_up, b_lo = _with_mccormick(matrix, b_up, b_lo, pairs, keep, n)
+        matrix, b_up, b_lo = with_mccormick(matrix, b_up, b_lo, pairs, keep, n)
         # a McCormick row is known by its product and its place among the product's 4 rows
         keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
     rel = LinearRelaxation(matrix, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
@@ -91,7 +91,7 @@ def _curvature(m: Models) -> float:
     return float(np.median(r)) if len(r) else 0.0
 
 
-def _kept_products(m: Models, tlo: np.ndarray, thi: np.ndarray,
+def kept_products(m: Models, tlo: np.ndarray, thi: np.ndarray,
                    prune: float) -> tuple[np.ndarray, np.ndarray]:
     """The product columns worth an LP column, and each row's remainder for the others
     (|c2_k| each: |t_i t_j| <= 1). Products go, smallest first, while no row's added
@@ -114,7 +114,7 @@ def _kept_products(m: Models, tlo: np.ndarray, thi: np.ndarray,
     return keep, added * (1 + 2.0**-40) + 1e-300  # the float sums, rounded up
 
 
-def _with_mccormick(rows: Rows, b_up: np.ndarray, b_lo: np.ndarray, pairs, keep: np.ndarray,
+def with_mccormick(rows: Rows, b_up: np.ndarray, b_lo: np.ndarray, pairs, keep: np.ndarray,
                     n: int) -> tuple[Rows, np.ndarray, np.ndarray]:
     """y = t_i t_j over [-1, 1]^2: y >= |t_i + t_j| - 1 and y <= 1 - |t_i - t_j| (i < j);
     y = t_i^2: y >= 2 a t_i - a^2 at a = +-1/2, +-1. Integer and half-integer coefficients:
@@ -159,13 +159,16 @@ def narrowed(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray,
     n = rel.main
     tl, th = np.maximum(tl, -1.0), np.minimum(th, 1.0)
     assert rel.col_keys is not None
-    q = rel.col_keys[n:] - n  # the kept products' positions among the pairs
+    end = n + (len(ex.kept) if ex.kept is not None else rel.A.shape[1] - n)
+    q = rel.col_keys[n:end] - n  # the kept products' positions among the pairs
     i, j = ex.pairs.i[q], ex.pairs.j[q]
     with iv.quiet():
         plo, phi = iv.mul((tl[i], th[i]), (tl[j], th[j]))
     plo = np.where(ex.pairs.diagonal[q], np.maximum(plo, 0.0), plo)  # a square: >= 0
-    plo, phi = np.maximum(plo, rel.lo[n:]), np.minimum(phi, rel.hi[n:])
-    return replace(rel, lo=np.concatenate([tl, plo]), hi=np.concatenate([th, phi]))
+    plo, phi = np.maximum(plo, rel.lo[n:end]), np.minimum(phi, rel.hi[n:end])
+    # (columns after the products, a reading's error each, keep their bounds)
+    return replace(rel, lo=np.concatenate([tl, plo, rel.lo[end:]]),
+                   hi=np.concatenate([th, phi, rel.hi[end:]]))
 
 
 def to_box(ex: Expansion, tl: np.ndarray, th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

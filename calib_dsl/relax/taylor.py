@@ -29,7 +29,7 @@ import numpy as np
 from calib_dsl import settings
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program, derived
-from calib_dsl.relax.layout import Layout, independents, layout
+from calib_dsl.relax.layout import Layout, independents, layout, row_key
 from calib_dsl.relax.models import SUPPORTED, Models, Pairs, add, apply, constant, up
 
 CHUNK_SLOTS = settings.DEFAULT.chunk_slots  # (a module attribute: tests make chunks small)
@@ -44,10 +44,13 @@ class Constraints:
     lo: np.ndarray
     hi: np.ndarray
     slots: np.ndarray
+    # each row's place in the program (row_key; None for a program expanded in chunks):
+    # how the rows of another pass over the same program are matched with these
+    keys: np.ndarray | None = None
 
     def take(self, pick: np.ndarray) -> Constraints:
         return Constraints(self.models.take(pick), self.lo[pick], self.hi[pick],
-                           self.slots[pick])
+                           self.slots[pick], None if self.keys is None else self.keys[pick])
 
 
 @dataclass
@@ -113,7 +116,7 @@ def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     c0, r = base.c0, base.r
     c0[ind], r[ind] = center, 0.0
     store: list[list[Models]] = []
-    found: list[tuple[Models, np.ndarray, np.ndarray, np.ndarray]] = []
+    found: list[tuple[Models, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     for g, mask, cols, gathers in zip(prog.groups, plan.layout.defining, plan.layout.used,
                                       plan.gathers, strict=True):
         local = Pairs.of(len(cols))
@@ -130,17 +133,17 @@ def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
                 others = slots[nd][~known[slots[nd]]]
                 models = _global(plan, c0, r, store, half, others, n, p)
                 found.append((*_constraint(whole, models, slots[nd], known, lo, hi),
-                              slots[nd]))
+                              slots[nd], row_key(len(store) - 1, j, nd)))
         for done in plan.freed[len(store) - 1]:  # no later group reads these models
             store[done] = _FREED
     capped = np.flatnonzero(temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
     if len(capped):
         found.append((_global(plan, c0, r, store, half, capped, n, p), lo[capped], hi[capped],
-                      capped))
+                      capped, row_key(len(prog.groups), 0, capped)))
     if not found:
         return None
     rows = Constraints(_concat([f[0] for f in found]),
-                       *(np.concatenate([f[k] for f in found]) for k in (1, 2, 3)))
+                       *(np.concatenate([f[k] for f in found]) for k in (1, 2, 3, 4)))
     return Expansion(center, half, pairs, rows)
 
 

@@ -10,7 +10,9 @@ A round is four named steps:
    the first-order rounds are over but their remainder is still a large share of the rows'
    widths (`remainder_wide`: error bounds tighter than the model is linear over the box),
    fine second-order rounds follow: every product kept, each tied to its factors by
-   McCormick's inequalities.
+   McCormick's inequalities. Where that share is smaller but not negligible
+   (`remainder_readings`) and the model reads measured values, the fine rounds keep the
+   readings' errors as LP columns instead (relax/quadratic_readings.py).
 2. `bounds`: certified bounds on every unknown, from the last LPs' multipliers on the new
    box (a matrix product) while that pays, else from LPs solved again.
 3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
@@ -35,6 +37,8 @@ from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents, measured_cells
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import FAMILY, narrowed, relax_quadratic, to_box
+from calib_dsl.relax.quadratic_readings import FAMILY as READINGS_FAMILY
+from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import Settings
@@ -109,6 +113,10 @@ class _Rounds:
     last_family: str = ""  # of the last round
     last_fresh: bool = True
     fine: bool = False  # the fine second-order rounds have begun
+    fine_readings: bool = False  # ... with the readings' errors as LP columns
+    # the fine rounds' multipliers, kept apart: the shared `certs` keep the first-order
+    # rounds' bases, which the pieces of a split (first-order rounds) start from
+    fine_certs: Certificates = field(default_factory=Certificates)
     work: Work = Work()
     stop: str = ""
     emptied: Emptied | None = None
@@ -150,13 +158,12 @@ class _Rounds:
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
         self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
         if self.fine:
-            fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
-                                   rows=self.spec.rows)
+            fine = (relax_quadratic_readings(prog, self.lo, self.hi) if self.fine_readings
+                    else relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
+                                         rows=self.spec.rows))
             if fine is None:  # (beyond the models' memory bound)
                 return None
-            this = _Round(None, fine, True)
-            this.fresh = not (self.reuse and certs.usable(this.target))
-            return this
+            return _Round(None, fine, True)  # (their multipliers are never reused)
         order2 = self.spec.second_order and not self.cells
         # the second-order phase ends with a round of LPs (reused multipliers may have left
         # the box just below `wide` while the LPs would still contract it much further)
@@ -178,7 +185,8 @@ class _Rounds:
     # -- 2. certified bounds -----------------------------------------------------------------
     def bounds(self, this: _Round) -> tuple[np.ndarray, np.ndarray]:
         """Certified bounds on the unknowns over this round's relaxation."""
-        s, certs, n = self.spec.settings, self.spec.certs, len(self.ind)
+        s, n = self.spec.settings, len(self.ind)
+        certs = self.fine_certs if self.fine else self.spec.certs
         self.skip = self.skip | self.never
         threads = self.spec.threads or s.lp_workers
         if this.quad is None:
@@ -224,7 +232,8 @@ class _Rounds:
         if history is None or self.emptied is not None:
             return
         n = self.work.lp_rounds + self.work.reused_rounds + 1
-        kind = "second order" if this.target.family == SECOND_ORDER else "first order"
+        kind = {SECOND_ORDER: "second order", READINGS_FAMILY: "second order, readings as LP "
+                "columns"}.get(this.target.family, "first order")
         if self.spec.rows is not None:
             kind += f", {len(self.spec.rows)} sampled rows"
         history.record(f"LP round {n} ({kind}{'' if this.fresh else ', reused'})",
@@ -289,12 +298,17 @@ class _Rounds:
 
     def _fine_rounds(self, this: _Round) -> bool:
         """The first-order rounds are over: whether fine second-order rounds follow (their
-        remainder still above `remainder_wide` of the rows' widths)."""
+        remainder still above `remainder_wide` of the rows' widths; above
+        `remainder_readings`, with the readings' errors as LP columns, where the rows are
+        not a sample)."""
         assert this.first is not None
-        s = self.spec.settings
-        if (not self.spec.second_order or self.fine
-                or this.first.remainder_share < s.remainder_wide):
+        s, share = self.spec.settings, this.first.remainder_share
+        if not self.spec.second_order or self.fine or share < s.remainder_readings:
             return False
+        if share < s.remainder_wide:
+            if self.spec.rows is not None:
+                return False
+            self.fine_readings = True
         self.fine, self.cells, self.reuse = True, False, False
         self.skip = np.zeros_like(self.skip)
         return True

@@ -450,9 +450,13 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     (the slack of the wide r2, r3 in every row is gone); the enclosure of r2 + r3 holds it."""
     from calib_dsl.analysis.identify import analyse, combination_enclosures
 
+    # (without the fine rounds that keep the readings as LP columns: they take most of the
+    # same slack out of the unsplit result, and this is about the split)
+    alone = replace(DEFAULT, remainder_readings=1.0)
     prog, p_true, ind, names, whole, cut = arm_solved_twice(
-        tmp_path_factory.mktemp("par"), seed, {"split": False, "combinations": False},
-        {"combinations": False})
+        tmp_path_factory.mktemp("par"), seed,
+        {"split": False, "combinations": False, "settings": alone},
+        {"combinations": False, "settings": alone})
     assert whole.status == cut.status == "contracted"
     assert cut.split and cut.split[0] in ("r2", "r3") and 1 <= len(cut.pieces) <= 4
     for res in (whole, cut):
