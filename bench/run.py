@@ -366,7 +366,8 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
             "+-0.17 rad, the robot's own parameters +-0.01 m and +-0.035 rad), the shipped 50 "
             "configurations, `calibc solve models/rx90_full.cal` (tight, matrix): in the "
             "unknowns `r2 + r3` and `r3` (only their sum is identifiable), second-order "
-            "rounds while the box is wide, then first-order ones (`docs/compiler.md`).",
+            "rounds while the box is wide, then first-order ones, then second-order ones with "
+            "the joint readings' errors as LP columns (`docs/compiler.md`).",
             "",
             "| primitives | LP rounds | wall s | CPU s | solve | target: solve "
             f"< {TARGET_B:.0f} s |",
