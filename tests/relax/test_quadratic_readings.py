@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from relax.test_linearize import (  # the sibling test module: its model generators
+from relax.test_linearize import (  # the sibling test modules: model generators, checks
     build_random_model,
     clean_version,
     random_box,
@@ -28,14 +28,14 @@ from relax.test_linearize import (  # the sibling test module: its model generat
     simulate_cal,
     truth_arrays,
 )
+from relax.test_taylor import assert_holds_truth
 
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
-from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.quadratic import narrowed, to_box
+from calib_dsl.relax.quadratic import to_box
 from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -78,25 +78,8 @@ def check_readings(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.nda
             z = true_columns(prog, lo, hi, rel, ex, p_true, cell_true)
             if z is None:
                 return False
-            assert np.all(rel.lo <= z) and np.all(z <= rel.hi), (what, "columns")
-            A = rel.A
-            rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-            az = np.bincount(rows, weights=A.data * z[A.indices], minlength=A.shape[0])
-            mag = np.bincount(rows, weights=np.abs(A.data * z[A.indices]), minlength=A.shape[0])
-            slack = 1e-12 * (mag + np.abs(rel.b) + np.abs(rel.b_lo)) + 1e-300
-            assert np.all(az <= rel.b + slack), (what, mccormick, np.max(az - rel.b))
-            assert np.all(az >= rel.b_lo - slack), (what, mccormick, np.max(rel.b_lo - az))
-            if bounds and not mccormick:
-                certs = Certificates()
-                tl, th = lp_bounds(rel, np.eye(len(ind)), certificates=certs,
-                                   iterations=20000, seconds=30.0)
-                plo, phi = to_box(ex, tl, th)
-                assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, plo, p_true, phi)
-                small = narrowed(rel, ex, tl, th)
-                assert np.all(small.lo <= z) and np.all(z <= small.hi), (what, "narrowed")
-                nl, nh = reused_bounds(small, np.eye(len(ind)), certs)
-                plo, phi = to_box(ex, np.maximum(tl, nl), np.minimum(th, nh))
-                assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, "narrowed")
+            assert_holds_truth(rel, ex, z, p_true, (what, mccormick), bounds and not mccormick,
+                               iterations=20000, seconds=30.0)
     return True
 
 

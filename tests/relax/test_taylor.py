@@ -181,28 +181,38 @@ def check_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.nd
             t = (p_true - ex.center) / ex.half
             assert np.all(np.abs(t) <= 1.0), "the t-box misses the truth"
             products = (t[ex.pairs.i] * t[ex.pairs.j])
-            keep = products[ex.kept]
-            z = np.concatenate([t, keep])
-            assert np.all(rel.lo <= z) and np.all(z <= rel.hi)
-            A = rel.A
-            rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-            az = np.bincount(rows, weights=A.data * z[A.indices], minlength=A.shape[0])
-            mag = np.bincount(rows, weights=np.abs(A.data * z[A.indices]), minlength=A.shape[0])
-            slack = 1e-9 * (mag + np.abs(rel.b) + 1.0)
-            assert np.all(az <= rel.b + slack), (what, mccormick, np.max(az - rel.b))
-            assert np.all(az >= rel.b_lo - slack), (what, mccormick, np.max(rel.b_lo - az))
-            if bounds and not mccormick:
-                certs = Certificates()
-                tl, th = lp_bounds(rel, np.eye(len(ind)), certificates=certs)
-                plo, phi = to_box(ex, tl, th)
-                assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, plo, p_true, phi)
-                # narrowed to those bounds, the relaxation's columns still hold the truth,
-                # and the same multipliers certify bounds that hold it too
-                small = narrowed(rel, ex, tl, th)
-                assert np.all(small.lo <= z) and np.all(z <= small.hi), what
-                nl, nh = reused_bounds(small, np.eye(len(ind)), certs)
-                plo, phi = to_box(ex, np.maximum(tl, nl), np.minimum(th, nh))
-                assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, "narrowed")
+            z = np.concatenate([t, products[ex.kept]])
+            assert_holds_truth(rel, ex, z, p_true, (what, mccormick),
+                               bounds and not mccormick)
+
+
+def assert_holds_truth(rel: LinearRelaxation, ex, z: np.ndarray, p_true: np.ndarray, what,
+                       bounds: bool, **lp_options) -> None:
+    """The truth in the relaxation's columns (z) lies within its column bounds and satisfies
+    every row; with `bounds`, the certified LP bounds hold it, and so do the same
+    multipliers' bounds on the relaxation narrowed to them."""
+    assert np.all(rel.lo <= z) and np.all(z <= rel.hi), (what, "columns")
+    A = rel.A
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    az = np.bincount(rows, weights=A.data * z[A.indices], minlength=A.shape[0])
+    mag = np.bincount(rows, weights=np.abs(A.data * z[A.indices]), minlength=A.shape[0])
+    slack = 1e-9 * (mag + np.abs(rel.b) + 1.0)
+    assert np.all(az <= rel.b + slack), (what, np.max(az - rel.b))
+    assert np.all(az >= rel.b_lo - slack), (what, np.max(rel.b_lo - az))
+    if not bounds:
+        return
+    n = rel.main
+    certs = Certificates()
+    tl, th = lp_bounds(rel, np.eye(n), certificates=certs, **lp_options)
+    plo, phi = to_box(ex, tl, th)
+    assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, plo, p_true, phi)
+    # narrowed to those bounds, the relaxation's columns still hold the truth, and the
+    # same multipliers certify bounds that hold it too
+    small = narrowed(rel, ex, tl, th)
+    assert np.all(small.lo <= z) and np.all(z <= small.hi), (what, "narrowed")
+    nl, nh = reused_bounds(small, np.eye(n), certs)
+    plo, phi = to_box(ex, np.maximum(tl, nl), np.minimum(th, nh))
+    assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, "narrowed")
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
