@@ -94,15 +94,19 @@ def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
 def estimate(prog: Program, start: np.ndarray | None = None,
              max_evaluations: int = 30) -> Estimate:
     """The least-squares estimate from `start` (the middle of the domains if None). Over
-    SAMPLE_ROWS configurations of a loop compiled once, it is first found on an evenly
-    spread sample of them, then polished on all: the sample brings it near, where the
-    problem is nearly linear and a few evaluations of every row finish it."""
+    a loop compiled once of more than 2 x MIN_SAMPLE_ROWS configurations, it is first found
+    on an evenly spread sample of them (a tenth, from MIN_SAMPLE_ROWS to SAMPLE_ROWS), then
+    polished on all: the sample brings it near, where the problem is nearly linear and a
+    few evaluations of every row finish it (on the UR10's 1495 rows: 17 evaluations of 100
+    rows and 5 of all, 1.9 s, against 21 of all, 5.1 s; on 11,910 rows a sample of 1000
+    takes 8.4 s, one of 100 9.1 s)."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     if start is None:
         start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
                          np.clip(0.0, lo, hi))
-    sample = spread_rows(prog, SAMPLE_ROWS)
+    loop = len(prog.rows.rows) if prog.rows is not None else 0
+    sample = spread_rows(prog, min(SAMPLE_ROWS, max(MIN_SAMPLE_ROWS, loop // 10)))
     if sample is not None:
         near = _fit(prog, start, max_evaluations, sample)
         if near.converged and np.all(np.isfinite(near.values)):
@@ -110,7 +114,8 @@ def estimate(prog: Program, start: np.ndarray | None = None,
     return _fit(prog, start, max_evaluations, None)
 
 
-SAMPLE_ROWS = 1000  # a least-squares estimate over more configurations starts on a sample
+SAMPLE_ROWS = 1000  # the largest sample a least-squares estimate starts on
+MIN_SAMPLE_ROWS = 100  # the smallest (a tenth of the configurations in between)
 POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate
 
 

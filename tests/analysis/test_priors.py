@@ -80,3 +80,33 @@ def test_bad_lsq_domains(tmp_path, domain, message):
                     "for k in 1..rows(m) { cx == m.x[k]; }\n")
     with pytest.raises(CalError, match=message.replace("(", r"\(").replace(")", r"\)")):
         load(path)
+
+
+def test_an_estimate_started_on_a_sample_is_the_estimate_of_all_rows(tmp_path, monkeypatch):
+    """Over 250 simulated UR10 configurations the least-squares estimate is first fitted on
+    a spread sample of 100, then polished on all: the same estimate as fitting all rows from
+    the start (to 1e-6 mm and 1e-9 rad)."""
+    from pathlib import Path
+
+    from calib_dsl.analysis import lsq
+    from calib_dsl.analysis.simulate import simulate
+
+    model = Path(__file__).resolve().parents[2] / "models" / "ur10_simulated.cal"
+    table = tmp_path / "sim.csv"
+    simulate(model, 250, 3, out_csv=table)
+    prog = load(model, data=table)
+    fits = []
+    fit = lsq._fit
+
+    def recorded(prog, start, evaluations, rows):
+        fits.append(None if rows is None else len(rows))
+        return fit(prog, start, evaluations, rows)
+
+    monkeypatch.setattr(lsq, "_fit", recorded)
+    sampled = lsq.estimate(prog)  # from the middle of the (centred) domains
+    assert fits == [100, None]
+    monkeypatch.setattr(lsq, "MIN_SAMPLE_ROWS", 10**6)
+    whole = lsq.estimate(prog)
+    assert fits == [100, None, None]
+    assert sampled.converged and whole.converged
+    assert np.allclose(sampled.values, whole.values, rtol=0, atol=1e-6)
