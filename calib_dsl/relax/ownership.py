@@ -25,13 +25,16 @@ def combine(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(a == NONE, b, np.where((b == NONE) | (a == b), a, MIXED))
 
 
-def value_rows(prog: Program, ind: np.ndarray) -> np.ndarray:
+def value_rows(prog: Program, ind: np.ndarray, only: np.ndarray | None = None) -> np.ndarray:
     """Per slot, the data row its value depends on (forward through the defining primitives;
-    a cell shared by several rows, cell_row -2, is MIXED already)."""
+    a cell shared by several rows, cell_row -2, is MIXED already); with `only`, through the
+    cells of that mask only."""
     s = prog.slots
     n = len(s.lo)
     dep = (np.where(s.cell_row == -2, MIXED, np.maximum(s.cell_row, NONE))
            if s.cell_row is not None else np.full(n, NONE))
+    if only is not None:
+        dep = np.where(only, dep, NONE)
     dep = np.concatenate([dep, [NONE]])  # index -1 (an absent argument): no data row
     lay = layout(prog, ind)
     for g, mask in zip(prog.groups, lay.defining, strict=True):

@@ -32,8 +32,9 @@ from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.evaluation import Evaluation
-from calib_dsl.relax.layout import independents, layout, row_key
+from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import cell_columns, mid_rad
+from calib_dsl.relax.ownership import MIXED, NONE, combine, value_rows
 from calib_dsl.relax.quadratic import kept_products, with_mccormick
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import CHUNK_SLOTS, Expansion, expand
@@ -73,7 +74,7 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
     found = np.minimum(np.searchsorted(ekeys[order], ex.rows.keys), len(ekeys) - 1)
     e_at = order[found]
     matched = ekeys[e_at] == ex.rows.keys
-    own = _own_configuration(prog, reading, ex.rows.keys)
+    own = _own_configuration(prog, ind, reading, ev)[e_at]
     m = ex.rows.models
     ok = matched & own & np.isfinite(m.r) & np.isfinite(m.c0)
     ok &= np.isfinite(ex.rows.lo) | np.isfinite(ex.rows.hi)
@@ -136,42 +137,19 @@ def _readings(prog: Program) -> np.ndarray | None:
     return reading
 
 
-def _own_configuration(prog: Program, reading: np.ndarray, keys: np.ndarray) -> np.ndarray:
-    """For each constraint row (by row_key): whether its readings, if any, are all of one
-    configuration, with none of two configurations met on the way (the evaluation folds
-    those into its constants, where the models at the midpoints cannot see them)."""
-    n = len(reading)
-    assert prog.slots.cell_row is not None  # (a program with readings has cells)
-    own = np.where(reading, prog.slots.cell_row, -1)
-    mixed = np.zeros(n, bool)  # some step on the way met two configurations' readings
-    reads = reading.copy()
-    lay = layout(prog, independents(prog))
-    row_keys, row_ok = [], []
-    for k, (g, defining) in enumerate(zip(prog.groups, lay.defining, strict=True)):
-        valid = g.args >= 0
-        a = np.where(valid, g.args, 0)
-        ao = np.where(valid, own[a], -1)
-        top = ao.max(axis=1)
-        low = np.where(ao >= 0, ao, np.iinfo(np.int64).max).min(axis=1)
-        clash = (top >= 0) & (low != top)
-        bad = clash | np.any(valid & mixed[a], axis=1)
-        dep = np.any(valid & reads[a], axis=1)
-        for j in range(g.out.shape[1]):
-            out, d = g.out[:, j], defining[:, j]
-            own[out[d]] = np.where(clash, -1, top)[d]
-            mixed[out[d]], reads[out[d]] = bad[d], dep[d]
-            nd = np.flatnonzero(~d)
-            if len(nd):
-                t = out[nd]
-                row_keys.append(row_key(k, j, nd))
-                # (a row between two computed sides: the evaluation folds its readings)
-                alone = ~bad[nd] & ~reads[t] & ~mixed[t] & lay.const[t]
-                row_ok.append(~(dep[nd] | reads[t]) | alone)
-    capped = np.flatnonzero(lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi)))
-    row_keys.append(row_key(len(prog.groups), 0, capped))
-    row_ok.append(~reads[capped] | ~mixed[capped])
-    every = np.concatenate(row_keys)
-    ok = np.concatenate(row_ok)
-    order = np.argsort(every)
-    at = np.minimum(np.searchsorted(every[order], keys), len(every) - 1)
-    return (every[order][at] == keys) & ok[order[at]]
+def _own_configuration(prog: Program, ind: np.ndarray, reading: np.ndarray,
+                       ev: Evaluation) -> np.ndarray:
+    """For each row of the run evaluation `ev` (in its order): whether its readings, if any,
+    are all of one configuration, with none of two configurations met on the way (the
+    evaluation folds those into its constants, where the models at the midpoints cannot see
+    them), and whether it compares with a measured value (between two computed sides, the
+    evaluation folds its readings too)."""
+    value = np.concatenate([value_rows(prog, ind, only=reading), [NONE]])
+    out = []
+    for args, row in zip(ev.sources, ev.rows, strict=True):
+        slots, by_domain = row[5], row[6]
+        v = np.full(len(slots), NONE)
+        for j in range(args.shape[1]):
+            v = combine(v, value[args[:, j]])
+        out.append(v != MIXED if by_domain else (v == NONE) & (value[slots] == NONE))
+    return np.concatenate(out)
