@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.compile.chunks import spread_rows
+from calib_dsl.compile.chunks import loop_rows, spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
@@ -105,8 +105,7 @@ def estimate(prog: Program, start: np.ndarray | None = None,
     if start is None:
         start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
                          np.clip(0.0, lo, hi))
-    loop = len(prog.rows.rows) if prog.rows is not None else 0
-    sample = spread_rows(prog, min(SAMPLE_ROWS, max(MIN_SAMPLE_ROWS, loop // 10)))
+    sample = spread_rows(prog, min(SAMPLE_ROWS, max(MIN_SAMPLE_ROWS, loop_rows(prog) // 10)))
     if sample is not None:
         near = _fit(prog, start, max_evaluations, sample)
         if near.converged and np.all(np.isfinite(near.values)):

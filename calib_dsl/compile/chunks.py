@@ -104,10 +104,15 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
     return out
 
 
+def loop_rows(prog: Program) -> int:
+    """The rows of the program's loop compiled once (0 without one)."""
+    return len(prog.rows.rows) if prog.rows is not None else 0
+
+
 def spread_rows(prog: Program, size: int) -> np.ndarray | None:
     """`size` rows of the program's loop compiled once, evenly spread (loop row indices),
     when it has more than twice as many; else None (a sample would save little)."""
-    n = len(prog.rows.rows) if prog.rows is not None else 0
+    n = loop_rows(prog)
     if n <= 2 * size:
         return None
     return np.unique(np.linspace(0, n - 1, size).astype(np.int64))

@@ -161,7 +161,7 @@ class _Rounds:
             fine = (relax_quadratic_readings(prog, self.lo, self.hi) if self.fine_readings
                     else relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
                                          rows=self.spec.rows))
-            if fine is None:  # (beyond the models' memory bound)
+            if fine is None:  # (beyond the models' memory bound, or no readings to keep)
                 return None
             return _Round(None, fine, True)  # (their multipliers are never reused)
         order2 = self.spec.second_order and not self.cells
