@@ -25,12 +25,14 @@ TRUST = 0.5  # each LP step within this share of the domains
 def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
               start: np.ndarray | None = None,
               box: tuple[np.ndarray, np.ndarray] | None = None,
-              target: float = 0.0) -> tuple[np.ndarray, float]:
+              target: float = 0.0, settle: float = 0.0) -> tuple[np.ndarray, float]:
     """A point with a small largest residual on `rows` (all if None; the others within their
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
     residuals in units of each row's bound. From `start`, else the least-squares estimate;
     within `box` (the unknowns' bounds), else the search domains. Stops early once the
-    linearized model cannot bring the largest residual below `target` (its LP's optimum)."""
+    linearized model cannot bring the largest residual below `target` (its LP's optimum), or
+    once a step's largest residual is within `settle` (relative) of what its LP predicted:
+    the model is linear there to within that, so another step would gain about as little."""
     ind = independents(prog)
     lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
     # inside the declared domains exactly (their floats are rounded outward), so that the
@@ -67,7 +69,7 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
         if _largest(dq, rows, unit) >= need * (1 - 1e-6):
             break
         p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
-        if x[-1] >= target * (1 + 1e-9) > 0:
+        if x[-1] >= target * (1 + 1e-9) > 0 or abs(need - x[-1]) <= settle * need:
             break
     return p, need
 

@@ -145,12 +145,17 @@ def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
 
 
 def test_test_a_inner_reaches_the_outer_box():
+    """Within 1.05 of the result; and the same inner intervals on a second run, though the
+    ends' LPs and checks run in threads (a wave's points count in order, not as they come)."""
     prog = load(ROOT / "models" / "rx90_lengths.cal")
     sol = solve(prog)
     inner = inner_bounds(prog, sol.lo, sol.hi)
     ind = independents(prog)
     outer = sol.hi[ind] - sol.lo[ind]
     assert np.all(outer / (inner.hi - inner.lo) <= 1.05)
+    again = inner_bounds(prog, sol.lo, sol.hi)
+    assert np.array_equal(again.lo, inner.lo) and np.array_equal(again.hi, inner.hi)
+    assert again.points == inner.points
 
 
 def test_33_parameters_reach_their_inner_bounds():
