@@ -7,7 +7,9 @@ trusted). The candidates are the extremes of each unknown over the model lineari
 certified centre (one LP per end, the same LP re-solved with another objective); where the
 linearization's remainder makes a candidate fail, the rows it violates are tightened by what
 the check measured and the LP is solved again, and as a last resort the candidate is pulled
-back towards the centre. Every certified point adds to every unknown's interval.
+back towards the centre. An end that this left well short of its LP's optimum is sought
+again over the model linearized at its point. Every certified point adds to every unknown's
+interval.
 """
 
 from __future__ import annotations
@@ -41,6 +43,11 @@ OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured e
 REACHED = 1e-4
 COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
 PULLBACKS = 10  # halvings of the step from the centre when the corrections did not succeed
+# An end whose certified point falls short of its LP's optimum by more than this share of the
+# unknown's width (the remainder made the corrections pull it in) is sought again over the
+# model linearized at that point, where the remainder is small. On the UR10's every 15th row
+# 17 of 46 ends, each reaching 1-4 % of its width further (outer/inner median 1.092 -> 1.053)
+REFINE = 1e-2
 # The centre's fit stops once its linearized model predicts the largest residual to within
 # this share: the centre needs a margin inside every bound, not the best fit (on Test A the
 # second and third steps lowered it by 2e-6, 0.07 s)
@@ -191,11 +198,12 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
         reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
         return not abs(bound - reached) <= REACHED * (hi[k] - lo[k])
 
-    def run(w: int, end: tuple[int, int, float]) -> Witness | None:
+    def run(w: int, end: tuple[int, int, float]) -> tuple[Witness | None, float]:
         j, _, sign = end
         first = None if start is None else start.steps.get((j, sign))
         return _end(prog, lp, solvers[w], j, sign, first)
 
+    short: list[tuple[int, float, Witness]] = []  # ends that fell short of their LP's optimum
     with ThreadPoolExecutor(len(solvers)) as pool:
         while ends:
             wave: list[tuple[int, int, float]] = []
@@ -203,27 +211,45 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
                 end = ends.pop(0)
                 if unreached(end[1], end[2]):
                     wave.append(end)
-            for w in pool.map(run, range(len(wave)), wave):
-                if w is not None:
-                    found.add(w)
+            for (j, k, sign), (w, promised) in zip(wave, pool.map(run, range(len(wave)), wave),
+                                                   strict=True):
+                if w is None:
+                    continue
+                found.add(w)
+                if sign * (promised - (w.point[k] - lp.centre[k]) / lp.scale[j]) > REFINE:
+                    short.append((j, sign, w))
+        for w in pool.map(lambda end: _refined(prog, box, free, *end), short):
+            if w is not None:
+                found.add(w)
+
+
+def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], free: np.ndarray, j: int,
+             sign: float, w: Witness) -> Witness | None:
+    """The end again, over the model linearized at its certified point w: near the end, the
+    linearization's remainder that held it back is small."""
+    lp = _LinearModel(prog, box, w.point, free)
+    return _end(prog, lp, lp.solver, j, sign)[0] if lp.finite else None
 
 
 def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
-         first: np.ndarray | None = None) -> Witness | None:
+         first: np.ndarray | None = None) -> tuple[Witness | None, float]:
     """A certified point far along the free unknown j in the direction `sign`, from the LPs
     of `solver` (one of lp's models; `first`: the LP's optimum with no row tightened, when
-    already known)."""
+    already known); and that optimum's step along j (in units of its width, nan if none):
+    how far the linearized model promised."""
     tighten = np.zeros(lp.rows)
     step = np.zeros(0)
+    promised = np.nan
     for k in range(CORRECTIONS):
         y = first if k == 0 and first is not None else solver.extreme(j, sign, tighten)
         if y is None:  # tightened beyond what the LP can meet
             break
         step = y
+        promised = float(y[j]) if k == 0 else promised
         point, readings = lp.point(step)
         check = check_point(prog, point, readings)
         if check.holds or prove_point(prog, point, readings, check):
-            return Witness(point, readings)
+            return Witness(point, readings), promised
         excess, computed = lp.excess(check)
         # a row that fails again was not binding in the LP: its remainder exceeds what it
         # was tightened by, so aim further inside, fourfold
@@ -238,8 +264,8 @@ def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
         step = 0.5 * step
         point, readings = lp.point(step)
         if prove_point(prog, point, readings):
-            return Witness(point, readings)
-    return None
+            return Witness(point, readings), promised
+    return None, promised
 
 
 class _LinearModel:
