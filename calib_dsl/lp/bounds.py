@@ -101,6 +101,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     # row generation re-solves after adding rows: the simplex goes on from its basis, an
     # interior point method would start over each time
     h.setOptionValue("solver", solver if len(rows) == m else "simplex")
+    if len(rows) < m:
+        h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
     check = RowCheck(rel) if len(rows) < m else None
