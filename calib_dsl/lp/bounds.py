@@ -20,9 +20,11 @@ import numpy as np
 from calib_dsl import settings
 from calib_dsl.lp.certify import Certificates, box_bounds, box_max_up, certified_max, tighten
 from calib_dsl.lp.highs import (
+    DUAL_SIMPLEX,
     RowCheck,
     add_rows,
     current_basis,
+    infeasible,
     load,
     optimal,
     set_basis,
@@ -101,7 +103,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     # row generation re-solves after adding rows: the simplex goes on from its basis, an
     # interior point method would start over each time
     h.setOptionValue("solver", solver if len(rows) == m else "simplex")
-    if len(rows) < m:
+    tall = len(rows) < m
+    if tall:
         h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
@@ -143,6 +146,12 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
             add_rows(h, rel, more)
             rows = np.concatenate([rows, more])
             h.run()
+        if tall and infeasible(h):
+            # the primal simplex ends without the dual ray whose multipliers prove it (bounds
+            # that cross): the dual simplex finds it from there
+            h.setOptionValue("simplex_strategy", DUAL_SIMPLEX)
+            h.run()
+            h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()

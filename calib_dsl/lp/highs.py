@@ -20,12 +20,19 @@ from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 LOWER, BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
 MANY_PIVOTS = 2**31 - 1  # HiGHS's own default: no limit
+DUAL_SIMPLEX = 1  # HiGHS's simplex_strategy kSimplexStrategyDual
 
 
 def optimal(h: Any) -> bool:
     import highspy
 
     return bool(h.getModelStatus() == highspy.HighsModelStatus.kOptimal)
+
+
+def infeasible(h: Any) -> bool:
+    import highspy
+
+    return bool(h.getModelStatus() == highspy.HighsModelStatus.kInfeasible)
 
 
 def current_basis(h: Any) -> tuple[np.ndarray, np.ndarray] | None:
