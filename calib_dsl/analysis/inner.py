@@ -182,18 +182,33 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
               found: _Points, start: _Ends | None) -> None:
     """Both ends of every unknown that can move, over the model linearized at the centre (or
     at the middle, where the centre is the mean of that model's ends: their LPs are not
-    solved twice). The ends not yet reached go in waves, one end per HiGHS model and thread
-    (HiGHS releases the GIL, so one end's LP runs while another's point is checked); a wave's
-    points count before the next wave is chosen, in the same order on every run."""
-    lo, hi = box
-    free = np.flatnonzero(hi > lo)
+    solved twice); then those that fell well short, over the model linearized at their own
+    points (where the LP holds all its rows: above, each would be a cold LP generating its
+    rows, 0.33 s an end on all 1495 UR10 rows, 28 ends for a median outer/inner of 1.178
+    against 1.225)."""
+    free = np.flatnonzero(box[1] > box[0])
     if not len(free):
         return
     lp = start.lp if start is not None else _LinearModel(prog, box, centre, free)
     if not lp.finite:  # the model cannot be linearized there (an infinite derivative)
         return
     solvers = lp.solvers(DEFAULT.lp_workers)
-    ends = [(j, int(k), sign) for j, k in enumerate(free) for sign in (-1.0, 1.0)]
+    with ThreadPoolExecutor(len(solvers)) as pool:
+        short = _waves(prog, lp, solvers, pool, found, start)
+        if lp.rows <= DEFAULT.rows_at_once:
+            for w in pool.map(lambda end: _refined(prog, box, free, *end), short):
+                if w is not None:
+                    found.add(w)
+
+
+def _waves(prog: Program, lp: _LinearModel, solvers: list[_Solver], pool: ThreadPoolExecutor,
+           found: _Points, start: _Ends | None) -> list[tuple[int, float, Witness]]:
+    """The ends not yet reached, in waves of one end per HiGHS model and thread (HiGHS
+    releases the GIL, so one end's LP runs while another's point is checked); a wave's
+    points count before the next wave is chosen, in the same order on every run. Returns the
+    ends (j, sign, point) whose point fell short of their LP's optimum by REFINE."""
+    lo, hi = lp.box
+    ends = [(j, int(k), sign) for j, k in enumerate(lp.free) for sign in (-1.0, 1.0)]
 
     def unreached(k: int, sign: float) -> bool:
         reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
@@ -204,28 +219,20 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndar
         first = None if start is None else start.steps.get((j, sign))
         return _end(prog, lp, solvers[w], j, sign, first)
 
-    short: list[tuple[int, float, Witness]] = []  # ends that fell short of their LP's optimum
-    # where the LP generates its rows, each model again is a cold LP that does so too: 0.33 s
-    # an end on all 1495 UR10 rows (28 ends, 9 s, for a median outer/inner of 1.178 not 1.225)
-    refine = lp.rows <= DEFAULT.rows_at_once
-    with ThreadPoolExecutor(len(solvers)) as pool:
-        while ends:
-            wave: list[tuple[int, int, float]] = []
-            while ends and len(wave) < len(solvers):
-                end = ends.pop(0)
-                if unreached(end[1], end[2]):
-                    wave.append(end)
-            for (j, k, sign), (w, promised) in zip(wave, pool.map(run, range(len(wave)), wave),
-                                                   strict=True):
-                if w is None:
-                    continue
-                found.add(w)
-                if refine and sign * (promised - (w.point[k] - lp.centre[k])
-                                      / lp.scale[j]) > REFINE:
-                    short.append((j, sign, w))
-        for w in pool.map(lambda end: _refined(prog, box, free, *end), short):
+    short = []
+    while ends:
+        wave: list[tuple[int, int, float]] = []
+        while ends and len(wave) < len(solvers):
+            end = ends.pop(0)
+            if unreached(end[1], end[2]):
+                wave.append(end)
+        for (j, k, sign), (w, promised) in zip(wave, pool.map(run, range(len(wave)), wave),
+                                               strict=True):
             if w is not None:
                 found.add(w)
+                if sign * (promised - (w.point[k] - lp.centre[k]) / lp.scale[j]) > REFINE:
+                    short.append((j, sign, w))
+    return short
 
 
 def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], free: np.ndarray, j: int,
