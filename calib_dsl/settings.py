@@ -155,11 +155,14 @@ class Settings:
     # far faster so.
     rows_at_once: int = 2000
     rows_added: int = 500
-    # HiGHS's simplex_strategy for such an LP: primal. Each objective starts from the last
-    # one's optimum, which a new cost leaves primal feasible; on all 1495 UR10 rows (second-
-    # order LPs of 5033 rows and 160 dense columns) the solve took 32 s, 49 s with the dual
-    # simplex. On LPs that hold all their rows the dual is faster (rx90_full 8.1 s, 13.6 s).
+    # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
+    # primal. Each objective starts from the last one's optimum, which a new cost leaves
+    # primal feasible; on all 1495 UR10 rows (second-order LPs of 5033 rows and 160 dense
+    # columns) the solve took 32 s, 49 s with the dual simplex. With few columns the dual
+    # stays faster (11,910 UR10 rows, first-order LPs of 3000-4920 rows and 23 columns: 3.7 s
+    # against 4.5 s), and on LPs that hold all their rows (rx90_full 8.1 s against 13.6 s).
     tall_simplex: int = 4
+    tall_primal_columns: int = 64
     lp_scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
     probes: int = 4  # at most this many probe LPs before the objectives are shared out
     # Above this many matrix entries (or for a sparse matrix and few objectives), certified

@@ -103,8 +103,8 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     # row generation re-solves after adding rows: the simplex goes on from its basis, an
     # interior point method would start over each time
     h.setOptionValue("solver", solver if len(rows) == m else "simplex")
-    tall = len(rows) < m
-    if tall:
+    primal = len(rows) < m and n >= settings.DEFAULT.tall_primal_columns
+    if primal:
         h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
@@ -146,7 +146,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
             add_rows(h, rel, more)
             rows = np.concatenate([rows, more])
             h.run()
-        if tall and infeasible(h):
+        if primal and infeasible(h):
             # the primal simplex ends without the dual ray whose multipliers prove it (bounds
             # that cross): the dual simplex finds it from there
             h.setOptionValue("simplex_strategy", DUAL_SIMPLEX)

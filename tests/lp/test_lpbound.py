@@ -17,6 +17,7 @@ from dataclasses import replace
 from fractions import Fraction
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import sparse
@@ -501,6 +502,7 @@ def test_box_max_up_all_negative_overflow_is_not_nan():
 
 _HALF_INFINITE = """
 import numpy as np
+import pytest
 from scipy import sparse
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.relax.relaxation import LinearRelaxation
@@ -779,15 +781,17 @@ def test_row_generation_finds_a_bounding_row_left_out_at_the_start():
     assert -5.01 <= lower[0] <= -5.0 and 2.0 <= upper[0] <= 2.01
 
 
-def test_row_generation_on_an_infeasible_tall_lp():
+@pytest.mark.parametrize("primal_from", [1, 10**6])  # the primal simplex, then the dual
+def test_row_generation_on_an_infeasible_tall_lp(primal_from):
     m = 30
     A = np.full((m, 1), 1.0)  # x <= 1 ...
     b = np.full(m, 1.0)
     A[13, 0], b[13] = -1.0, -2.0  # ... and x >= 2 in a row left out at the start
     rel = rel_of(A, b, np.array([-10.0]), np.array([10.0]))
-    lower, upper = _with_row_generation(rel, np.eye(1))
-    # no point to contain: bounds that cross, the proof of infeasibility (the primal simplex
-    # that tall LPs run ends there without it: the dual simplex finds it)
+    with tuned(tall_primal_columns=primal_from):
+        lower, upper = _with_row_generation(rel, np.eye(1))
+    # no point to contain: bounds that cross, the proof of infeasibility (the primal simplex,
+    # which tall LPs with many columns run, ends there without it: the dual simplex finds it)
     assert lower[0] > upper[0], (lower, upper)
 
 
