@@ -733,10 +733,11 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 120),
-       two_sided=st.booleans(), solver=SOLVERS)
-def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver):
+       two_sided=st.booleans(), solver=SOLVERS, primal=st.booleans())
+def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver, primal):
     """(Row generation keeps to the simplex whatever solver is asked for: it re-solves after
-    adding rows, from the last basis.)"""
+    adding rows, from the last basis; `primal`: the primal simplex, which tall LPs with many
+    columns run, else the dual.)"""
     rng = np.random.default_rng(seed)
     x_hat = rng.uniform(-1, 1, n)  # a feasible point: every row holds it with some room
     A = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.7)
@@ -748,7 +749,8 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver)
     objectives = np.vstack([np.eye(n), rng.normal(size=(2, n))])
     with tuned(rows_at_once=10**9):
         full = lp_bounds(rel, objectives)
-    with tuned(rows_at_once=4, rows_added=int(rng.integers(1, 6))):  # many small passes
+    with tuned(rows_at_once=4, rows_added=int(rng.integers(1, 6)),  # many small passes
+               tall_primal_columns=1 if primal else 10**9):
         gen = lp_bounds(rel, objectives, solver=solver)
     scale = 1e-7 * (1 + np.abs(objectives).sum(axis=1) * 3)
     assert np.all(np.abs(gen[0] - full[0]) <= scale), (gen[0], full[0])
