@@ -190,6 +190,8 @@ class Result:
     # the solver's own result (boxes over all slots)
     solution: Solution = field(repr=False, compare=False)
     _report: pipeline.SolveReport = field(repr=False, compare=False)
+    # the unknowns whose ends were shaved towards their inner bounds (strategy/shave.py)
+    shaved: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> Parameter:
         for p in self.parameters:
@@ -210,10 +212,11 @@ class Result:
 def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
           max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
           inner: bool | None = None, diagnose: bool = True, outliers: int = 0,
-          progress: Progress | None = None) -> Result:
+          shave: int | None = None, progress: Progress | None = None) -> Result:
     """Contract every unknown to an interval proven to hold all its consistent values, as
     `calibc solve` (the same options and defaults; `outliers` K as --outliers: every vector
-    consistent with all data rows but at most K; `progress` as in calib_dsl/progress.py)."""
+    consistent with all data rows but at most K; `shave` N as --shave; `progress` as in
+    calib_dsl/progress.py)."""
     prog = problem.program
     if outliers > 0:
         run = pipeline.outlier_report(problem.model, prog, problem.path, outliers,
@@ -222,14 +225,14 @@ def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
     else:
         run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
                                  strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
-                                 progress, problem.model)
+                                 progress, problem.model, shave)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))
     return Result(problem.path, res.status, res.stop, strategy, res.seconds, res.sweeps,
                   res.lp_rounds, params, tuple(narrowed(prog, res)), res.split,
                   tuple(run.warnings), tuple(extra.combinations), run.found, run.outliers,
-                  res, run)
+                  res, run, extra.shaved.names if extra.shaved is not None else ())
 
 
 def _parameter(row: dict[str, Any], extra: Extras, unident: set[str]) -> Parameter:

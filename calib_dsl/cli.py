@@ -121,8 +121,7 @@ def main() -> None:
 @user_errors
 def compile(model: str, output: str | None, as_json: bool, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-            defines: tuple[str, ...],
-            unroll: bool) -> None:
+            defines: tuple[str, ...], unroll: bool) -> None:
     """Compile MODEL into its primitive-constraint listing."""
     from calib_dsl.compile.listing import listing_json, render_listing
 
@@ -173,9 +172,13 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @click.option("--all", "every", is_flag=True,
               help="List every unknown, also those that kept their whole search domain.")
 @click.option("--inner/--no-inner", default=None,
-              help="Certify inner bounds: values each unknown provably takes at solutions "
-                   "(how much of the result is real). Default: on with the tight strategy, "
-                   f"up to {DEFAULT.inner_max_primitives:,} primitives (thousands of rows).")
+              help="Certify values each unknown provably takes at solutions (how much of "
+                   f"the result is real). Default: on with tight, up to "
+                   f"{DEFAULT.inner_max_primitives:,} primitives.")
+@click.option("--shave", type=click.IntRange(min=0), metavar="N",
+              help="Contract the ends of the N loosest unknowns towards their inner bounds. "
+                   f"Default: those {DEFAULT.shave_above}x looser, for up to "
+                   f"{DEFAULT.shave_share:.0%} of the solve's time; 0: none.")
 @click.option("--diagnose/--no-diagnose", default=True, show_default=True,
               help="When the data are inconsistent, find the rows without which the rest is "
                    "proven consistent.")
@@ -193,11 +196,11 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 @model_inputs
 @user_errors
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
-          identify: bool, lsq: bool, every: bool, inner: bool | None, diagnose: bool,
-          outliers: int, min_error: str | None, quiet: bool, residuals: bool, plot_path: str | None,
-          export_domains: str | None, formulation: str, data: tuple[str, ...],
-          rows: tuple[str, ...], exclude: tuple[str, ...], defines: tuple[str, ...],
-          unroll: bool) -> None:
+          identify: bool, lsq: bool, every: bool, inner: bool | None, shave: int | None,
+          diagnose: bool, outliers: int, min_error: str | None, quiet: bool, residuals: bool,
+          plot_path: str | None, export_domains: str | None, formulation: str,
+          data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
+          defines: tuple[str, ...], unroll: bool) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.progress_line import progress_line
@@ -210,7 +213,8 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     with progress_line("solving", quiet) as progress:
         run = solve_report(model, formulation, inputs, strategy, tol=tol,
                            max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
-                           diagnose=diagnose, progress=progress, outliers=outliers)
+                           diagnose=diagnose, progress=progress, outliers=outliers,
+                           shave=shave)
     for w in run.warnings:
         click.echo(f"calibc: warning: {w}", err=True)
     if json_path != "-":
@@ -219,12 +223,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if (residuals or plot_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
                                                 quiet=json_path == "-")
-    if json_path:
-        text = json.dumps(result, indent=2)
-        if json_path == "-":
-            click.echo(text)
-        else:
-            _write(json_path, text + "\n")
+    _json_out(json_path, result)
     outputs.plotted(result, plot_path)
     outputs.export_domains(result, export_domains)
     if run.res.status == "infeasible":
@@ -258,10 +257,7 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
     from calib_dsl.analysis.advice import advice_json, advise, render
 
     info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
-    if as_json:
-        click.echo(json.dumps(advice_json(info), indent=2))
-    else:
-        click.echo(render(info))
+    click.echo(json.dumps(advice_json(info), indent=2) if as_json else render(info))
 
 
 def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -321,12 +317,15 @@ def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
 def _out(json_path: str | None, text: str, data: dict) -> None:
     if json_path != "-":
         click.echo(text)
-    if json_path:
-        dumped = json.dumps(data, indent=2)
-        if json_path == "-":
-            click.echo(dumped)
-        else:
-            _write(json_path, dumped + "\n")
+    _json_out(json_path, data)
+
+
+def _json_out(json_path: str | None, data: dict) -> None:
+    """`data` as JSON to the file json_path, '-' for stdout (None: nowhere)."""
+    if json_path == "-":
+        click.echo(json.dumps(data, indent=2))
+    elif json_path:
+        _write(json_path, json.dumps(data, indent=2) + "\n")
 
 
 @main.command()

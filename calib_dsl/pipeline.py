@@ -164,7 +164,7 @@ def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs 
                  strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
                  identify: bool = True, lsq: bool = False, inner: bool | None = None,
                  diagnose: bool = True, progress: Progress | None = None,
-                 outliers: int = 0) -> SolveReport:
+                 outliers: int = 0, shave: int | None = None) -> SolveReport:
     """Load and solve `model`, with the report's optional sections (the command line's
     `calibc solve`, and each job of `calibc batch`); with `outliers` K > 0, an enclosure of
     every parameter vector that satisfies all data rows but at most K (outlier_report)."""
@@ -173,7 +173,7 @@ def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs 
         return outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
                               max_sweeps, identify, progress)
     return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
-                     lsq, inner, diagnose, progress, elaborated)
+                     lsq, inner, diagnose, progress, elaborated, shave)
 
 
 def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
@@ -223,19 +223,23 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
               max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
               inner: bool | None = None, diagnose: bool = True,
-              progress: Progress | None = None, elaborated: Model | None = None) -> SolveReport:
+              progress: Progress | None = None, elaborated: Model | None = None,
+              shave: int | None = None) -> SolveReport:
     """`solve_report` on a program already loaded from `model` (with these inputs; the
     elaborated model, when given, names the data rows of the warnings). `inner`: True or
-    False, or None for the default (up to settings.inner_max_primitives)."""
+    False, or None for the default (up to settings.inner_max_primitives). `shave`: how many
+    of the loosest unknowns are shaved towards their inner bounds (settings.shave_unknowns
+    if None)."""
     res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
     extra = Extras()
     if res.status == "contracted":
+        if inner is not False:
+            extra.inner_bounds(prog, res, asked=bool(inner))
+            res = extra.shave(prog, res, shave, tol, max_sweeps)
         if identify:
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
-        if inner is not False:
-            extra.inner_bounds(prog, res, asked=bool(inner))
     found = None
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)

@@ -129,6 +129,19 @@ class Settings:
     # with them free (5.3 s against 6.6 s).
     inner_reading_columns: int = 20_000
 
+    # -- shaving (strategy/shave.py) ---------------------------------------------------------
+    # After the inner bounds, the unknowns whose result is wider than shave_above times their
+    # inner interval (at most shave_unknowns, the loosest first) have each end's gap
+    # contracted as a slice of its own, by at most shave_rounds fine rounds of LPs; an end
+    # whose gap is under shave_min_gap of the result's width is left as it is. By default no
+    # end starts once shaving has taken shave_share of the solve's time (an end costs 1.2-1.7
+    # s on the UR10's every 15th row and on rx90_full.cal: rounds of LPs of its own).
+    shave_above: float = 1.05
+    shave_unknowns: int = 8
+    shave_rounds: int = 4
+    shave_min_gap: float = 0.005
+    shave_share: float = 0.3
+
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut
     # into split_pieces pieces, each refined by at most split_rounds rounds of its own, if

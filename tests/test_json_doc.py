@@ -12,6 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from calib_dsl.cli import main
+from tests.strategy.test_shave import write_circle
 
 ROOT = Path(__file__).resolve().parents[1]
 ARM = ROOT / "models" / "examples" / "planar_arm.cal"
@@ -43,8 +44,10 @@ def cases(tmp_path_factory) -> list[dict]:
                    "for k in 1..rows(m) { a * m.x[k] + b == m.v[k]; }\n")
     free = tmp / "free.cal"
     free.write_text("var x in [0, 1];\nvar y in [0, 1];\nvar z in [3, 4];\nz == x + y;\n")
+    write_circle(tmp)  # a result looser than its inner bounds: shaved
     return [written(tmp, ARM, "--lsq", "--residuals"), written(tmp, ARM, "--strategy", "hc4"),
-            written(tmp, bad), written(tmp, free), written(tmp, bad, "--outliers", "1")]
+            written(tmp, bad), written(tmp, free), written(tmp, bad, "--outliers", "1"),
+            written(tmp, tmp / "circle.cal", "--shave", "1")]
 
 
 def test_the_top_level_is_as_documented(cases):

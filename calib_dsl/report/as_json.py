@@ -60,6 +60,9 @@ def result_json(prog: Program, res: Solution, strategy: str,
     t = tightness(prog, res, extra)
     if t is not None:
         out["tightness"] = t
+    if extra.shaved is not None:
+        out["shaved"] = {"parameters": list(extra.shaved.names),
+                         "seconds": extra.shaved.seconds}
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}

@@ -1,10 +1,11 @@
-"""Optional sections of a solve's report: identifiability, a least-squares estimate, and
-certified inner bounds."""
+"""Optional sections of a solve's report: identifiability, a least-squares estimate,
+certified inner bounds, and the result shaved towards them."""
 
 from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -16,6 +17,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
+from calib_dsl.strategy.shave import Shaved, shave
 from calib_dsl.strategy.solution import Solution
 
 
@@ -28,6 +30,7 @@ class Extras:
         self.combinations: list[tuple[str, float, float]] = []
         self.estimate: Any = None  # lsq.Estimate
         self.inner: Inner | None = None
+        self.shaved: Shaved | None = None
         self.seconds = 0.0
         self.skipped: list[str] = []  # a line each: a section not computed, and why
 
@@ -74,6 +77,22 @@ class Extras:
             self.skipped.append(f"inner bounds: not computed ({type(err).__name__}: {err})")
             return
         self.seconds += self.inner.seconds
+
+    def shave(self, prog: Program, res: Solution, count: int | None = None,
+              tol: float = 1e-5, max_sweeps: int = 1000) -> Solution:
+        """`res` with the ends of its loosest unknowns contracted towards the inner bounds
+        (strategy/shave.py), or `res` itself: no inner bounds, or none worth it. `count`: the
+        loosest unknowns at most, whatever their ratio; if None, settings.shave_unknowns above
+        settings.shave_above within a time budget of settings.shave_share of the solve's."""
+        if self.inner is None or not self.inner.consistent or count == 0:
+            return res
+        # (asked for a count: the loosest, whatever their ratio)
+        settings = (DEFAULT if count is None
+                    else replace(DEFAULT, shave_unknowns=count, shave_above=1.0))
+        budget = DEFAULT.shave_share * res.seconds if count is None else None
+        shaved, self.shaved = shave(prog, res, self.inner.lo, self.inner.hi, settings, budget,
+                                    tol, max_sweeps)
+        return shaved
 
     def inner_of(self, name: str) -> tuple[float, float] | None:
         """The certified inner interval of an unknown (None: none certified, or not asked)."""

@@ -107,6 +107,14 @@ _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no
             "calibration, do contract.")
 
 
+def _extra_time(extra: Extras) -> str:
+    """The inner bounds' and the shaving's own clocks, after the solve's."""
+    parts = ([f"{extra.inner.seconds:.2f} s for the inner bounds"] if extra.inner is not None
+             else []) + ([f"{extra.shaved.seconds:.2f} s shaving"] if extra.shaved is not None
+                         else [])
+    return f" (and {', '.join(parts)})" if parts else ""
+
+
 def render_summary(prog: Program, res: Solution, strategy: str,
                    extra: Extras | None = None) -> str:
     extra = extra or Extras()
@@ -117,8 +125,10 @@ def render_summary(prog: Program, res: Solution, strategy: str,
                 if strategy == "tight" else ""),
              f"primitives: {c['primitives']} ({c['variables']} variables)",
              f"strategy: {strategy}, formulation: {prog.formulation}",
-             f"time: {res.seconds:.3f} s" + (f" (and {extra.inner.seconds:.2f} s for the inner "
-                                             "bounds)" if extra.inner is not None else "")]
+             f"time: {res.seconds:.3f} s" + _extra_time(extra)]
+    if extra.shaved is not None:
+        lines.append(f"shaved: {' '.join(extra.shaved.names)} (the gap between each end and "
+                     "the certified inner bound contracted as a slice of its own)")
     if res.split:
         lines.append(f"split: {' '.join(res.split)} (not identifiable alone) cut into pieces; "
                      f"the result is the hull of the {len(res.pieces)} that hold solutions")

@@ -73,6 +73,10 @@ class LPRounds:
     rows: np.ndarray | None = None
     name: str = "rounds of LPs"
     progress: Meter | None = None  # told the box after each round
+    # straight to the fine second-order rounds, the readings' errors as LP columns where the
+    # program has them (else every product tied by McCormick's inequalities): a slice of a
+    # solved box (strategy/shave.py) is already where first order has nothing left to give
+    fine_start: bool = False
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
@@ -131,6 +135,9 @@ class _Rounds:
         self.moved = np.zeros(len(self.ind), dtype=bool)
         self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
+        if spec.fine_start:
+            self.fine = self.fine_readings = True
+            self.reuse = False
 
     def run(self) -> Outcome:
         while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
@@ -159,8 +166,11 @@ class _Rounds:
         self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
         if self.fine:
             fine = (relax_quadratic_readings(prog, self.lo, self.hi) if self.fine_readings
-                    else relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
-                                         rows=self.spec.rows))
+                    else None)
+            if fine is None and (not self.fine_readings or self.spec.fine_start):
+                self.fine_readings = False
+                fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
+                                       rows=self.spec.rows)
             if fine is None:  # (beyond the models' memory bound, or no readings to keep)
                 return None
             return _Round(None, fine, True)  # (their multipliers are never reused)
