@@ -84,8 +84,9 @@ def report(runs: int, draws: int) -> str:
     from calib_dsl.analysis.simulate import simulate
 
     out = [SECTION, "",
-           f"{datetime.date.today()}, {machine()['cpu']}: outer/inner = the tight solve's "
-           "width over the certified inner width (1: the result is the hull), per unknown whose "
+           f"{datetime.date.today()}, {machine()['cpu']}: outer/inner = the result's width (the "
+           "tight solve, shaved as `calibc solve` does by default) over the certified inner width "
+           "(1: the result is the hull), per unknown whose "
            "result is not a point; times in seconds, the solve's and the inner bounds' own "
            f"clocks (medians of {runs} runs on the shipped data, one run per fresh draw of "
            "`calibc simulate`, seeds " + ", ".join(map(str, SEEDS[:draws])) + ").", "",
