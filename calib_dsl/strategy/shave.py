@@ -49,7 +49,8 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
     """`sol` with the ends of its loosest unknowns shaved towards [inside_lo, inside_hi]
     (certified inner intervals over `independents(prog)`, nan where none), and what was
     done; `sol` itself (and None) where nothing is worth shaving. With `budget` (seconds),
-    no end is started once shaving has taken that long; nor once the solve's and shaving's
+    an end starts only if, at the mean cost of those before, it ends within the budget (the
+    first always starts, unless the budget is 0); nor once the solve's and shaving's
     sweeps together reach `max_sweeps`."""
     ind = independents(prog)
     order = candidates(sol.lo[ind], sol.hi[ind], inside_lo, inside_hi, s)
@@ -57,13 +58,18 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
         return sol, None
     start = time.perf_counter()
     lo, hi = sol.lo.copy(), sol.hi.copy()
-    ends = [(int(ind[k]), side, float(v)) for k in order
-            for side, v in ((0, inside_lo[k]), (1, inside_hi[k]))
+    ends = [(int(ind[k]), side, float(v)) for k in order  # each unknown's wider gap first
+            for side, v in sorted(((0, inside_lo[k]), (1, inside_hi[k])),
+                                  key=lambda e: -_gap(lo, hi, int(ind[k]), *e))
             if _gap(lo, hi, int(ind[k]), side, float(v)) > s.shave_min_gap]
-    work, shaved = Work(), []
+    work, shaved = Work(), list[int]()
     for slot, side, value in ends:  # each from the box the ones before shaved
         left = max_sweeps - sol.work.sweeps - work.sweeps  # (the solve's cap holds for all)
-        if left <= 0 or budget is not None and time.perf_counter() - start >= budget:
+        spent = time.perf_counter() - start
+        # (an end costs about what the ones before did: the next one must fit the budget)
+        over = budget is not None and (budget <= 0
+                                       or spent * (1 + 1 / max(len(shaved), 1)) > budget)
+        if left <= 0 or over:
             break
         shaved.append(slot)
         out = _slice(prog, lo, hi, slot, side, value, s, tol, left)
