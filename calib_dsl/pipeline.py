@@ -235,7 +235,8 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     if res.status == "contracted":
         if inner is not False:
             extra.inner_bounds(prog, res, asked=bool(inner))
-            res = extra.shave(prog, res, shave, tol, max_sweeps)
+            if strategy == "tight" or shave:  # (hc4 is propagation alone, unless asked)
+                res = extra.shave(prog, res, shave, tol, max_sweeps)
         if identify:
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:

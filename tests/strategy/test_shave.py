@@ -156,4 +156,5 @@ def test_cli_reports_what_it_shaved(tmp_path):
     line = next(x for x in shaved.splitlines() if x.startswith("shaved: "))
     assert set(line.split("(")[0].split()[1:]) == {"cx", "cy", "radius"}
     assert "shaved" not in plain
+    assert "shaved" not in run("--strategy", "hc4", "--inner")  # propagation alone, as asked
     assert '"shaved"' in run("--shave", "1", "--json", "-")
