@@ -170,8 +170,12 @@ def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs 
     every parameter vector that satisfies all data rows but at most K (outlier_report)."""
     elaborated, prog = load_model(model, formulation, inputs=inputs)
     if outliers > 0:
-        return outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
-                              max_sweeps, identify, progress)
+        run = outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
+                             max_sweeps, identify, progress)
+        if shave:
+            run.extra.skipped.append("shaving: not with --outliers (it shaves towards inner "
+                                     "bounds, which are not computed there)")
+        return run
     return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
                      lsq, inner, diagnose, progress, elaborated, shave)
 
@@ -234,9 +238,12 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     extra = Extras()
     if res.status == "contracted":
         if inner is not False:
-            extra.inner_bounds(prog, res, asked=bool(inner))
+            extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
             if strategy == "tight" or shave:  # (hc4 is propagation alone, unless asked)
                 res = extra.shave(prog, res, shave, tol, max_sweeps)
+        elif shave:
+            extra.skipped.append("shaving: not without the inner bounds it shaves towards "
+                                 "(--no-inner)")
         if identify:
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:

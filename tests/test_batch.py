@@ -267,3 +267,21 @@ def test_a_job_with_outliers_is_what_solve_outliers_gives(tmp_path, untimed):
     expected = json.loads((tmp_path / "direct.json").read_text(encoding="utf-8"))
     assert untimed(json.loads(json.dumps(line["result"]))) == untimed(expected)
     assert line["result"]["outliers"]["certain"] == [4]
+
+
+def test_a_job_that_shaves_is_what_solve_shave_gives(tmp_path, untimed):
+    """`shave = 3` in a job: the line is `calibc solve --shave 3 --json`'s document, with the
+    same shaved ends (no time budget: the same result on every worker)."""
+    from tests.strategy.test_shave import write_circle
+
+    write_circle(tmp_path)
+    (tmp_path / "jobs.toml").write_text('[[job]]\nid = "one"\nmodel = "circle.cal"\n'
+                                        "shave = 3\n")
+    (job,) = read_job_file(str(tmp_path / "jobs.toml"))
+    assert job.shave == 3 and job.argv()[-2:] == ["--shave", "3"]
+    line = run_job(job)
+    res = invoke("solve", *job.argv(), "--json", tmp_path / "direct.json")
+    assert res.exit_code == 0, res.output
+    expected = json.loads((tmp_path / "direct.json").read_text(encoding="utf-8"))
+    assert untimed(json.loads(json.dumps(line["result"]))) == untimed(expected)
+    assert sorted(line["result"]["shaved"]["parameters"]) == ["cx", "cy", "radius"]

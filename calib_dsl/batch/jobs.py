@@ -54,6 +54,7 @@ class Job:
     inner: bool | None = None  # None: calibc solve's default
     diagnose: bool = True
     outliers: int = 0  # as --outliers K: all rows but at most K (0: every row holds)
+    shave: int | None = None  # as --shave N (None: calibc solve's default)
 
     def argv(self) -> list[str]:
         """The `calibc solve` arguments that run the same solve."""
@@ -68,6 +69,7 @@ class Job:
             out.append("--inner" if self.inner else "--no-inner")
         out.append("--diagnose" if self.diagnose else "--no-diagnose")
         out += ["--outliers", str(self.outliers)] if self.outliers else []
+        out += ["--shave", str(self.shave)] if self.shave is not None else []
         return out + (["--lsq"] if self.lsq else [])
 
     def spec(self) -> dict[str, Any]:
@@ -82,7 +84,7 @@ Fail = Callable[[str, str], CalError]  # (key, message) -> the error, at the key
 KEYS = {"id": "id", "model": "model", "data": "data", "rows": "rows", "exclude": "exclude",
         "define": "defines", "strategy": "strategy", "formulation": "formulation",
         "tol": "tol", "max-sweeps": "max_sweeps", "identify": "identify", "lsq": "lsq",
-        "inner": "inner", "diagnose": "diagnose", "outliers": "outliers"}
+        "inner": "inner", "diagnose": "diagnose", "outliers": "outliers", "shave": "shave"}
 
 
 def read_job_file(path: str) -> list[Job]:
@@ -184,7 +186,7 @@ def _value(key: str, value: Any, folder: Path, fail: Fail) -> Any:
                 0 <= value < float("inf")):
             raise fail(key, "must be a finite number >= 0")
         return float(value)
-    if key == "outliers":
+    if key in ("outliers", "shave"):
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise fail(key, "must be an integer >= 0")
         return value

@@ -41,4 +41,4 @@ def solve_job(job: Job) -> dict[str, Any]:
     return solve_report(job.model, job.formulation, inputs, job.strategy, tol=job.tol,
                         max_sweeps=job.max_sweeps, identify=job.identify, lsq=job.lsq,
                         inner=job.inner, diagnose=job.diagnose,
-                        outliers=job.outliers).as_json()
+                        outliers=job.outliers, shave=job.shave).as_json()

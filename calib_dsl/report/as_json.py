@@ -62,7 +62,9 @@ def result_json(prog: Program, res: Solution, strategy: str,
         out["tightness"] = t
     if extra.shaved is not None:
         out["shaved"] = {"parameters": list(extra.shaved.names),
-                         "seconds": extra.shaved.seconds}
+                         "seconds": extra.shaved.seconds,
+                         "lp_rounds": extra.shaved.work.lp_rounds,
+                         "sweeps": extra.shaved.work.sweeps}
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}

@@ -85,6 +85,8 @@ class Extras:
         loosest unknowns at most, whatever their ratio; if None, settings.shave_unknowns above
         settings.shave_above within a time budget of settings.shave_share of the solve's."""
         if self.inner is None or not self.inner.consistent or count == 0:
+            if count and self.inner is not None:
+                self.skipped.append("shaving: no certified inner bounds to shave towards")
             return res
         # (asked for a count: the loosest, whatever their ratio)
         settings = (DEFAULT if count is None

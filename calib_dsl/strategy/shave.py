@@ -50,42 +50,62 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
     (certified inner intervals over `independents(prog)`, nan where none), and what was
     done; `sol` itself (and None) where nothing is worth shaving. With `budget` (seconds),
     an end starts only if, at the mean cost of those before, it ends within the budget (the
-    first always starts, unless the budget is 0); nor once the solve's and shaving's
-    sweeps together reach `max_sweeps`."""
+    first always starts, unless the budget is 0), so how many are shaved then depends on
+    the machine; nor once the solve's and shaving's sweeps together reach `max_sweeps`. The
+    solution's work stays the solve's: shaving's is in `Shaved`."""
     ind = independents(prog)
     order = candidates(sol.lo[ind], sol.hi[ind], inside_lo, inside_hi, s)
-    if not order or budget is not None and chunked(prog, CHUNK_SLOTS, None) is not None:
+    if not order or (budget is not None and chunked(prog, CHUNK_SLOTS, None) is not None):
         return sol, None  # (unasked, a program relaxed in chunks is not worth its slices)
     start = time.perf_counter()
     lo, hi = sol.lo.copy(), sol.hi.copy()
-    ends = [(int(ind[k]), side, float(v)) for k in order  # each unknown's wider gap first
-            for side, v in sorted(((0, inside_lo[k]), (1, inside_hi[k])),
-                                  key=lambda e: -_gap(lo, hi, int(ind[k]), *e))
-            if _gap(lo, hi, int(ind[k]), side, float(v)) > s.shave_min_gap]
-    work, shaved = Work(), list[int]()
-    for slot, side, value in ends:  # each from the box the ones before shaved
+    work = Work()
+    shaved: list[int] = []
+    for slot, side, value in _ends(lo, hi, ind[order], inside_lo[order], inside_hi[order], s):
         left = max_sweeps - sol.work.sweeps - work.sweeps  # (the solve's cap holds for all)
-        spent = time.perf_counter() - start
-        # (an end costs about what the ones before did: the next one must fit the budget)
-        over = budget is not None and (budget <= 0
-                                       or spent * (1 + 1 / max(len(shaved), 1)) > budget)
-        if left <= 0 or over:
+        if left <= 0 or _over(budget, time.perf_counter() - start, len(shaved)):
             break
         shaved.append(slot)
-        out = _slice(prog, lo, hi, slot, side, value, s, tol, left)
+        out = _slice(prog, lo, hi, slot, side, value, s, tol, left)  # from the box so far
         work = work + out.work
+        # (a sound contraction of the slice keeps `value`'s solution, so its end is beyond
+        # value; an empty slice would prove every solution on the other side of it)
         if side == 0:
-            lo[slot] = value if out.empty else max(lo[slot], out.lo[slot])
+            lo[slot] = value if out.empty else out.lo[slot]
         else:
-            hi[slot] = value if out.empty else min(hi[slot], out.hi[slot])
+            hi[slot] = value if out.empty else out.hi[slot]
     if not shaved:
         return sol, None
     names = tuple(dict.fromkeys(prog.slots.names[slot] for slot in shaved))
-    done = Shaved(names, time.perf_counter() - start, work)
+    pieces = tuple(p for p in (_within(a, b, lo, hi) for a, b in sol.pieces) if p is not None)
+    if pieces:  # every solution lies in a piece and in the shaved box: in their hull too
+        lo = np.maximum(lo, np.min([p[0] for p in pieces], axis=0))
+        hi = np.minimum(hi, np.max([p[1] for p in pieces], axis=0))
     if sol.history is not None:
         sol.history.record("shave", lo, hi)
-    pieces = tuple(p for p in (_within(a, b, lo, hi) for a, b in sol.pieces) if p is not None)
-    return replace(sol, lo=lo, hi=hi, pieces=pieces, work=sol.work + work), done
+    return replace(sol, lo=lo, hi=hi, pieces=pieces), Shaved(names,
+                                                             time.perf_counter() - start, work)
+
+
+def _ends(lo: np.ndarray, hi: np.ndarray, slots: np.ndarray, inside_lo: np.ndarray,
+          inside_hi: np.ndarray, s: Settings) -> list[tuple[int, int, float]]:
+    """(slot, side, inner bound) of the ends to shave, in order: the unknowns as given,
+    each one's wider gap first; a gap under shave_min_gap of the width is left alone."""
+    ends = []
+    for slot, a, b in zip(slots, inside_lo, inside_hi, strict=True):
+        sides = [(int(slot), 0, float(a)), (int(slot), 1, float(b))]
+        gaps = [_gap(lo, hi, *e) for e in sides]
+        ends += [e for g, e in sorted(zip(gaps, sides, strict=True), key=lambda x: -x[0])
+                 if g > s.shave_min_gap]
+    return ends
+
+
+def _over(budget: float | None, spent: float, done: int) -> bool:
+    """Whether the next end would overrun the budget, costing what the ones before did on
+    average (the first always starts, unless the budget is 0)."""
+    if budget is None:
+        return False
+    return budget <= 0 or (done > 0 and spent * (1 + 1 / done) > budget)
 
 
 def candidates(lo: np.ndarray, hi: np.ndarray, inside_lo: np.ndarray, inside_hi: np.ndarray,

@@ -54,20 +54,23 @@ def _circle(tmp: Path, seed: int, points: int, noise: float, e: float):
     return prog, cells, sol, inner_bounds(prog, sol.lo, sol.hi)
 
 
-def _on_every_circle(p: np.ndarray, cells: np.ndarray, e: float) -> np.ndarray:
-    """Which points p (rows cx, cy, radius) put some point of every cell's box (shrunk by a
-    margin far above rounding) on their circle: the radius lies between the box's nearest
-    and farthest distance from the centre."""
+def _solutions(cxy: np.ndarray, cells: np.ndarray, e: float) -> np.ndarray:
+    """Points (cx, cy, radius) that satisfy every row, for the centres `cxy` that have any:
+    each centre's radii run from the largest distance to the nearest point of a cell's box
+    to the smallest distance to its farthest point; the smallest, the largest and the middle
+    one are taken, kept a margin far above rounding inside (the boxes shrunk by 1e-6 of e,
+    the radii by 1e-9)."""
     e = e * (1 - 1e-6)
-    ok = np.ones(len(p), dtype=bool)
-    for x, y in cells:
-        near = [np.maximum(np.maximum(c - e - q, q - c - e), 0.0)
-                for c, q in ((x, p[:, 0]), (y, p[:, 1]))]
-        far = [np.abs(c - q) + e for c, q in ((x, p[:, 0]), (y, p[:, 1]))]
-        r2 = p[:, 2] ** 2
-        ok &= (near[0] ** 2 + near[1] ** 2 < r2 * (1 - 1e-9)) \
-            & (r2 * (1 + 1e-9) < far[0] ** 2 + far[1] ** 2)
-    return ok
+    near = np.zeros(len(cxy))
+    far = np.full(len(cxy), np.inf)
+    for cell in cells:
+        gap = np.maximum(np.abs(cxy - cell) - e, 0.0)
+        near = np.maximum(near, np.hypot(gap[:, 0], gap[:, 1]))
+        reach = np.abs(cxy - cell) + e
+        far = np.minimum(far, np.hypot(reach[:, 0], reach[:, 1]))
+    some = near * (1 + 1e-9) < far * (1 - 1e-9)
+    radii = [near[some] * (1 + 1e-9), far[some] * (1 - 1e-9), 0.5 * (near[some] + far[some])]
+    return np.vstack([np.column_stack([cxy[some], r]) for r in radii])
 
 
 @settings(max_examples=15, deadline=None,
@@ -82,18 +85,21 @@ def test_shaving_keeps_every_point_that_satisfies_the_rows(tmp_path_factory, see
     new, done = shave(prog, sol, inner.lo, inner.hi, EVERY)
     assert np.all(sol.lo <= new.lo) and np.all(new.hi <= sol.hi)
     assert np.all(new.lo[ind] <= inner.lo) and np.all(inner.hi <= new.hi[ind])
-    # points drawn over the solve's box and in its margins, beyond the inner bounds: every
-    # one that satisfies the rows must still be inside the shaved box
+    # solutions at centres drawn over the solve's box, half of them with a coordinate in a
+    # gap between the result and the inner bounds, each with its smallest and largest
+    # radius: every one must still be in the shaved box
     rng = np.random.default_rng(seed)
-    lo, hi = sol.lo[ind], sol.hi[ind]
-    draws = rng.uniform(lo, hi, size=(200_000, 3))
-    edge = rng.integers(0, 3, size=len(draws))
-    beyond = rng.uniform(0, 1, size=len(draws)) < 0.5
-    gap_lo = rng.uniform(lo[edge], inner.lo[edge])
-    gap_hi = rng.uniform(inner.hi[edge], hi[edge])
-    draws[np.arange(len(draws)), edge] = np.where(beyond, gap_lo, gap_hi)
-    fits = draws[_on_every_circle(draws, cells, e)]
-    assert np.all(new.lo[ind] <= fits) and np.all(fits <= new.hi[ind])
+    lo, hi, a, b = sol.lo[ind][:2], sol.hi[ind][:2], inner.lo[:2], inner.hi[:2]
+    cxy = rng.uniform(lo, hi, size=(100_000, 2))
+    half = np.arange(len(cxy) // 2)
+    axis = rng.integers(0, 2, size=len(half))
+    upper = rng.uniform(0, 1, size=len(half)) < 0.5
+    cxy[half, axis] = np.where(upper, rng.uniform(b[axis], hi[axis]),
+                               rng.uniform(lo[axis], a[axis]))
+    found = _solutions(cxy, cells, e)
+    beyond = np.any((found < inner.lo) | (found > inner.hi), axis=1)
+    assert beyond.sum() >= 20  # solutions in the gaps: the check has teeth
+    assert np.all(new.lo[ind] <= found) and np.all(found <= new.hi[ind])
 
 
 def test_shaving_narrows_the_circle_to_its_inner_bounds(tmp_path):
@@ -156,5 +162,20 @@ def test_cli_reports_what_it_shaved(tmp_path):
     line = next(x for x in shaved.splitlines() if x.startswith("shaved: "))
     assert set(line.split("(")[0].split()[1:]) == {"cx", "cy", "radius"}
     assert "shaved" not in plain
+    assert "shaved: " in run()  # by default: the loosest first (the first end always runs)
     assert "shaved" not in run("--strategy", "hc4", "--inner")  # propagation alone, as asked
+    assert "shaved: " in run("--strategy", "hc4", "--shave", "1")  # asked: inner bounds too
+    assert "shaving: not without the inner bounds" in run("--no-inner", "--shave", "1")
     assert '"shaved"' in run("--shave", "1", "--json", "-")
+
+
+def test_shaving_keeps_to_the_sweeps_left_and_to_the_time_budget(tmp_path):
+    prog, _, sol, inner = _circle(tmp_path, 0, 5, 0.04, 0.05)
+    for cap in (sol.sweeps + 1, sol.sweeps + 3):
+        _, done = shave(prog, sol, inner.lo, inner.hi, EVERY, max_sweeps=cap)
+        assert done is not None and done.work.sweeps <= cap - sol.sweeps
+    assert shave(prog, sol, inner.lo, inner.hi, EVERY, max_sweeps=sol.sweeps) == (sol, None)
+    _, one = shave(prog, sol, inner.lo, inner.hi, EVERY, budget=1e-9)
+    _, every = shave(prog, sol, inner.lo, inner.hi, EVERY, budget=1e9)
+    assert one is not None and every is not None
+    assert one.work.lp_rounds < every.work.lp_rounds  # the first end only, against all six
