@@ -257,16 +257,22 @@ def test_a_job_with_outliers_is_what_solve_outliers_gives(tmp_path, untimed):
         "param p in [0, 1]; param q in [-1, 1];\n"
         'table m = "d.csv" { x : +- 1e-9; v : +- 0.01; }\n'
         "for k in 1..rows(m) { m.v[k] == p * m.x[k] + q; }\n")
-    (tmp_path / "jobs.toml").write_text('[[job]]\nid = "one"\nmodel = "line.cal"\n'
-                                        "outliers = 1\n")
-    (job,) = read_job_file(str(tmp_path / "jobs.toml"))
+    job, line = _one_job(tmp_path, untimed, "line.cal", "outliers = 1")
     assert job.outliers == 1 and job.argv()[-2:] == ["--outliers", "1"]
+    assert line["result"]["outliers"]["certain"] == [4]
+
+
+def _one_job(tmp_path: Path, untimed, model: str, key: str) -> tuple[Job, dict]:
+    """The job of `model` with one more key line, run as a batch job: its line's result is
+    what `calibc solve` writes with the job's arguments."""
+    (tmp_path / "jobs.toml").write_text(f'[[job]]\nid = "one"\nmodel = "{model}"\n{key}\n')
+    (job,) = read_job_file(str(tmp_path / "jobs.toml"))
     line = run_job(job)
     res = invoke("solve", *job.argv(), "--json", tmp_path / "direct.json")
     assert res.exit_code == 0, res.output
     expected = json.loads((tmp_path / "direct.json").read_text(encoding="utf-8"))
     assert untimed(json.loads(json.dumps(line["result"]))) == untimed(expected)
-    assert line["result"]["outliers"]["certain"] == [4]
+    return job, line
 
 
 def test_a_job_that_shaves_is_what_solve_shave_gives(tmp_path, untimed):
@@ -275,13 +281,6 @@ def test_a_job_that_shaves_is_what_solve_shave_gives(tmp_path, untimed):
     from tests.strategy.test_shave import write_circle
 
     write_circle(tmp_path)
-    (tmp_path / "jobs.toml").write_text('[[job]]\nid = "one"\nmodel = "circle.cal"\n'
-                                        "shave = 3\n")
-    (job,) = read_job_file(str(tmp_path / "jobs.toml"))
+    job, line = _one_job(tmp_path, untimed, "circle.cal", "shave = 3")
     assert job.shave == 3 and job.argv()[-2:] == ["--shave", "3"]
-    line = run_job(job)
-    res = invoke("solve", *job.argv(), "--json", tmp_path / "direct.json")
-    assert res.exit_code == 0, res.output
-    expected = json.loads((tmp_path / "direct.json").read_text(encoding="utf-8"))
-    assert untimed(json.loads(json.dumps(line["result"]))) == untimed(expected)
     assert sorted(line["result"]["shaved"]["parameters"]) == ["cx", "cy", "radius"]

@@ -15,7 +15,7 @@ from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.taylor import expand
-from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
+from tests.relax.test_linearize import clean_version, random_robot, robot_source, simulate_cal
 
 
 def _rows(ev, out) -> dict[int, tuple]:
@@ -45,10 +45,7 @@ def _rows(ev, out) -> dict[int, tuple]:
        formulation=st.sampled_from(["matrix", "rotation"]), point=st.booleans())
 def test_chunks_give_the_whole_programs_rows(tmp_path_factory, seed, joints, rows,
                                              formulation, point):
-    rng = np.random.default_rng(seed)
-    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
-    sim = simulate_cal(tmp_path_factory.mktemp("chunks"), source, clean_version(source), rows,
-                       seed, formulation)
+    sim = random_robot(tmp_path_factory.mktemp("chunks"), seed, joints, rows, formulation)
     prog = sim.prog
     if prog.rows is None:  # (a planar arm's shared measured side: unrolled)
         return
@@ -127,10 +124,8 @@ def test_second_order_models_in_chunks(tmp_path_factory, monkeypatch, seed, join
                                        formulation):
     """taylor.expand in chunks of two rows gives every row's model of the whole expansion
     (matched by target slot), and a subset of rows gives those rows' models."""
-    rng = np.random.default_rng(seed)
-    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
-    prog = simulate_cal(tmp_path_factory.mktemp("taylor"), source, clean_version(source),
-                        rows, seed, formulation).prog
+    prog = random_robot(tmp_path_factory.mktemp("taylor"), seed, joints, rows,
+                        formulation).prog
     if prog.rows is None:
         return
     lo, hi = prog.slots.lo, prog.slots.hi

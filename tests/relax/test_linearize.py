@@ -526,6 +526,20 @@ def simulate_cal(tmp: Path, source: str, clean_source: str, rows: int, seed: int
     return Simulated(prog, p_true, cell_true)
 
 
+def robot_draws(rows: st.SearchStrategy[int]) -> dict[str, st.SearchStrategy]:
+    """@given's draws of a random_robot case: seed, joints, rows, formulation."""
+    return {"seed": st.integers(0, 10_000), "joints": st.integers(1, 3), "rows": rows,
+            "formulation": st.sampled_from(["matrix", "rotation"])}
+
+
+def random_robot(tmp: Path, seed: int, joints: int, rows: int, formulation: str) -> Simulated:
+    """A random robot of `joints` joints (spatial for odd seeds; readings to 1e-6, tool
+    points to 1e-4) with `rows` simulated configurations, compiled against its noisy data."""
+    rng = np.random.default_rng(seed)
+    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
+    return simulate_cal(tmp, source, clean_version(source), rows, seed, formulation)
+
+
 def clean_version(source: str) -> str:
     """The same model with every data tolerance 0 (the simulator then records exact values,
     and draws the same random numbers)."""

@@ -14,20 +14,16 @@ from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import solve_tight
-from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
+from tests.relax.test_linearize import random_robot, robot_draws
 
 SMALL = replace(DEFAULT, sample_rows=6, sample_gain=0.0)  # a sample of 6 rows, grown always
 
 
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(14, 30),
-       formulation=st.sampled_from(["matrix", "rotation"]))
+@given(**robot_draws(st.integers(14, 30)))
 def test_a_sampled_solve_holds_the_truth(tmp_path_factory, seed, joints, rows, formulation):
-    rng = np.random.default_rng(seed)
-    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
-    sim = simulate_cal(tmp_path_factory.mktemp("sampled"), source, clean_version(source),
-                       rows, seed, formulation)
+    sim = random_robot(tmp_path_factory.mktemp("sampled"), seed, joints, rows, formulation)
     prog = sim.prog
     if prog.rows is None:
         return
@@ -44,9 +40,7 @@ def test_a_sampled_solve_holds_the_truth(tmp_path_factory, seed, joints, rows, f
 
 
 def test_the_sample_is_spread_over_the_rows(tmp_path):
-    rng = np.random.default_rng(3)
-    source = robot_source(rng, 2, 1e-6, 1e-4, spatial=True)
-    prog = simulate_cal(tmp_path, source, clean_version(source), 25, 3, "matrix").prog
+    prog = random_robot(tmp_path, 3, 2, 25, "matrix").prog  # (seed 3: a spatial robot)
     assert spread_rows(prog, 13) is None  # 25 rows: not over twice the sample
     sample = spread_rows(prog, 10)
     assert sample is not None and len(sample) == 10

@@ -21,7 +21,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.shave import candidates, shave
 from calib_dsl.strategy.tight import solve_tight
-from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
+from tests.relax.test_linearize import random_robot, robot_draws
 
 EVERY = replace(DEFAULT, shave_above=1.0)  # every unknown with a gap, whatever its ratio
 CIRCLE = """param cx in [-10, 10]; param cy in [-10, 10]; param radius in [0, 10];
@@ -117,13 +117,9 @@ def test_shaving_narrows_the_circle_to_its_inner_bounds(tmp_path):
 
 @settings(max_examples=8, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(6, 14),
-       formulation=st.sampled_from(["matrix", "rotation"]))
+@given(**robot_draws(st.integers(6, 14)))
 def test_shaved_random_robots_hold_the_truth(tmp_path_factory, seed, joints, rows, formulation):
-    rng = np.random.default_rng(seed)
-    source = robot_source(rng, joints, 1e-6, 1e-4, spatial=bool(seed % 2))
-    sim = simulate_cal(tmp_path_factory.mktemp("shave"), source, clean_version(source),
-                       rows, seed, formulation)
+    sim = random_robot(tmp_path_factory.mktemp("shave"), seed, joints, rows, formulation)
     prog = sim.prog
     sol = solve_tight(prog, combinations=False)
     assert sol.status == "contracted"
