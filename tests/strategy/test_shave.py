@@ -175,3 +175,16 @@ def test_shaving_keeps_to_the_sweeps_left_and_to_the_time_budget(tmp_path):
     _, every = shave(prog, sol, inner.lo, inner.hi, EVERY, budget=1e9)
     assert one is not None and every is not None
     assert one.work.lp_rounds < every.work.lp_rounds  # the first end only, against all six
+
+
+def test_the_api_says_what_it_shaved(tmp_path):
+    import calib_dsl
+
+    write_circle(tmp_path)
+    problem = calib_dsl.load(tmp_path / "circle.cal")
+    shaved = calib_dsl.solve(problem, shave=3)
+    plain = calib_dsl.solve(problem, shave=0)
+    assert sorted(shaved.shaved) == ["cx", "cy", "radius"] and plain.shaved == ()
+    for name in ("cx", "cy", "radius"):
+        (a, b), (c, d) = shaved[name].result, plain[name].result
+        assert c <= a and b <= d and (b - a) < 0.97 * (d - c)
