@@ -104,7 +104,7 @@ def _simulated(seed: int, rows: int, tmp: Path) -> str:
     return _DATA[seed]
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 3), row=st.integers(1, 20), column=st.sampled_from(COLUMNS),
        fault=st.floats(0.005, 0.03), sign=st.sampled_from([-1.0, 1.0]))
 def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, sign):
