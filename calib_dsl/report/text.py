@@ -109,9 +109,11 @@ _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no
 
 def _extra_time(extra: Extras) -> str:
     """The inner bounds' and the shaving's own clocks, after the solve's."""
-    parts = ([f"{extra.inner.seconds:.2f} s for the inner bounds"] if extra.inner is not None
-             else []) + ([f"{extra.shaved.seconds:.2f} s shaving"] if extra.shaved is not None
-                         else [])
+    parts = []
+    if extra.inner is not None:
+        parts.append(f"{extra.inner.seconds:.2f} s for the inner bounds")
+    if extra.shaved is not None:
+        parts.append(f"{extra.shaved.seconds:.2f} s shaving")
     return f" (and {', '.join(parts)})" if parts else ""
 
 

@@ -165,12 +165,7 @@ class _Rounds:
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
         self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
         if self.fine:
-            fine = (relax_quadratic_readings(prog, self.lo, self.hi) if self.fine_readings
-                    else None)
-            if fine is None and (not self.fine_readings or self.spec.fine_start):
-                self.fine_readings = False
-                fine = relax_quadratic(prog, self.lo, self.hi, prune=0.0, mccormick=True,
-                                       rows=self.spec.rows)
+            fine = self._fine_relaxation()
             if fine is None:  # (beyond the models' memory bound, or no readings to keep)
                 return None
             return _Round(None, fine, True)  # (their multipliers are never reused)
@@ -191,6 +186,19 @@ class _Rounds:
         this = _Round(first, quad, True)
         this.fresh = not (self.reuse and certs.usable(this.target))
         return this
+
+    def _fine_relaxation(self) -> tuple[LinearRelaxation, Expansion] | None:
+        """The fine rounds' relaxation: with the readings' errors as LP columns where chosen,
+        else every product tied by McCormick's inequalities. Where the readings' one cannot
+        be built, a solve's rounds end (it chose it for a remainder McCormick's cannot
+        meet), while a slice (fine_start) takes McCormick's instead."""
+        prog, lo, hi = self.spec.prog, self.lo, self.hi
+        if self.fine_readings:
+            fine = relax_quadratic_readings(prog, lo, hi)
+            if fine is not None or not self.spec.fine_start:
+                return fine
+            self.fine_readings = False
+        return relax_quadratic(prog, lo, hi, prune=0.0, mccormick=True, rows=self.spec.rows)
 
     # -- 2. certified bounds -----------------------------------------------------------------
     def bounds(self, this: _Round) -> tuple[np.ndarray, np.ndarray]:
