@@ -15,12 +15,12 @@ interval.
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import PointCheck, check_point, exact_inside
+from calib_dsl.analysis.certify_point import PointCheck, check_point, check_points, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.lsq import linearized
@@ -34,13 +34,23 @@ from calib_dsl.settings import DEFAULT
 # Each row aims inside this share of its bound: room for the rounding and for the remainder of
 # the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
 AIM = 1.0 - 1e-5
+# A failed LP optimum is pulled back towards the centre only where that costs the end at
+# most this share of the unknown's width; else its LP is re-solved with the failed rows
+# tightened, which loses less (rx90_full.cal: worst outer/inner 1.0395, against 1.0507 when
+# a pull-back may cost up to REFINE)
+PULLED = 1e-3
+# Ends per wave: their LPs shared among the threads, their points checked in one pass (eight
+# points cost about three checks of one on the RX90); a wider wave runs LPs for ends that an
+# earlier wave's points would have reached
+WAVE = 16
 CORRECTIONS = 6  # re-solves of one end's LP with the rows the check found violated tightened
 ESCALATE = 4.0  # how much more a row that fails again is tightened
 OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
 # An end that a certified point reaches to within this share of the outer width gets no LP of
 # its own (an earlier end's LP often puts the other unknowns at their bounds: on Test A the 19
-# parameters known to +-1e-5)
-REACHED = 1e-4
+# parameters known to +-1e-5). The ends an LP finds fall about as short (Test A: 1e-3 of the
+# width), so a tighter share buys LPs, not width
+REACHED = 1e-3
 COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
 PULLBACKS = 10  # halvings of the step from the centre when the corrections did not succeed
 # An end whose certified point falls short of its LP's optimum by more than this share of the
@@ -102,21 +112,21 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind))
-    centre, ends = _centre(prog, box)
-    if centre is not None:
-        found.add(centre)
-        _extremes(prog, box, centre.point, found, ends)
+    _search(prog, box, found)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
 
 class _Points:
-    """The certified points seen so far, and per unknown the range they span."""
+    """The certified points seen so far, and per unknown the range they span; `centre`, the
+    point that failed candidates are pulled back towards (None until one is certified)."""
 
     def __init__(self, n: int) -> None:
         self.lo, self.hi = np.full(n, np.nan), np.full(n, np.nan)
         self.lo_at, self.hi_at = np.full(n, -1), np.full(n, -1)
         self.all: list[Witness] = []
+        self.centre: Witness | None = None
+        self._centre_check: PointCheck | None = None
 
     def add(self, w: Witness) -> None:
         k = len(self.all)
@@ -125,114 +135,211 @@ class _Points:
         self.lo[lower], self.lo_at[lower] = w.point[lower], k
         self.hi[higher], self.hi_at[higher] = w.point[higher], k
 
+    def add_centre(self, w: Witness, check: PointCheck | None = None) -> None:
+        self.centre, self._centre_check = w, check
+        self.add(w)
 
-@dataclass(frozen=True)
-class _Ends:
-    """The model linearized at the box's middle and its LP optima at the ends of the free
-    unknowns ((j, sign): step): the ends' first candidates where the centre is their mean."""
+    def centre_check(self, prog: Program) -> PointCheck:
+        """The centre's check: each row's room to its bounds there."""
+        assert self.centre is not None
+        if self._centre_check is None:
+            self._centre_check = check_point(prog, self.centre.point, self.centre.readings)
+        return self._centre_check
 
-    lp: _LinearModel
-    steps: dict[tuple[int, float], np.ndarray]
 
-
-def _centre(prog: Program, box: tuple[np.ndarray, np.ndarray]
-            ) -> tuple[Witness | None, _Ends | None]:
-    """A certified point near the middle of the box (the middle itself, else the point with
-    the smallest largest residual in units of each row's bound, else the mean of the ends of
-    the model linearized at the middle): the LPs' starting point; and those ends, where
-    they were computed."""
+def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points) -> None:
+    """The certified points: the box's middle if it is one; then both ends of every unknown
+    that can move, over the model linearized at the middle (at the Chebyshev fit where it
+    cannot be linearized there)."""
     lo, hi = box
     mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     mid = np.clip(mid, lo, hi)
     middles = Readings(prog).middles()
     if prove_point(prog, mid, middles):  # a tight box's middle often is a solution
-        return Witness(mid, middles), None
+        found.add_centre(Witness(mid, middles))
+    free = np.flatnonzero(hi > lo)
+    if not len(free):
+        return
+    lp = _LinearModel(prog, box, mid, free)
+    if not lp.finite:  # an infinite derivative at the middle
+        if found.centre is None and (centre := _fit(prog, box, mid)) is not None:
+            found.add_centre(centre)
+        if found.centre is None:
+            return
+        lp = _LinearModel(prog, box, found.centre.point, free)
+        if not lp.finite:
+            return
+    _extremes(prog, box, lp, found)
+
+
+def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray) -> Witness | None:
+    """The point with the smallest largest residual (in units of each row's bound, the
+    readings at their middles), from the middle, if it is certified: a centre where the
+    mean of the first wave's ends is not one."""
+    middles = Readings(prog).middles()
     try:
         with np.errstate(all="ignore"):
             p, need = chebyshev(prog, normalized=True, start=mid, box=box, target=1.0,
                                 settle=SETTLE)
-        if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
-            return Witness(p, middles), None
     except (ValueError, np.linalg.LinAlgError):
-        pass
-    return _mean_of_ends(prog, box, mid)
+        return None
+    if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
+        return Witness(p, middles)
+    return None
 
 
-def _mean_of_ends(prog: Program, box: tuple[np.ndarray, np.ndarray],
-                  mid: np.ndarray) -> tuple[Witness | None, _Ends | None]:
-    """The mean of the linearized model's ends, a point inside it: where the Chebyshev fit
-    cannot run (an inequality's bound is infinite, so it has no units) or does not reach
-    inside every bound (the joint readings at their middles)."""
-    free = np.flatnonzero(box[1] > box[0])
-    if not len(free):
-        return None, None
-    lp = _LinearModel(prog, box, mid, free)
-    if not lp.finite:
-        return None, None
-    steps = lp.extremes([(j, sign) for j in range(len(free)) for sign in (-1.0, 1.0)])
-    if not steps:
-        return None, None
-    point, readings = lp.point(np.mean(list(steps.values()), axis=0))
-    if not prove_point(prog, point, readings):
-        return None, None
-    return Witness(point, readings), _Ends(lp, steps)
-
-
-def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
-              found: _Points, start: _Ends | None) -> None:
-    """Both ends of every unknown that can move, over the model linearized at the centre (or
-    at the middle, where the centre is the mean of that model's ends: their LPs are not
-    solved twice); then those that fell well short, over the model linearized at their own
-    points (where the LP holds all its rows: above, each would be a cold LP generating its
-    rows, 0.33 s an end on all 1495 UR10 rows, 28 ends for a median outer/inner of 1.178
-    against 1.225)."""
-    free = np.flatnonzero(box[1] > box[0])
-    if not len(free):
-        return
-    lp = start.lp if start is not None else _LinearModel(prog, box, centre, free)
-    if not lp.finite:  # the model cannot be linearized there (an infinite derivative)
-        return
+def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: _LinearModel,
+              found: _Points) -> None:
+    """Both ends of every unknown that can move, over the linearized model `lp`; then
+    those that fell well short, over the model linearized at their own points (where the LP
+    holds all its rows: above, each would be a cold LP generating its rows, 0.33 s an end on
+    all 1495 UR10 rows, 28 ends for a median outer/inner of 1.178 against 1.225)."""
     solvers = lp.solvers(DEFAULT.lp_workers)
     with ThreadPoolExecutor(len(solvers)) as pool:
-        short = _waves(prog, lp, solvers, pool, found, start)
+        short = _waves(prog, lp, solvers, pool, found)
         if lp.rows <= DEFAULT.rows_at_once:
-            for w in pool.map(lambda end: _refined(prog, box, free, *end), short):
+            for w in pool.map(lambda end: _refined(prog, box, lp.free, *end),
+                              short):
                 if w is not None:
                     found.add(w)
 
 
 def _waves(prog: Program, lp: _LinearModel, solvers: list[_Solver], pool: ThreadPoolExecutor,
-           found: _Points, start: _Ends | None) -> list[tuple[int, float, Witness]]:
-    """The ends not yet reached, in waves of one end per HiGHS model and thread (HiGHS
-    releases the GIL, so one end's LP runs while another's point is checked); a wave's
-    points count before the next wave is chosen, in the same order on every run. Returns the
-    ends (j, sign, point) whose point fell short of their LP's optimum by REFINE."""
+           found: _Points) -> list[tuple[int, float, Witness]]:
+    """The ends not yet reached, in waves of WAVE. The HiGHS models solve a wave's LPs in
+    their threads (HiGHS releases the GIL) while this thread checks the wave before, so a
+    wave is chosen before the points of the one just solved count: in the same order on
+    every run. Returns the ends (j, sign, point) whose point fell short of their LP's
+    optimum by REFINE."""
     lo, hi = lp.box
     ends = [(j, int(k), sign) for j, k in enumerate(lp.free) for sign in (-1.0, 1.0)]
+    share, untightened = len(solvers), np.zeros(lp.rows)
 
     def unreached(k: int, sign: float) -> bool:
         reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
         return not abs(bound - reached) <= REACHED * (hi[k] - lo[k])
 
-    def run(w: int, end: tuple[int, int, float]) -> tuple[Witness | None, float]:
-        j, _, sign = end
-        first = None if start is None else start.steps.get((j, sign))
-        return _end(prog, lp, solvers[w], j, sign, first)
+    def optima(wave: list[tuple[int, int, float]], w: int) -> list[np.ndarray | None]:
+        return [solvers[w].extreme(j, sign, untightened) for j, _, sign in wave[w::share]]
 
-    short = []
-    while ends:
+    def launch() -> tuple[list[tuple[int, int, float]], list[Future]]:
         wave: list[tuple[int, int, float]] = []
-        while ends and len(wave) < len(solvers):
+        while ends and len(wave) < WAVE:
             end = ends.pop(0)
             if unreached(end[1], end[2]):
                 wave.append(end)
-        for (j, k, sign), (w, promised) in zip(wave, pool.map(run, range(len(wave)), wave),
-                                               strict=True):
+        return wave, [pool.submit(optima, wave, w) for w in range(min(share, len(wave)))]
+
+    def gather(running: list[Future]) -> list[np.ndarray | None]:
+        ys: list[np.ndarray | None] = [None] * sum(len(r.result()) for r in running)
+        for w, r in enumerate(running):
+            ys[w::share] = r.result()
+        return ys
+
+    short = []
+    wave, running = launch()
+    ys = gather(running)
+    while wave:
+        after, running = launch()
+        done, failed = _checked(prog, lp, wave, ys, found)
+        ys_after = gather(running)
+        for i, w in _corrected(prog, lp, solvers, pool, wave, ys, failed, found.centre):
+            done[i] = w
+        for (j, k, sign), w, y in zip(wave, done, ys, strict=True):
             if w is not None:
                 found.add(w)
-                if sign * (promised - (w.point[k] - lp.centre[k]) / lp.scale[j]) > REFINE:
+                assert y is not None
+                if sign * (y[j] - (w.point[k] - lp.centre[k]) / lp.scale[j]) > REFINE:
                     short.append((j, sign, w))
+        wave, ys = after, ys_after
     return short
+
+
+def _checked(prog: Program, lp: _LinearModel, wave: list[tuple[int, int, float]],
+             ys: list[np.ndarray | None], found: _Points
+             ) -> tuple[list[Witness | None], dict[int, PointCheck]]:
+    """The wave's LP optima checked in one pass (with their mean, a centre, while there is
+    none); those that fail on plain rows pulled back towards the centre by what the check
+    measured (_pull_back) and checked in one more. Returns the certified points (None where
+    none yet) and the failed optima's checks."""
+    done: list[Witness | None] = [None] * len(wave)
+    failed: dict[int, PointCheck] = {}
+    at = {i: lp.point(y) for i, y in enumerate(ys) if y is not None}
+    if found.centre is None and at:
+        at[-1] = lp.point(np.mean([y for y in ys if y is not None], axis=0))
+    for pulled in (False, True):
+        if not at:
+            break
+        order = sorted(at)
+        checks = check_points(prog, np.array([at[i][0] for i in order]),
+                              np.array([at[i][1] for i in order]))
+        here, at = at, {}
+        for i, check in zip(order, checks, strict=True):
+            point, readings = here[i]
+            if not (check.holds or prove_point(prog, point, readings, check)):
+                if not pulled and i >= 0:
+                    failed[i] = check
+                continue
+            if i < 0:
+                found.add_centre(Witness(point, readings), check)
+            else:
+                done[i] = Witness(point, readings)
+        if not pulled and found.centre is None:
+            if (centre := _fit(prog, lp.box, lp.centre)) is None:
+                break
+            found.add_centre(centre)
+        for i in [] if pulled else sorted(failed):
+            assert found.centre is not None
+            j, k = wave[i][:2]
+            t = _pull_back(found.centre_check(prog), failed[i])
+            if t is not None and (1.0 - t) * abs(here[i][0][k] - found.centre.point[k]) \
+                    <= PULLED * lp.scale[j]:
+                at[i] = _between(found.centre, here[i], t, lp)
+    return done, {i: c for i, c in failed.items() if done[i] is None}
+
+
+def _corrected(prog: Program, lp: _LinearModel, solvers: list[_Solver],
+               pool: ThreadPoolExecutor, wave: list[tuple[int, int, float]],
+               ys: list[np.ndarray | None], failed: dict[int, PointCheck],
+               centre: Witness | None) -> list[tuple[int, Witness | None]]:
+    """The failed ends again, their LPs re-solved with the rows the checks found violated
+    tightened (_end), each HiGHS model taking its share in its own thread."""
+    rest, share = sorted(failed), len(solvers)
+
+    def correct(w: int) -> list[tuple[int, Witness | None]]:
+        return [(i, _end(prog, lp, solvers[w], wave[i][0], wave[i][2], centre, ys[i],
+                         failed[i])[0]) for i in rest[w::share]]
+
+    return [x for part in pool.map(correct, range(min(share, len(rest)))) for x in part]
+
+
+def _pull_back(centre: PointCheck, check: PointCheck) -> float | None:
+    """A share t < 1 of the way from the centre to a failed point at which the rows that
+    failed there should hold (None where a row comparing two computed values failed: the
+    corrections handle those). Such a row has room u at the centre to the bound it crossed,
+    and crossed it by the measured excess e at the point; where the model curves at least
+    as a square along the segment, the row at t is at most its centre's value plus t (u + e):
+    t = u / (u + OVERSHOOT e) keeps it inside. Only the check decides."""
+    assert check.ok is not None and check.computed is not None and check.side is not None
+    assert centre.side is not None
+    bad = ~check.ok
+    if not check.in_domain or not bad.any() or np.any(bad & check.computed):
+        return None
+    above = check.hi[bad] > check.side[1][bad]
+    room = np.where(above, centre.side[1][bad] - centre.hi[bad],
+                    centre.lo[bad] - centre.side[0][bad])
+    with np.errstate(all="ignore"):
+        t = float(np.min(room / (room + OVERSHOOT * check.excess[bad])))
+    return t if 0.0 < t < 1.0 else None
+
+
+def _between(centre: Witness, at: tuple[np.ndarray, np.ndarray], t: float,
+             lp: _LinearModel) -> tuple[np.ndarray, np.ndarray]:
+    """The point (unknowns, readings) a share t of the way from the centre to `at` (kept in
+    the box and the readings' intervals: the sum may round out of them)."""
+    point = np.clip(centre.point + t * (at[0] - centre.point), *lp.box)
+    return point, np.clip(centre.readings + t * (at[1] - centre.readings),
+                          *lp.readings.inside)
 
 
 def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], free: np.ndarray, j: int,
@@ -240,15 +347,18 @@ def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], free: np.ndarray
     """The end again, over the model linearized at its certified point w: near the end, the
     linearization's remainder that held it back is small."""
     lp = _LinearModel(prog, box, w.point, free)
-    return _end(prog, lp, lp.solver, j, sign)[0] if lp.finite else None
+    return _end(prog, lp, lp.solver, j, sign, w)[0] if lp.finite else None
 
 
 def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
-         first: np.ndarray | None = None) -> tuple[Witness | None, float]:
+         toward: Witness | None, first: np.ndarray | None = None,
+         failed: PointCheck | None = None) -> tuple[Witness | None, float]:
     """A certified point far along the free unknown j in the direction `sign`, from the LPs
     of `solver` (one of lp's models; `first`: the LP's optimum with no row tightened, when
-    already known); and that optimum's step along j (in units of its width, nan if none):
-    how far the linearized model promised."""
+    already known, and `failed` its check where it already failed), as a last resort pulled
+    back towards the certified point `toward` (towards lp's own centre if None); and that
+    optimum's step along j (in units of its width, nan if none): how far the linearized
+    model promised."""
     tighten = np.zeros(lp.rows)
     step = np.zeros(0)
     promised = np.nan
@@ -259,7 +369,7 @@ def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
         step = y
         promised = float(y[j]) if k == 0 else promised
         point, readings = lp.point(step)
-        check = check_point(prog, point, readings)
+        check = failed if k == 0 and failed is not None else check_point(prog, point, readings)
         if check.holds or prove_point(prog, point, readings, check):
             return Witness(point, readings), promised
         excess, computed = lp.excess(check)
@@ -272,9 +382,11 @@ def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
         # a row between two computed values fails by its remainder, not by its (whole)
         # difference: aim further inside, doubling
         tighten[computed] = np.maximum(2.0 * tighten[computed], COMPUTED_AIM)
-    for _ in range(PULLBACKS if len(step) else 0):
-        step = 0.5 * step
-        point, readings = lp.point(step)
+    last = lp.point(step) if len(step) else None
+    for n in range(1, PULLBACKS + 1 if last is not None else 0):
+        assert last is not None
+        point, readings = (_between(toward, last, 0.5**n, lp) if toward is not None
+                           else lp.point(0.5**n * step))
         if prove_point(prog, point, readings):
             return Witness(point, readings), promised
     return None, promised
@@ -331,23 +443,6 @@ class _LinearModel:
     def solvers(self, count: int) -> list[_Solver]:
         """`count` HiGHS models of this LP (at least one), the first the model's own."""
         return [self.solver] + [_Solver(self) for _ in range(max(1, count) - 1)]
-
-    def extremes(self, ends: list[tuple[int, float]]) -> dict[tuple[int, float], np.ndarray]:
-        """The optima of these ends with no row tightened (those the LP found), shared among
-        lp_workers threads, each with its own HiGHS model (HiGHS releases the GIL)."""
-        workers = max(1, min(DEFAULT.lp_workers, len(ends)))
-        solvers = self.solvers(workers)
-        untightened = np.zeros(self.rows)
-
-        def share(w: int) -> list[tuple[tuple[int, float], np.ndarray | None]]:
-            return [(e, solvers[w].extreme(*e, untightened)) for e in ends[w::workers]]
-
-        if workers == 1:
-            found = share(0)
-        else:
-            with ThreadPoolExecutor(workers) as pool:
-                found = [x for part in pool.map(share, range(workers)) for x in part]
-        return {e: y for e, y in found if y is not None}
 
     def point(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The unknowns and the readings at `step` from the centre (kept in their bounds: a

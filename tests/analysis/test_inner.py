@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from calib_dsl.analysis.certify_point import reading_slots
+from calib_dsl.analysis.certify_point import check_point, check_points, reading_slots
 from calib_dsl.analysis.inner import inner_bounds
 from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
@@ -142,6 +142,35 @@ def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
             for i, j in ((0, 1), (0, 2), (1, 2)):
                 gap = mpmath.sqrt(sum((tool[i][c] - tool[j][c]) ** 2 for c in range(3)))
                 assert abs(gap - dist) <= _exact("1e-5")
+
+
+def test_points_checked_together_get_each_their_own_verdict():
+    """check_points (one pass for many points) says of each point what check_point says of
+    it alone: random points of the RX90's box, readings anywhere in their intervals, with
+    owners, some holding (the certified witnesses) and some not. The enclosures may differ
+    by an ulp (arith/interval.py rounds a short array outward with nextafter, a long one by
+    arithmetic: both sound), not the verdicts."""
+    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    sol = solve(prog)
+    ind, at = independents(prog), reading_slots(prog)
+    rng = np.random.default_rng(5)
+    lo, hi = prog.slots.lo[at], prog.slots.hi[at]
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    points = [w.point for w in inner.witnesses[:3]] + [
+        sol.lo[ind] + rng.random(len(ind)) * (sol.hi[ind] - sol.lo[ind]) for _ in range(5)]
+    readings = [w.readings for w in inner.witnesses[:3]] + [
+        lo + rng.random(len(at)) * (hi - lo) for _ in range(5)]
+    together = check_points(prog, np.array(points), np.array(readings), owners=True)
+    assert [c.holds for c in together] == [True] * 3 + [False] * 5
+    for c, p, r in zip(together, points, readings, strict=True):
+        alone = check_point(prog, p, r, owners=True)
+        assert c.holds == alone.holds and c.in_domain == alone.in_domain
+        for field in ("slots", "ok", "computed", "owner"):
+            assert np.array_equal(getattr(c, field), getattr(alone, field)), field
+        width = alone.hi - alone.lo
+        for field in ("lo", "hi"):  # the rounding differs by ulps, a small share of a width
+            assert np.all(np.abs(getattr(c, field) - getattr(alone, field)) <= 0.5 * width)
+        assert np.allclose(c.excess, alone.excess, rtol=1e-6, atol=1e-12)
 
 
 def test_test_a_inner_reaches_the_outer_box():
