@@ -118,8 +118,9 @@ def report(runs: int, draws: int) -> str:
                 "contracted as a slice of its own, within 30 % of the solve's time, as `calibc "
                 "solve` does by default). Where a ratio stays above 1, the gap is the outer "
                 "method's. The inner bounds' time is the LPs, one per end of each unknown (the "
-                "joint readings among their columns), two at a time in threads, the point "
-                "checks, and the ends sought again from their own points where the first search "
+                "joint readings among their columns, each from the solve's final basis for "
+                "that end), in two threads while the last wave's points are checked in one "
+                "pass, and the ends sought again from their own points where the first search "
                 "fell 1 % of the width short of its LP's optimum. Inner bounds' extra time over "
                 "the solve (goal 30 %): " + ", ".join(extras) + ". Shaving ran on: "
                 + ("; ".join(shaved) if shaved else "none") + ".", ""]

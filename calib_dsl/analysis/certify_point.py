@@ -77,11 +77,22 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
                         owners)[0]
 
 
+# Slots times points evaluated in one pass at most (each array of the pass 8 bytes a cell): a
+# program of many slots checks fewer points at once (32 MB an array)
+CHECK_CELLS = 4_000_000
+
+
 def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None = None,
                  owners: bool = False) -> list[PointCheck]:
     """check_point for each row of `points` (with the same row of `readings`): one pass over
-    the program's primitives for them all (a check's cost is mostly the pass: eight points
-    cost about three times one on the RX90)."""
+    the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
+    pass: eight points cost about three times one on the RX90)."""
+    at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))
+    if len(points) > at_once:
+        return [c for k in range(0, len(points), at_once)
+                for c in check_points(prog, points[k:k + at_once],
+                                      None if readings is None else readings[k:k + at_once],
+                                      owners)]
     ind = independents(prog)
     lay = definitions(prog)
     k = len(points)

@@ -3,11 +3,12 @@ set, so that outer/inner widths say how much of an enclosure is real.
 
 a and b are coordinates of parameter vectors that certify_point.py proves to satisfy every
 constraint (interval evaluation at the point, outward rounding: floating point is never
-trusted). The candidates are the extremes of each unknown over the model linearized at a
-certified centre (one LP per end, the same LP re-solved with another objective); where the
-linearization's remainder makes a candidate fail, the rows it violates are tightened by what
-the check measured and the LP is solved again, and as a last resort the candidate is pulled
-back towards the centre. An end that this left well short of its LP's optimum is sought
+trusted). The candidates are the extremes of each unknown over the model linearized at the
+box's middle (one LP per end, the same LP re-solved with another objective, from the solve's
+final basis for that end where it kept one: lp/starts.py). A wave of them is checked in one
+pass; one that fails is pulled back towards a certified centre by what the check measured,
+else the rows it violates are tightened and its LP is solved again, and as a last resort it
+is pulled back by halves. An end that this left well short of its LP's optimum is sought
 again over the model linearized at its point. Every certified point adds to every unknown's
 interval.
 """
@@ -16,24 +17,20 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from calib_dsl.analysis.certify_point import PointCheck, check_point, check_points, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.lsq import linearized
+from calib_dsl.analysis.inner_lp import LinearModel, Solver
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.highs import RowCheck, add_rows, load, optimal
+from calib_dsl.lp.starts import Starts
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 from calib_dsl.settings import DEFAULT
 
-# Each row aims inside this share of its bound: room for the rounding and for the remainder of
-# the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
-AIM = 1.0 - 1e-5
 # A failed LP optimum is pulled back towards the centre only where that costs the end at
 # most this share of the unknown's width; else its LP is re-solved with the failed rows
 # tightened, which loses less (rx90_full.cal: worst outer/inner 1.0395, against 1.0507 when
@@ -41,7 +38,8 @@ AIM = 1.0 - 1e-5
 PULLED = 1e-3
 # Ends per wave: their LPs shared among the threads, their points checked in one pass (eight
 # points cost about three checks of one on the RX90); a wider wave runs LPs for ends that an
-# earlier wave's points would have reached
+# earlier wave's points would have reached (Test A, medians of 7: 4 ends 0.31 s, 8 0.24 s,
+# 16 0.20 s, 24 0.25 s)
 WAVE = 16
 CORRECTIONS = 6  # re-solves of one end's LP with the rows the check found violated tightened
 ESCALATE = 4.0  # how much more a row that fails again is tightened
@@ -52,7 +50,7 @@ OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured e
 # width), so a tighter share buys LPs, not width
 REACHED = 1e-3
 COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
-PULLBACKS = 10  # halvings of the step from the centre when the corrections did not succeed
+PULLBACKS = 10  # halvings towards the centre when the corrections did not succeed
 # An end whose certified point falls short of its LP's optimum by more than this share of the
 # unknown's width (the remainder made the corrections pull it in) is sought again over the
 # model linearized at that point, where the remainder is small (while the LP holds all its
@@ -84,7 +82,7 @@ class Inner:
     names: tuple[str, ...]
     lo: np.ndarray
     hi: np.ndarray
-    witnesses: tuple[Witness, ...]  # the first is the centre
+    witnesses: tuple[Witness, ...]  # the first is the centre, where one was certified
     lo_at: np.ndarray  # per unknown, the witness giving lo (-1: none)
     hi_at: np.ndarray
     seconds: float
@@ -99,9 +97,11 @@ class Inner:
         return len(self.witnesses)
 
 
-def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
+def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
+                 starts: Starts | None = None) -> Inner:
     """Certified inner intervals of the unknowns, searched within the outer box [lo, hi] (over
-    the program's slots: the solve's result)."""
+    the program's slots: the solve's result); each end's LP from the solve's final basis for
+    that end where `starts` has one (a fifth of the pivots on Test A)."""
     start = time.perf_counter()
     ind = independents(prog)
     names = tuple(prog.slots.names[i] for i in ind)
@@ -112,7 +112,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Inner:
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind))
-    _search(prog, box, found)
+    _search(prog, box, found, starts)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -147,7 +147,8 @@ class _Points:
         return self._centre_check
 
 
-def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points) -> None:
+def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
+            starts: Starts | None) -> None:
     """The certified points: the box's middle if it is one; then both ends of every unknown
     that can move, over the model linearized at the middle (at the Chebyshev fit where it
     cannot be linearized there)."""
@@ -160,13 +161,13 @@ def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points) -
     free = np.flatnonzero(hi > lo)
     if not len(free):
         return
-    lp = _LinearModel(prog, box, mid, free)
+    lp = LinearModel(prog, box, mid, free, starts)
     if not lp.finite:  # an infinite derivative at the middle
         if found.centre is None and (centre := _fit(prog, box, mid)) is not None:
             found.add_centre(centre)
         if found.centre is None:
             return
-        lp = _LinearModel(prog, box, found.centre.point, free)
+        lp = LinearModel(prog, box, found.centre.point, free, starts)
         if not lp.finite:
             return
     _extremes(prog, box, lp, found)
@@ -188,7 +189,7 @@ def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray) -> 
     return None
 
 
-def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: _LinearModel,
+def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: LinearModel,
               found: _Points) -> None:
     """Both ends of every unknown that can move, over the linearized model `lp`; then
     those that fell well short, over the model linearized at their own points (where the LP
@@ -198,13 +199,13 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: _LinearMode
     with ThreadPoolExecutor(len(solvers)) as pool:
         short = _waves(prog, lp, solvers, pool, found)
         if lp.rows <= DEFAULT.rows_at_once:
-            for w in pool.map(lambda end: _refined(prog, box, lp.free, *end),
+            for w in pool.map(lambda end: _refined(prog, box, lp, *end),
                               short):
                 if w is not None:
                     found.add(w)
 
 
-def _waves(prog: Program, lp: _LinearModel, solvers: list[_Solver], pool: ThreadPoolExecutor,
+def _waves(prog: Program, lp: LinearModel, solvers: list[Solver], pool: ThreadPoolExecutor,
            found: _Points) -> list[tuple[int, float, Witness]]:
     """The ends not yet reached, in waves of WAVE. The HiGHS models solve a wave's LPs in
     their threads (HiGHS releases the GIL) while this thread checks the wave before, so a
@@ -220,7 +221,8 @@ def _waves(prog: Program, lp: _LinearModel, solvers: list[_Solver], pool: Thread
         return not abs(bound - reached) <= REACHED * (hi[k] - lo[k])
 
     def optima(wave: list[tuple[int, int, float]], w: int) -> list[np.ndarray | None]:
-        return [solvers[w].extreme(j, sign, untightened) for j, _, sign in wave[w::share]]
+        return [solvers[w].extreme(j, sign, untightened, lp.start(j, sign))
+                for j, _, sign in wave[w::share]]
 
     def launch() -> tuple[list[tuple[int, int, float]], list[Future]]:
         wave: list[tuple[int, int, float]] = []
@@ -255,7 +257,7 @@ def _waves(prog: Program, lp: _LinearModel, solvers: list[_Solver], pool: Thread
     return short
 
 
-def _checked(prog: Program, lp: _LinearModel, wave: list[tuple[int, int, float]],
+def _checked(prog: Program, lp: LinearModel, wave: list[tuple[int, int, float]],
              ys: list[np.ndarray | None], found: _Points
              ) -> tuple[list[Witness | None], dict[int, PointCheck]]:
     """The wave's LP optima checked in one pass (with their mean, a centre, while there is
@@ -298,7 +300,7 @@ def _checked(prog: Program, lp: _LinearModel, wave: list[tuple[int, int, float]]
     return done, {i: c for i, c in failed.items() if done[i] is None}
 
 
-def _corrected(prog: Program, lp: _LinearModel, solvers: list[_Solver],
+def _corrected(prog: Program, lp: LinearModel, solvers: list[Solver],
                pool: ThreadPoolExecutor, wave: list[tuple[int, int, float]],
                ys: list[np.ndarray | None], failed: dict[int, PointCheck],
                centre: Witness | None) -> list[tuple[int, Witness | None]]:
@@ -334,7 +336,7 @@ def _pull_back(centre: PointCheck, check: PointCheck) -> float | None:
 
 
 def _between(centre: Witness, at: tuple[np.ndarray, np.ndarray], t: float,
-             lp: _LinearModel) -> tuple[np.ndarray, np.ndarray]:
+             lp: LinearModel) -> tuple[np.ndarray, np.ndarray]:
     """The point (unknowns, readings) a share t of the way from the centre to `at` (kept in
     the box and the readings' intervals: the sum may round out of them)."""
     point = np.clip(centre.point + t * (at[0] - centre.point), *lp.box)
@@ -342,15 +344,15 @@ def _between(centre: Witness, at: tuple[np.ndarray, np.ndarray], t: float,
                           *lp.readings.inside)
 
 
-def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], free: np.ndarray, j: int,
+def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], first: LinearModel, j: int,
              sign: float, w: Witness) -> Witness | None:
     """The end again, over the model linearized at its certified point w: near the end, the
     linearization's remainder that held it back is small."""
-    lp = _LinearModel(prog, box, w.point, free)
+    lp = LinearModel(prog, box, w.point, first.free, first.starts)
     return _end(prog, lp, lp.solver, j, sign, w)[0] if lp.finite else None
 
 
-def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
+def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,
          toward: Witness | None, first: np.ndarray | None = None,
          failed: PointCheck | None = None) -> tuple[Witness | None, float]:
     """A certified point far along the free unknown j in the direction `sign`, from the LPs
@@ -363,7 +365,8 @@ def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
     step = np.zeros(0)
     promised = np.nan
     for k in range(CORRECTIONS):
-        y = first if k == 0 and first is not None else solver.extreme(j, sign, tighten)
+        y = first if k == 0 and first is not None else \
+            solver.extreme(j, sign, tighten, lp.start(j, sign) if k == 0 else None)
         if y is None:  # tightened beyond what the LP can meet
             break
         step = y
@@ -390,119 +393,3 @@ def _end(prog: Program, lp: _LinearModel, solver: _Solver, j: int, sign: float,
         if prove_point(prog, point, readings):
             return Witness(point, readings), promised
     return None, promised
-
-
-class _LinearModel:
-    """The rows linearized at the centre: each row's residual r + A y + B z (in units of the
-    row's bound; y the free unknowns' step in units of their widths, z the readings' errors
-    in units of their bounds) within its interval, narrowed by 1 - AIM and `tighten` at each
-    finite end, the variables within the box; solved by HiGHS models (_Solver) whose
-    objective and row bounds change from one end to the next."""
-
-    def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
-                 free: np.ndarray) -> None:
-        lo, hi = box
-        lin = linearized(prog, centre)
-        self.centre, self.free, self.box = centre, free, box
-        self.scale = np.where(np.isfinite(hi - lo), hi - lo, 1.0)[free]
-        with np.errstate(all="ignore"):
-            dense = lin.jac[:, free] * self.scale
-            # a row's unit: its bound, or for an inequality the size of its terms
-            size = np.fmax(np.abs(np.where(np.isfinite(lin.r_lo), lin.r_lo, lin.r_hi)),
-                           np.abs(dense).max(axis=1, initial=0.0))
-            unit = np.where(np.isfinite(lin.half) & (lin.half > 0), lin.half, size)
-            unit = np.maximum(np.where(np.isfinite(unit), unit, 1.0), 1e-300)
-            self.lower, self.upper = -lin.r_hi / unit, -lin.r_lo / unit  # A y within these
-            dense = dense / unit[:, None]
-        self.slots, self.unit, self.nslots = lin.slots, unit, len(prog.slots.names)
-        self.rows, self.n = len(unit), len(free)
-        self.finite = bool(np.all(np.isfinite(dense))
-                           and not np.any(np.isnan(self.lower) | np.isnan(self.upper)))
-        if not self.finite:
-            return
-        self.readings = Readings(prog)
-        # the readings as LP columns (each may take its own value within its interval), up
-        # to inner_reading_columns; beyond, they stay at their middles (a narrower inner
-        # interval, as certain: the LP would be tens of thousands of columns wide)
-        free_readings = len(self.readings.mid) <= DEFAULT.inner_reading_columns
-        rows, cols, vals = self.readings.entries(lin) if free_readings else \
-            (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
-        self.width = len(self.readings.mid) if free_readings else 0
-        A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
-        ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
-        zlo, zhi = self.readings.bounds() if free_readings else (np.zeros(0), np.zeros(0))
-        b_lo, b = self.bounds(np.zeros(self.rows))
-        self.rel = LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo)
-        self.solver = _Solver(self)
-
-    def bounds(self, tighten: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The rows' bounds narrowed by 1 - AIM and `tighten` (an infinite end stays)."""
-        inward = (1.0 - AIM) + tighten
-        return self.lower + inward, self.upper - inward
-
-    def solvers(self, count: int) -> list[_Solver]:
-        """`count` HiGHS models of this LP (at least one), the first the model's own."""
-        return [self.solver] + [_Solver(self) for _ in range(max(1, count) - 1)]
-
-    def point(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The unknowns and the readings at `step` from the centre (kept in their bounds: a
-        step to an edge may round out of it)."""
-        p = self.centre.copy()
-        p[self.free] = self.centre[self.free] + self.scale * step[:self.n]
-        if not self.width:
-            return np.clip(p, *self.box), self.readings.middles()
-        return np.clip(p, *self.box), self.readings.values(step[self.n:])
-
-    def excess(self, check: PointCheck) -> tuple[np.ndarray, np.ndarray]:
-        """How far each row stuck out at a failed point, in units of its bound, and which
-        failed rows compare two computed values."""
-        assert check.computed is not None and check.ok is not None
-        plain = ~check.computed
-        out = np.zeros(self.nslots)
-        np.maximum.at(out, check.slots[plain],
-                      np.where(np.isfinite(check.excess[plain]), check.excess[plain], 0.0))
-        failed = np.zeros(self.nslots, dtype=bool)
-        failed[check.slots[check.computed & ~check.ok]] = True
-        return out[self.slots] / self.unit, failed[self.slots]
-
-
-class _Solver:
-    """A HiGHS model of a _LinearModel's LP: its rows' bounds as last tightened, and the rows
-    it holds (a tall model holds some, and those an optimum violates are added: row
-    generation, each LP small, the optimum the whole model's). One per thread."""
-
-    def __init__(self, model: _LinearModel) -> None:
-        self.model, self.rel = model, model.rel
-        tall = model.rows > DEFAULT.rows_at_once
-        self.in_lp = (np.unique(np.linspace(0, model.rows - 1, 8 * model.n).astype(np.int64))
-                      if tall else np.arange(model.rows))  # (a few rows per unknown)
-        self.h = load(self.rel, self.in_lp if tall else None)
-        self.tightened = np.zeros(model.rows)
-
-    def extreme(self, j: int, sign: float, tighten: np.ndarray) -> np.ndarray | None:
-        """The LP's optimum (y, z) for the largest (sign > 0) or smallest free unknown j."""
-        m = self.model
-        h, cols = self.h, m.n + m.width
-        cost = np.zeros(cols)
-        cost[j] = -sign  # HiGHS minimizes
-        h.changeColsCost(cols, np.arange(cols, dtype=np.int32), cost)
-        if np.any(tighten != self.tightened):
-            b_lo, b = m.bounds(tighten)
-            self.rel = replace(self.rel, b=b, b_lo=b_lo)
-            inf = 1e300  # HiGHS's infinity: anything beyond 1e20
-            at = self.in_lp
-            h.changeRowsBounds(len(at), np.arange(len(at), dtype=np.int32),
-                               np.maximum(b_lo[at], -inf), np.minimum(b[at], inf))
-            self.tightened = tighten.copy()
-        h.run()
-        check = RowCheck(self.rel) if len(self.in_lp) < m.rows else None
-        while check is not None and optimal(h) and len(self.in_lp) < m.rows:
-            more = check.violated(np.asarray(h.getSolution().col_value), self.in_lp)
-            if not len(more):
-                break
-            add_rows(h, self.rel, more)
-            self.in_lp = np.concatenate([self.in_lp, more])
-            h.run()
-        if not optimal(h):
-            return None
-        return np.array(h.getSolution().col_value)

@@ -112,11 +112,14 @@ class Certificates:
     family: str = ""
     y: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     # the simplex's final basis for each objective (row keys, row statuses, column keys,
-    # column statuses): the next LP of the same objective starts from it
+    # column statuses): the next LP of the same objective starts from it; and what that
+    # LP's rows and columns meant (its rows' compared slots, its cells, its count of unknowns:
+    # lp/starts.py), where the relaxation said
     basis: dict[tuple[int, float], tuple] = field(default_factory=dict)
+    meaning: dict[tuple[int, float], tuple] = field(default_factory=dict)
 
     def copy(self) -> Certificates:
-        return Certificates(self.family, dict(self.y), dict(self.basis))
+        return Certificates(self.family, dict(self.y), dict(self.basis), dict(self.meaning))
 
     def usable(self, rel: LinearRelaxation) -> bool:
         return bool(self.y) and rel.keys is not None and rel.family == self.family
@@ -126,13 +129,18 @@ class Certificates:
         if rel.keys is None:
             return
         if rel.family != self.family:
-            self.family, self.y, self.basis = rel.family, {}, {}
+            self.family, self.y, self.basis, self.meaning = rel.family, {}, {}, {}
         if y is not None:  # (None: no LP solved, the box bound stood; its old y stays valid)
             self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
         if basis is not None and rel.col_keys is not None:
             self.basis[(i, sign)] = (rel.keys, basis[0], rel.col_keys, basis[1])
+            if rel.targets is not None and rel.cells is not None:
+                self.meaning[(i, sign)] = (rel.targets, rel.cells, rel.main)
+            else:
+                self.meaning.pop((i, sign), None)
         else:
             self.basis.pop((i, sign), None)
+            self.meaning.pop((i, sign), None)
 
     def start(self, rel: LinearRelaxation, i: int, sign: float) -> tuple | None:
         """The statuses (rows, columns) of the last basis of this objective mapped onto rel's

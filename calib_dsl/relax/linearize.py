@@ -61,7 +61,10 @@ def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variable
     done = ev.run()
     if not done:
         return None
-    return inequalities(done, center, plo, phi, ev.e, cell_variables, max_cell_columns), ev
+    rel = inequalities(done, center, plo, phi, ev.e, cell_variables, max_cell_columns)
+    assert rel.keys is not None
+    rel.targets = ev.targets()[rel.keys]
+    return rel, ev
 
 
 def inequalities(rows: list, center: np.ndarray, plo: np.ndarray, phi: np.ndarray,

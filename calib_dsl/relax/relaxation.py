@@ -98,6 +98,9 @@ class LinearRelaxation:
     scale: np.ndarray | None = None
     family: str = ""
     col_keys: np.ndarray | None = None  # which quantity each column is (increasing), likewise
+    # the slot each row compares with (its measured or bounded side), where known: what a row
+    # means in any LP over the same constraints (lp/starts.py)
+    targets: np.ndarray | None = None
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:
         """The same inequalities as A' p <= b' only (finite right-hand sides)."""

@@ -72,7 +72,7 @@ class Extras:
         # the inner bounds only add to a result proven already: a numerical failure of
         # theirs is reported as such, and never costs the user the result
         try:
-            self.inner = inner_bounds(prog, res.lo, res.hi)
+            self.inner = inner_bounds(prog, res.lo, res.hi, res.starts)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             self.skipped.append(f"inner bounds: not computed ({type(err).__name__}: {err})")
             return

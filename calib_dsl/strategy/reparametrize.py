@@ -194,6 +194,18 @@ def _name_new_temporaries(names: list[str], start: int) -> None:
             names[k] = f"u{count}"
 
 
+def pivots(rep: Reparametrized) -> dict[int, int]:
+    """Each combination's slot -> the slot of the member it replaced as an unknown (its
+    pivot, computed from it in the new program)."""
+    unknown = set(independents(rep.prog).tolist())
+    out = {}
+    for _, slot, members, _ in rep.combinations:
+        replaced = [int(m) for m in members if int(m) not in unknown]
+        if len(replaced) == 1:
+            out[int(slot)] = replaced[0]
+    return out
+
+
 def back(rep: Reparametrized, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A box of the new program as a box of the old one (its first slots)."""
     return lo[: rep.old_slots].copy(), hi[: rep.old_slots].copy()

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.lp.starts import Starts
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
@@ -28,6 +29,8 @@ class Solution:
     combinations: tuple[tuple[str, float, float], ...] = ()
     # the widths of the declared unknowns after each step (the tight strategy's)
     history: History | None = None
+    # the final bases of its last first-order LPs: warm starts for the inner bounds' LPs
+    starts: Starts | None = None
 
     @property
     def status(self) -> str:

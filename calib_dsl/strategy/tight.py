@@ -13,17 +13,20 @@ same solutions, a tighter relaxation.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
+from calib_dsl.lp.starts import from_certificates
 from calib_dsl.progress import Meter, Progress
+from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.history import History
-from calib_dsl.strategy.reparametrize import along_combinations, back
+from calib_dsl.strategy.reparametrize import along_combinations, back, pivots
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.sampled import SampledRounds
 from calib_dsl.strategy.solution import Solution, solution
@@ -60,27 +63,33 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     # in the new unknowns)
     uncut = np.array(rep.free, dtype=np.int64) if rep is not None else None
     meter = _meter(target, progress, start)
+    certs = Certificates()
     steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut, meter,
-                        history)
+                        history, certs)
     out = steps.contract(target.slots.lo.copy(), target.slots.hi.copy())
+    starts = from_certificates(certs, independents(target),
+                               pivots(rep) if rep is not None else None)
     if rep is None:
-        return solution("tight", out, time.perf_counter() - start, history=history)
+        return replace(solution("tight", out, time.perf_counter() - start, history=history),
+                       starts=starts)
     combos = tuple((text, float(out.lo[s]), float(out.hi[s]))
                    for text, s, _, _ in rep.combinations)
     lo, hi = back(rep, out.lo, out.hi)
     pieces = tuple(back(rep, a, b) for a, b in out.pieces)
     return Solution("tight", lo, hi, out.stop, time.perf_counter() - start, out.work,
-                    out.emptied, out.split, pieces, combos, history)
+                    out.emptied, out.split, pieces, combos, history, starts)
 
 
 def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
                 second_order: bool = True, split: bool = True,
                 uncut: np.ndarray | None = None, progress: Meter | None = None,
-                history: History | None = None) -> Sequence:
+                history: History | None = None,
+                certs: Certificates | None = None) -> Sequence:
     """The tight strategy's contractors, in order. The rounds and the split share the
-    certificates of the LPs solved (a split's pieces start from the whole box's); with
-    `history`, the box after each step and each round is recorded there."""
-    certs = Certificates()
+    certificates of the LPs solved (`certs`, filled in place; a split's pieces start from
+    the whole box's); with `history`, the box after each step and each round is recorded
+    there."""
+    certs = certs if certs is not None else Certificates()
     steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
     sample = spread_rows(prog, s.sample_rows)
     if sample is None:

@@ -73,7 +73,7 @@ def test_line_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, rows, 
         assert inner.witnesses[inner.hi_at[k]].point[k] == inner.hi[k]
         lo, hi = _hull(x, y, e, k, -1.0), _hull(x, y, e, k, 1.0)
         if hi - lo > 1e-6 * e:  # the linear model's extremes are the hull's: reached,
-            # but for the rows' aim 1e-5 of their bound inside (inner.AIM), which a thin
+            # but for the rows' aim 1e-5 of their bound inside (inner_lp.AIM), which a thin
             # hull (width << e) feels: a in [2e-5, 0.01562] where the hull is [0, 0.015625]
             assert inner.hi[k] - inner.lo[k] >= (hi - lo) * (1 - 1e-3) - 1e-4 * e
 
@@ -144,13 +144,19 @@ def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
                 assert abs(gap - dist) <= _exact("1e-5")
 
 
-def test_points_checked_together_get_each_their_own_verdict():
+@pytest.mark.parametrize("at_once", [None, 3])
+def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once):
     """check_points (one pass for many points) says of each point what check_point says of
     it alone: random points of the RX90's box, readings anywhere in their intervals, with
     owners, some holding (the certified witnesses) and some not. The enclosures may differ
     by an ulp (arith/interval.py rounds a short array outward with nextafter, a long one by
-    arithmetic: both sound), not the verdicts."""
+    arithmetic: both sound), not the verdicts. With `at_once`, the pass takes that many points
+    at a time (a program of many slots)."""
+    from calib_dsl.analysis import certify_point
+
     prog = load(ROOT / "models" / "rx90_lengths.cal")
+    if at_once is not None:
+        monkeypatch.setattr(certify_point, "CHECK_CELLS", at_once * len(prog.slots.lo))
     sol = solve(prog)
     ind, at = independents(prog), reading_slots(prog)
     rng = np.random.default_rng(5)
@@ -187,13 +193,73 @@ def test_test_a_inner_reaches_the_outer_box():
     assert again.points == inner.points
 
 
+def _pivots(monkeypatch) -> list[int]:
+    """The simplex iterations of every end's LP of the inner bounds, as they run."""
+    from calib_dsl.analysis import inner_lp as module
+
+    counts: list[int] = []
+    extreme = module.Solver.extreme
+
+    def counted(self, *args):
+        y = extreme(self, *args)
+        counts.append(self.h.getInfo().simplex_iteration_count)
+        return y
+
+    monkeypatch.setattr(module.Solver, "extreme", counted)
+    return counts
+
+
+def test_the_solves_bases_start_the_inner_lps(monkeypatch):
+    """From the solve's final basis of each end, the inner bounds' LPs take under half the
+    pivots (Test A: 670 against 4423) and reach the same inner intervals."""
+    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    sol = solve(prog)
+    assert sol.starts is not None and len(sol.starts.ends) >= 28  # both ends of 14 unknowns
+    counts = _pivots(monkeypatch)
+    cold = inner_bounds(prog, sol.lo, sol.hi)
+    cold_pivots = sum(counts)
+    counts.clear()
+    warm = inner_bounds(prog, sol.lo, sol.hi, sol.starts)
+    assert sum(counts) < 0.5 * cold_pivots
+    width = sol.hi[independents(prog)] - sol.lo[independents(prog)]
+    assert np.all(np.abs(warm.lo - cold.lo) <= 1e-3 * width)
+    assert np.all(np.abs(warm.hi - cold.hi) <= 1e-3 * width)
+
+
+def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
+    """Every row's and column's status garbled (a basis with no meaning for these LPs): the
+    same inner intervals as with no start at all."""
+    from dataclasses import replace
+
+    from calib_dsl.lp.starts import EndBasis
+
+    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    sol = solve(prog)
+    assert sol.starts is not None
+    rng = np.random.default_rng(2)
+
+    def garbled(b: EndBasis) -> EndBasis:
+        return replace(b, row_status=rng.integers(0, 3, len(b.row_status)).astype(np.int8),
+                       unknown_status=np.full(len(b.unknown_status), 1, np.int8),
+                       cell_status=rng.integers(0, 3, len(b.cell_status)).astype(np.int8))
+
+    bad = replace(sol.starts, ends={k: garbled(b) for k, b in sol.starts.ends.items()})
+    cold = inner_bounds(prog, sol.lo, sol.hi)
+    warm = inner_bounds(prog, sol.lo, sol.hi, bad)
+    width = sol.hi[independents(prog)] - sol.lo[independents(prog)]
+    assert np.all(np.abs(warm.lo - cold.lo) <= 1e-3 * width)
+    assert np.all(np.abs(warm.hi - cold.hi) <= 1e-3 * width)
+
+
 def test_33_parameters_reach_their_inner_bounds():
     """rx90_recalibrate.cal on its shipped data: every unknown within 1.05 of its certified
     inner interval (1.0146 at worst; 1.087 before the fine rounds that keep the readings'
-    errors as LP columns), and the inner interval inside the result."""
+    errors as LP columns), and the inner interval inside the result. The LPs start from the
+    solve's bases, as `calibc solve` does: one of them leaves the simplex stuck (alpha4's
+    upper end, 1.43 if it were not solved again from HiGHS's own start)."""
     prog = load(ROOT / "models" / "rx90_recalibrate.cal")
     sol = solve(prog)
-    inner = inner_bounds(prog, sol.lo, sol.hi)
+    inner = inner_bounds(prog, sol.lo, sol.hi, sol.starts)
     ind = independents(prog)
     assert np.all(sol.lo[ind] <= inner.lo) and np.all(inner.hi <= sol.hi[ind])
     assert np.all((sol.hi[ind] - sol.lo[ind]) / (inner.hi - inner.lo) <= 1.05)
