@@ -127,6 +127,7 @@ class _Points:
         self.all: list[Witness] = []
         self.centre: Witness | None = None
         self._centre_check: PointCheck | None = None
+        self.fitted = False  # whether the Chebyshev fit was tried as the centre
 
     def add(self, w: Witness) -> None:
         k = len(self.all)
@@ -287,7 +288,9 @@ def _checked(prog: Program, lp: LinearModel, wave: list[tuple[int, int, float]],
             else:
                 done[i] = Witness(point, readings)
         if not pulled and found.centre is None:
-            if (centre := _fit(prog, lp.box, lp.centre)) is None:
+            centre = None if found.fitted else _fit(prog, lp.box, lp.centre)
+            found.fitted = True  # (once: a later wave's mean may still be one)
+            if centre is None:
                 break
             found.add_centre(centre)
         for i in [] if pulled else sorted(failed):
