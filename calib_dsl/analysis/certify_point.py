@@ -87,6 +87,8 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     """check_point for each row of `points` (with the same row of `readings`): one pass over
     the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
     pass: eight points cost about three times one on the RX90)."""
+    if not len(points):
+        return []
     at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))
     if len(points) > at_once:
         return [c for k in range(0, len(points), at_once)

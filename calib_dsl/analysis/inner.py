@@ -82,7 +82,7 @@ class Inner:
     names: tuple[str, ...]
     lo: np.ndarray
     hi: np.ndarray
-    witnesses: tuple[Witness, ...]  # the first is the centre, where one was certified
+    witnesses: tuple[Witness, ...]  # in the order found
     lo_at: np.ndarray  # per unknown, the witness giving lo (-1: none)
     hi_at: np.ndarray
     seconds: float
@@ -101,7 +101,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
                  starts: Starts | None = None) -> Inner:
     """Certified inner intervals of the unknowns, searched within the outer box [lo, hi] (over
     the program's slots: the solve's result); each end's LP from the solve's final basis for
-    that end where `starts` has one (a fifth of the pivots on Test A)."""
+    that end where `starts` has one (a sixth of the pivots on Test A)."""
     start = time.perf_counter()
     ind = independents(prog)
     names = tuple(prog.slots.names[i] for i in ind)
@@ -151,8 +151,9 @@ class _Points:
 def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
             starts: Starts | None) -> None:
     """The certified points: the box's middle if it is one; then both ends of every unknown
-    that can move, over the model linearized at the middle (at the Chebyshev fit where it
-    cannot be linearized there)."""
+    that can move, over the model linearized at the middle, or at the Chebyshev fit where it
+    cannot be linearized there or its LPs gave no point (a wide box: the middle's linear
+    model may have no solution)."""
     lo, hi = box
     mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     mid = np.clip(mid, lo, hi)
@@ -163,15 +164,17 @@ def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
     if not len(free):
         return
     lp = LinearModel(prog, box, mid, free, starts)
-    if not lp.finite:  # an infinite derivative at the middle
-        if found.centre is None and (centre := _fit(prog, box, mid)) is not None:
-            found.add_centre(centre)
-        if found.centre is None:
-            return
+    if lp.finite:
+        _extremes(prog, box, lp, found)
+    if found.all:
+        return
+    if not found.fitted and (centre := _fit(prog, box, mid)) is not None:
+        found.add_centre(centre)
+    found.fitted = True
+    if found.centre is not None and not np.array_equal(found.centre.point, mid):
         lp = LinearModel(prog, box, found.centre.point, free, starts)
-        if not lp.finite:
-            return
-    _extremes(prog, box, lp, found)
+        if lp.finite:
+            _extremes(prog, box, lp, found)
 
 
 def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray) -> Witness | None:
@@ -375,9 +378,12 @@ def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,
         step = y
         promised = float(y[j]) if k == 0 else promised
         point, readings = lp.point(step)
-        check = failed if k == 0 and failed is not None else check_point(prog, point, readings)
-        if check.holds or prove_point(prog, point, readings, check):
-            return Witness(point, readings), promised
+        if k == 0 and failed is not None:
+            check = failed  # (checked, and not proven, with its wave)
+        else:
+            check = check_point(prog, point, readings)
+            if check.holds or prove_point(prog, point, readings, check):
+                return Witness(point, readings), promised
         excess, computed = lp.excess(check)
         # a row that fails again was not binding in the LP: its remainder exceeds what it
         # was tightened by, so aim further inside, fourfold
