@@ -267,43 +267,48 @@ def _checked(prog: Program, lp: LinearModel, wave: list[tuple[int, int, float]],
     """The wave's LP optima checked in one pass (with their mean, a centre, while there is
     none); those that fail on plain rows pulled back towards the centre by what the check
     measured (_pull_back) and checked in one more. Returns the certified points (None where
-    none yet) and the failed optima's checks."""
+    none yet) and the checks of the optima still failing."""
     done: list[Witness | None] = [None] * len(wave)
-    failed: dict[int, PointCheck] = {}
     at = {i: lp.point(y) for i, y in enumerate(ys) if y is not None}
     if found.centre is None and at:
         at[-1] = lp.point(np.mean([y for y in ys if y is not None], axis=0))
-    for pulled in (False, True):
-        if not at:
-            break
-        order = sorted(at)
-        checks = check_points(prog, np.array([at[i][0] for i in order]),
-                              np.array([at[i][1] for i in order]))
-        here, at = at, {}
-        for i, check in zip(order, checks, strict=True):
-            point, readings = here[i]
-            if not (check.holds or prove_point(prog, point, readings, check)):
-                if not pulled and i >= 0:
-                    failed[i] = check
-                continue
-            if i < 0:
-                found.add_centre(Witness(point, readings), check)
-            else:
-                done[i] = Witness(point, readings)
-        if not pulled and found.centre is None:
-            centre = None if found.fitted else _fit(prog, lp.box, lp.centre)
-            found.fitted = True  # (once: a later wave's mean may still be one)
-            if centre is None:
-                break
+    failed = _certified(prog, at, done, found)
+    if failed and found.centre is None and not found.fitted:
+        found.fitted = True  # (once: a later wave's mean may still be a centre)
+        if (centre := _fit(prog, lp.box, lp.centre)) is not None:
             found.add_centre(centre)
-        for i in [] if pulled else sorted(failed):
-            assert found.centre is not None
+    if found.centre is not None:
+        pulled = {}
+        for i in sorted(failed):
             j, k = wave[i][:2]
             t = _pull_back(found.centre_check(prog), failed[i])
-            if t is not None and (1.0 - t) * abs(here[i][0][k] - found.centre.point[k]) \
+            if t is not None and (1.0 - t) * abs(at[i][0][k] - found.centre.point[k]) \
                     <= PULLED * lp.scale[j]:
-                at[i] = _between(found.centre, here[i], t, lp)
+                pulled[i] = _between(found.centre, at[i], t, lp)
+        _certified(prog, pulled, done, found)
     return done, {i: c for i, c in failed.items() if done[i] is None}
+
+
+def _certified(prog: Program, at: dict[int, tuple[np.ndarray, np.ndarray]],
+               done: list[Witness | None], found: _Points) -> dict[int, PointCheck]:
+    """The points `at` (unknowns, readings) checked in one pass: each one proven goes into
+    `done` at its index (-1: the centre, into `found`); returns the checks of the others."""
+    order = sorted(at)
+    if not order:
+        return {}
+    checks = check_points(prog, np.array([at[i][0] for i in order]),
+                          np.array([at[i][1] for i in order]))
+    failed = {}
+    for i, check in zip(order, checks, strict=True):
+        point, readings = at[i]
+        if not (check.holds or prove_point(prog, point, readings, check)):
+            failed[i] = check
+        elif i < 0:
+            found.add_centre(Witness(point, readings), check)
+        else:
+            done[i] = Witness(point, readings)
+    failed.pop(-1, None)
+    return failed
 
 
 def _corrected(prog: Program, lp: LinearModel, solvers: list[Solver],
