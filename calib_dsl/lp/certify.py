@@ -149,13 +149,14 @@ class Certificates:
                 or rel.col_keys is None:
             return None
         row_keys, rows, col_keys, cols = self.basis[(i, sign)]
-        return (_mapped(row_keys, rows, rel.keys, BASIC),
-                _mapped(col_keys, cols, rel.col_keys, LOWER))
+        return (mapped(row_keys, rows, rel.keys, BASIC),
+                mapped(col_keys, cols, rel.col_keys, LOWER))
 
 
-def _mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,
-            missing: float) -> np.ndarray:
-    """The values of the keys in `keys` (sorted ids), `missing` for a key not in old_keys."""
+def mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,
+           missing: float) -> np.ndarray:
+    """The value of each key of `keys` in (sorted) old_keys, `missing` for a key not there
+    (a key twice in old_keys: the first one's)."""
     if len(old_keys) == 0:
         return np.full(len(keys), missing, dtype=values.dtype)
     at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
@@ -177,7 +178,7 @@ def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     kept = [(i, sign, c) for i, sign, c in signed if (i, sign) in certs.y]
     if not kept:
         return lower, upper
-    Y = np.array([_mapped(*certs.y[(i, sign)], keys, 0.0) * (1.0 / _unit(rel, i))
+    Y = np.array([mapped(*certs.y[(i, sign)], keys, 0.0) * (1.0 / _unit(rel, i))
                   for i, sign, _ in kept]).reshape(len(kept), len(keys))
     bounds = certified_maxes(rel, np.array([c for _, _, c in kept]), Y)
     for (i, sign, _), bound in zip(kept, bounds, strict=True):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.lp.certify import Certificates
+from calib_dsl.lp.certify import Certificates, mapped
 from calib_dsl.lp.highs import BASIC, LOWER
 
 
@@ -54,9 +54,9 @@ class Starts:
         if end is None:
             return None
         keys = cells[:, 0] * CELL_KEY + cells[:, 1] if len(cells) else np.zeros(0, np.int64)
-        return (_lookup(end.row_slots, end.row_status, row_slots, BASIC),
-                np.concatenate([_lookup(end.unknowns, end.unknown_status, unknowns, LOWER),
-                                _lookup(end.cells, end.cell_status, keys, LOWER)]))
+        return (mapped(end.row_slots, end.row_status, row_slots, BASIC),
+                np.concatenate([mapped(end.unknowns, end.unknown_status, unknowns, LOWER),
+                                mapped(end.cells, end.cell_status, keys, LOWER)]))
 
 
 def from_certificates(certs: Certificates, unknowns: np.ndarray,
@@ -68,29 +68,20 @@ def from_certificates(certs: Certificates, unknowns: np.ndarray,
     if certs.family != "first order":
         return None
     renamed = renamed or {}
+    named = np.array([renamed.get(int(s), int(s)) for s in unknowns], np.int64)
     ends = {}
     for (i, sign), (_, rows, _, cols) in certs.basis.items():
         meaning = certs.meaning.get((i, sign))
         if meaning is None or i >= len(unknowns):
             continue
         targets, cells, main = meaning
-        slots = np.array([renamed.get(int(s), int(s)) for s in unknowns[:main]], np.int64)
         keys = cells[:, 0] * CELL_KEY + cells[:, 1]
-        ends[(renamed.get(int(unknowns[i]), int(unknowns[i])), sign)] = EndBasis(
-            *_sorted(targets, rows), *_sorted(slots, cols[:main]), *_sorted(keys, cols[main:]))
+        ends[(int(named[i]), sign)] = EndBasis(
+            *_sorted(targets, rows), *_sorted(named[:main], cols[:main]),
+            *_sorted(keys, cols[main:]))
     return Starts(ends) if ends else None
 
 
 def _sorted(keys: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(keys, kind="stable")
     return keys[order], values[order]
-
-
-def _lookup(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray,
-            missing: int) -> np.ndarray:
-    """The value of each wanted key in (sorted) keys, `missing` where absent (a key twice: the
-    first one's)."""
-    if len(keys) == 0:
-        return np.full(len(wanted), missing, dtype=np.int8)
-    at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
-    return np.where(keys[at] == wanted, values[at], missing).astype(np.int8)

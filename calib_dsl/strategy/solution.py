@@ -51,6 +51,6 @@ class Solution:
 
 def solution(strategy: str, out: Outcome, seconds: float,
              combinations: tuple[tuple[str, float, float], ...] = (),
-             history: History | None = None) -> Solution:
+             history: History | None = None, starts: Starts | None = None) -> Solution:
     return Solution(strategy, out.lo, out.hi, out.stop, seconds, out.work, out.emptied,
-                    out.split, out.pieces, combinations, history)
+                    out.split, out.pieces, combinations, history, starts)

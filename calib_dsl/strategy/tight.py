@@ -13,7 +13,6 @@ same solutions, a tighter relaxation.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -70,8 +69,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     starts = from_certificates(certs, independents(target),
                                pivots(rep) if rep is not None else None)
     if rep is None:
-        return replace(solution("tight", out, time.perf_counter() - start, history=history),
-                       starts=starts)
+        return solution("tight", out, time.perf_counter() - start, history=history,
+                        starts=starts)
     combos = tuple((text, float(out.lo[s]), float(out.hi[s]))
                    for text, s, _, _ in rep.combinations)
     lo, hi = back(rep, out.lo, out.hi)
