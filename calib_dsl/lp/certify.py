@@ -142,6 +142,19 @@ class Certificates:
             self.basis.pop((i, sign), None)
             self.meaning.pop((i, sign), None)
 
+    def binding(self, rel: LinearRelaxation, objectives: list[tuple[int, float]]
+                ) -> np.ndarray | None:
+        """rel's rows (positions) that had a nonzero multiplier in the kept LPs of these
+        objectives, or None where there are none (another family, no LP kept)."""
+        if not self.usable(rel):
+            return None
+        ys = [self.y[o] for o in objectives if o in self.y]
+        if not ys:
+            return None
+        used = np.unique(np.concatenate([keys[y != 0] for keys, y in ys]))
+        rows = np.flatnonzero(np.isin(rel.keys, used))
+        return rows if len(rows) else None
+
     def start(self, rel: LinearRelaxation, i: int, sign: float) -> tuple | None:
         """The statuses (rows, columns) of the last basis of this objective mapped onto rel's
         rows and columns (a new row's slack basic, a new column at its lower bound), or None."""

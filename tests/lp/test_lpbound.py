@@ -764,6 +764,63 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver,
             assert le_exact(obj, p, gen[1][i]) and ge_exact(obj, p, gen[0][i])
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 80),
+       primal=st.booleans())
+def test_row_generation_from_the_last_rounds_binding_rows(seed, n, m, primal):
+    """A later round's tall LPs start from the rows the same objectives bound on before (by
+    key, on a nearby LP with rows gone): the full LP's bounds all the same, and sound."""
+    rng = np.random.default_rng(seed)
+    rel, x0 = two_sided_lp(rng, n, m)
+    keys = np.sort(rng.choice(10 * m, size=m, replace=False))
+    rel.keys, rel.scale, rel.family, rel.col_keys = keys, np.ones(n), "f", np.arange(n)
+    certs = Certificates()
+    small = dict(rows_at_once=4, rows_added=int(rng.integers(1, 6)),
+                 tall_primal_columns=1 if primal else 10**9)
+    with tuned(**small):
+        lp_bounds(rel, np.eye(n), certificates=certs)
+    later, x1 = nearby_lp(rng, rel, x0, keys)
+    with tuned(rows_at_once=10**9):
+        full = lp_bounds(later, np.eye(n))
+    with tuned(**small):
+        gen = lp_bounds(later, np.eye(n), certificates=certs)
+    span = 1e-7 * (1 + np.abs(later.lo) + np.abs(later.hi))
+    assert np.all(np.abs(gen[0] - full[0]) <= span), (gen[0], full[0])
+    assert np.all(np.abs(gen[1] - full[1]) <= span), (gen[1], full[1])
+    A1, b1 = later.one_sided()
+    for p in feasible_samples(rng, A1.toarray(), b1, later.lo, later.hi, [x1], count=100):
+        for i, obj in enumerate(np.eye(n)):
+            assert ge_exact(obj, p, gen[0][i]) and le_exact(obj, p, gen[1][i])
+
+
+def test_row_generation_starts_where_the_same_objectives_bound(monkeypatch):
+    """The LP loads the rows with a nonzero multiplier in the last LPs of the same family,
+    not evenly spread rows; another family's LPs leave it to the spread rows."""
+    import calib_dsl.lp.bounds as bounds
+    from calib_dsl.lp.highs import starting_rows
+
+    m = 300  # x_j <= 1 + k / m for row k = 3 q + j: one row per column binds (k = j)
+    A = np.zeros((m, 3))
+    A[np.arange(m), np.arange(m) % 3] = 1.0
+    b = 1.0 + np.arange(m) / m
+    rel = LinearRelaxation(rows_of(A), b, np.full(3, -5.0), np.full(3, 5.0), 3,
+                           keys=np.arange(m), family="f", col_keys=np.arange(3))
+    loaded = []
+    real_load = bounds.load
+    monkeypatch.setattr(bounds, "load", lambda r, rows=None, *a, **k: (
+        loaded.append(None if rows is None else np.array(rows)), real_load(r, rows, *a, **k))[1])
+    certs = Certificates()
+    with tuned(rows_at_once=4):
+        first = lp_bounds(rel, np.eye(3), certificates=certs, threads=1)
+        assert np.array_equal(loaded[-1], starting_rows(rel))
+        again = lp_bounds(rel, np.eye(3), certificates=certs, threads=1)
+        assert np.array_equal(loaded[-1], [0, 1, 2])  # the rows that bound x_j from above
+        assert np.array_equal(first[1], again[1]) and np.all(again[1] <= 1.0 + 3 / m)
+        other = replace(rel, family="g")
+        lp_bounds(other, np.eye(3), certificates=certs.copy(), threads=1)
+        assert np.array_equal(loaded[-1], starting_rows(rel))
+
+
 def _with_row_generation(rel, objectives):
     with tuned(rows_at_once=4):
         return lp_bounds(rel, objectives)
