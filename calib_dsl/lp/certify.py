@@ -146,7 +146,7 @@ class Certificates:
                 ) -> np.ndarray | None:
         """rel's rows (positions) that had a nonzero multiplier in the kept LPs of these
         objectives, or None where there are none (another family, no LP kept)."""
-        if not self.usable(rel):
+        if not self.usable(rel) or rel.keys is None:
             return None
         ys = [self.y[o] for o in objectives if o in self.y]
         if not ys:
