@@ -91,8 +91,9 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
                  own_bases: bool = True) -> list[tuple]:
     """Certified maxima of sign * c.p for one worker's objectives, on one warm HiGHS model.
 
-    A tall relaxation is solved by row generation: the LP holds a subset of the rows, and the
-    rows its optimum violates are added until none is (the optimum is then the full LP's).
+    A tall relaxation is solved by row generation: the LP holds a subset of the rows (those
+    the share's objectives bound on last time, `_first_rows`), and the rows its optimum
+    violates are added until none is (the optimum is then the full LP's).
     The certificate is exact either way: rows outside the LP get multiplier 0.
     """
     if not share:
