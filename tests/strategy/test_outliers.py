@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import tempfile
 from pathlib import Path
 
@@ -20,6 +21,11 @@ from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.pipeline import load, solve, solve_report
+from calib_dsl.propagate.diagnose import Emptied
+from calib_dsl.strategy import outliers
+from calib_dsl.strategy.contractor import Work
+from calib_dsl.strategy.outliers import MOST_SETS, groups
+from calib_dsl.strategy.solution import Solution
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -211,3 +217,42 @@ def test_a_model_without_a_table_is_a_user_error():
     assert res.exit_code == 2
     assert "error:" in res.output and "no table" in res.output
     assert "Traceback" not in res.output
+
+
+def test_groups_keep_the_sets_within_their_count():
+    assert [groups(k, 4) for k in (1, 2, 3, 5)] == [4, 3, 4, 6]
+    assert groups(1, 6) == 6 and groups(2, 6) == 4
+    for k in range(1, 6):
+        m = groups(k)
+        assert m >= k + 1 and (m == k + 1 or math.comb(m, k) <= MOST_SETS)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n=st.integers(2, 12), k=st.integers(1, 3))
+def test_some_set_leaves_out_any_k_rows(n, k):
+    """Whatever k rows a vector fails, block_box solves a set of rows without them: the sets
+    it solves (the rows each leaves out, as `without` is asked) cover every choice of k."""
+    prog = load(ROOT / "models" / "examples" / "paper_cse.cal")
+    prog.slots.row_keys = [("m", r + 1) for r in range(n)]
+    left_out: list[set[int]] = []
+
+    def without(rows: list[int]):
+        left_out.append(set(rows))
+        return prog
+
+    def refuted(*_a, **_k):  # every set proven inconsistent: only the sets asked matter
+        return Solution("tight", prog.slots.lo, prog.slots.hi, "empty", 0.0, Work(),
+                        Emptied("x", None, None))
+
+    real = outliers.solve_tight
+    outliers.solve_tight = refuted
+    try:
+        box = outliers.block_box(prog, k, without)
+    finally:
+        outliers.solve_tight = real
+    if n <= k:
+        assert left_out == [] and box is not None  # every row may fail: the domains
+        return
+    assert box is None and len(left_out) == math.comb(outliers.groups(k), k)
+    for failed in itertools.combinations(range(n), k):
+        assert any(set(failed) <= out for out in left_out), failed
