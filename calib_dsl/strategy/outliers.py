@@ -7,9 +7,9 @@ Two steps contract S_K's box instead. First, sets of rows: cut the data rows int
 (round robin); the rows a vector of S_K fails lie in at most K of them, so it satisfies every
 row of the other m - K. S_K lies in the union of the solution sets of the C(m, K) sets that
 leave out K groups, and the hull of their tight solves (each with every row of its set hard:
-propagation, LPs, second order) encloses it. m = K + 1 sets are single groups; more groups
-make larger sets, each solved on more rows (tighter, and more often proven empty), at the
-cost of more solves: m is the largest that keeps them at MOST_SETS (K + 1 at least). On all
+propagation, LPs, second order) encloses it. With m = K + 1 each set is a single group; more
+groups make larger sets, each solved on more rows (tighter, and more often proven empty), at
+the cost of more solves: m is the largest that keeps them at MOST_SETS (K + 1 at least). On all
 1495 UR10 rows with one outlier left, four sets of three quarters of the rows narrow 22 of
 the 23 parameters where two halves narrowed 19. Then LPs alone, over relaxations made
 from the box (relax/evaluation.py recomputes every temporary's range from the unknowns'
