@@ -142,17 +142,22 @@ class Certificates:
             self.basis.pop((i, sign), None)
             self.meaning.pop((i, sign), None)
 
+    def bound_keys(self, objectives: list[tuple[int, float]] | None = None) -> np.ndarray:
+        """The keys of the rows with a nonzero multiplier in the kept LPs (of these
+        objectives, or of all), sorted."""
+        ys = [self.y[o] for o in (self.y if objectives is None else objectives)
+              if o in self.y]
+        if not ys:
+            return np.zeros(0, dtype=np.int64)
+        return np.unique(np.concatenate([keys[y != 0] for keys, y in ys]))
+
     def binding(self, rel: LinearRelaxation, objectives: list[tuple[int, float]]
                 ) -> np.ndarray | None:
         """rel's rows (positions) that had a nonzero multiplier in the kept LPs of these
         objectives, or None where there are none (another family, no LP kept)."""
         if not self.usable(rel) or rel.keys is None:
             return None
-        ys = [self.y[o] for o in objectives if o in self.y]
-        if not ys:
-            return None
-        used = np.unique(np.concatenate([keys[y != 0] for keys, y in ys]))
-        rows = np.flatnonzero(np.isin(rel.keys, used))
+        rows = np.flatnonzero(np.isin(rel.keys, self.bound_keys(objectives)))
         return rows if len(rows) else None
 
     def start(self, rel: LinearRelaxation, i: int, sign: float) -> tuple | None:

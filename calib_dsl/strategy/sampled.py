@@ -120,7 +120,6 @@ def _binding_rows(prog: Program, certs: Certificates, targets: np.ndarray) -> np
     lay = prog.rows
     if lay is None or not certs.y:
         return np.zeros(0, dtype=np.int64)
-    used = np.unique(np.concatenate([keys[y != 0] for keys, y in certs.y.values()]))
-    slots = targets[used]
+    slots = targets[certs.bound_keys()]
     slots = slots[slots >= lay.shared]
     return np.unique((slots - lay.shared) // lay.width)
