@@ -110,6 +110,7 @@ class Certificates:
     change (on the RX90 from section 4, within 1% of the fresh bound a round later)."""
 
     family: str = ""
+    key_space: str = ""  # the kept LPs' relaxation's (LinearRelaxation.key_space)
     y: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     # the simplex's final basis for each objective (row keys, row statuses, column keys,
     # column statuses): the next LP of the same objective starts from it; and what that
@@ -119,7 +120,8 @@ class Certificates:
     meaning: dict[tuple[int, float], tuple] = field(default_factory=dict)
 
     def copy(self) -> Certificates:
-        return Certificates(self.family, dict(self.y), dict(self.basis), dict(self.meaning))
+        return Certificates(self.family, self.key_space, dict(self.y), dict(self.basis),
+                            dict(self.meaning))
 
     def usable(self, rel: LinearRelaxation) -> bool:
         return bool(self.y) and rel.keys is not None and rel.family == self.family
@@ -130,6 +132,7 @@ class Certificates:
             return
         if rel.family != self.family:
             self.family, self.y, self.basis, self.meaning = rel.family, {}, {}, {}
+            self.key_space = rel.key_space
         if y is not None:  # (None: no LP solved, the box bound stood; its old y stays valid)
             self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
         if basis is not None and rel.col_keys is not None:
@@ -154,11 +157,27 @@ class Certificates:
     def binding(self, rel: LinearRelaxation, objectives: list[tuple[int, float]]
                 ) -> np.ndarray | None:
         """rel's rows (positions) that had a nonzero multiplier in the kept LPs of these
-        objectives, or None where there are none (another family, no LP kept)."""
-        if not self.usable(rel) or rel.keys is None:
+        objectives (of rel's family, or of another whose keys mean the same constraints), or
+        None where there are none."""
+        same_keys = rel.family == self.family or (rel.key_space != ""
+                                                  and rel.key_space == self.key_space)
+        if not (self.y and same_keys) or rel.keys is None:
             return None
         rows = np.flatnonzero(np.isin(rel.keys, self.bound_keys(objectives)))
         return rows if len(rows) else None
+
+    def remainder_cost(self, rel: LinearRelaxation, n: int) -> np.ndarray:
+        """For each of the n unknowns, what the rows' remainders (rel.slack) add to the width
+        of its bounds from the kept LPs over rel, in its own units: each multiplier's
+        magnitude times its row's slack, over both ends (0 where none is known). Without
+        the remainders, those LPs' certificates would give bounds narrower by that much."""
+        cost = np.zeros(n)
+        if not self.usable(rel) or rel.slack is None or rel.keys is None:
+            return cost
+        for (i, _), (keys, y) in self.y.items():
+            if i < n:
+                cost[i] += float(np.abs(mapped(keys, y, rel.keys, 0.0)) @ rel.slack)
+        return cost
 
     def start(self, rel: LinearRelaxation, i: int, sign: float) -> tuple | None:
         """The statuses (rows, columns) of the last basis of this objective mapped onto rel's

@@ -91,7 +91,7 @@ class Chunked(Evaluated):
                 self.sources.append(ch.slots(src if pick is None else src[pick]))
                 if mine is not None:
                     self._owners.append(ch.row_ids(mine if pick is None else mine[pick]))
-            self.e = _widest(self.e, ev.e)
+            self.e = widest(self.e, ev.e)
         return out
 
     def data_rows(self) -> np.ndarray:
@@ -134,7 +134,7 @@ def _mapped_raw(raw: tuple, ch: Chunk, pick: np.ndarray | None) -> tuple:
     return f, c, gr, dd, ch.row_ids(owner), ch.slots(slots), flag
 
 
-def _widest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def widest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The larger of two per-column error bounds (of different lengths: the longer's tail)."""
     if len(a) < len(b):
         a, b = b, a

@@ -32,6 +32,9 @@ from calib_dsl.relax.taylor import Expansion, expand
 from calib_dsl.settings import DEFAULT
 
 FAMILY = "second order"  # LinearRelaxation.family of these relaxations
+# LinearRelaxation.key_space of every second-order relaxation: a constraint row is known by
+# its place among the expansion's rows, a McCormick row by its product (after them)
+KEY_SPACE = "expansion rows"
 
 
 def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = DEFAULT.prune,
@@ -72,9 +75,9 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
         # a McCormick row is known by its product and its place among the product's 4 rows
         keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
     rel = LinearRelaxation(matrix, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
-                           scale=ex.half, family=FAMILY,
+                           scale=ex.half, family=FAMILY, key_space=KEY_SPACE,
                            col_keys=np.concatenate([np.arange(n), n + keep]),
-                           curvature=_curvature(m))
+                           curvature=_curvature(m), slack=padded(slack, len(b_up)))
     return rel, ex
 
 
@@ -89,6 +92,11 @@ def _curvature(m: Models) -> float:
         r = (np.abs(m.c2).sum(axis=1) + m.r) / np.abs(m.c1).sum(axis=1)
     r = r[np.isfinite(r)]
     return float(np.median(r)) if len(r) else 0.0
+
+
+def padded(slack: np.ndarray, rows: int) -> np.ndarray:
+    """The constraint rows' slack, and 0 for the rows after them (McCormick's: exact)."""
+    return np.concatenate([slack, np.zeros(rows - len(slack))])
 
 
 def kept_products(m: Models, tlo: np.ndarray, thi: np.ndarray,

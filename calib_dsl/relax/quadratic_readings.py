@@ -20,24 +20,27 @@ all rows. McCormick's inequalities tying y to its factors are optional: on the R
 parameters they narrowed 0.2 % more for 15 times the LP time (1534 rows against 454). The
 two passes' rows are matched by their place in the program (layout.row_key). A row whose
 readings come from two configurations (the evaluation folds those) is left out: the rows of
-a valid relaxation, fewer, still hold every solution. A program expanded in chunks, or with
-no readings, gets None.
+a valid relaxation, fewer, still hold every solution. A program with no readings gets None.
 """
 
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
+
 import numpy as np
 
 from calib_dsl.arith.interval import dn1, up1
-from calib_dsl.compile.chunks import chunked
+from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.chunked import widest
 from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import cell_columns, mid_rad
 from calib_dsl.relax.ownership import MIXED, NONE, combine, value_rows
-from calib_dsl.relax.quadratic import kept_products, with_mccormick
+from calib_dsl.relax.quadratic import KEY_SPACE, kept_products, padded, with_mccormick
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
-from calib_dsl.relax.taylor import CHUNK_SLOTS, Expansion, expand
+from calib_dsl.relax.taylor import CHUNK_SLOTS, Expansion, chunk_rows, expand, joined
 
 FAMILY = "second order, readings as columns"  # LinearRelaxation.family of these
 
@@ -46,9 +49,11 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
                              mccormick: bool = False, prune: float = 0.0
                              ) -> tuple[LinearRelaxation, Expansion] | None:
     """Valid inequalities over the box in the columns (t, y, dq), or None (see above);
-    `prune` as in quadratic.relax_quadratic."""
+    `prune` as in quadratic.relax_quadratic. A large program whose rows were compiled once
+    is relaxed a chunk of rows at a time (compile/chunks.py): both passes run on a chunk's
+    program, and its rows join the others' with slots and configurations renumbered."""
     ind = independents(prog)
-    if len(ind) == 0 or chunked(prog, CHUNK_SLOTS, None) is not None:
+    if len(ind) == 0:
         return None
     if not (np.all(np.isfinite(lo[ind])) and np.all(np.isfinite(hi[ind]))):
         return None
@@ -56,24 +61,56 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
     if reading is None or not np.any(reading & (hi > lo)):
         return None
     centre = 0.5 * lo[ind] + 0.5 * hi[ind]
+    chunks = chunked(prog, CHUNK_SLOTS, None)
+    if chunks is None:
+        parts = [_part(prog, lo, hi, ind, centre, None)]
+    else:
+        parts = [_part(ch.prog, ch.box(lo), ch.box(hi), ind, centre, ch) for ch in chunks]
+    if any(part is None for part in parts):
+        return None
+    return _joined([part for part in parts if part is not None], mccormick, prune)
+
+
+@dataclass
+class _Part:
+    """The rows of one pass (the whole program or a chunk): the expansion (readings at their
+    midpoints) of every row the pass keeps, which of them are usable (`ok`), and for those
+    the readings' derivatives (midpoints q, radii qrad), each row's configuration (as the
+    whole program numbers it) and the readings' error bounds `e`."""
+
+    ex: Expansion
+    ok: np.ndarray
+    q: np.ndarray
+    qrad: np.ndarray
+    owner: np.ndarray
+    e: np.ndarray
+
+
+def _part(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray, centre: np.ndarray,
+          chunk: Chunk | None) -> _Part | None:
+    reading = _readings(prog)
+    if reading is None:
+        return None
     ev = Evaluation(prog, lo, hi, ind, centre)
     forms = ev.run()
-    if not forms:
-        return None
     # the models with every reading at the midpoint the evaluation's errors are about
     at = np.flatnonzero(reading)
     mlo, mhi = lo.copy(), hi.copy()
     mlo[at] = mhi[at] = 0.5 * (lo[at] + hi[at])  # (as the evaluation's midpoints)
     ex = expand(prog, mlo, mhi)
-    if ex is None or ex.rows.keys is None:
+    if ex is None or ex.rows.keys is None or not forms:
         return None
+    if chunk is not None:  # this chunk's own rows, in the whole program's numbering
+        ex.rows = chunk_rows(ex.rows, chunk)
+    keys = ex.rows.keys
+    assert keys is not None  # (a chunk's rows keep their keys)
     ekeys = np.concatenate(ev.keys)
     dlo, dhi = (np.concatenate([f[2][i] for f in forms]) for i in (0, 1))
     owner = np.concatenate([f[3] for f in forms])
     order = np.argsort(ekeys)
-    found = np.minimum(np.searchsorted(ekeys[order], ex.rows.keys), len(ekeys) - 1)
+    found = np.minimum(np.searchsorted(ekeys[order], keys), len(ekeys) - 1)
     e_at = order[found]
-    matched = ekeys[e_at] == ex.rows.keys
+    matched = ekeys[e_at] == keys
     own = _own_configuration(prog, ind, reading, ev)[e_at]
     m = ex.rows.models
     ok = matched & own & np.isfinite(m.r) & np.isfinite(m.c0)
@@ -82,11 +119,31 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
     with np.errstate(invalid="ignore"):
         q, qrad = mid_rad(dlo[e_at], dhi[e_at])
     ok &= np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qrad), axis=1)
+    owner = owner[e_at[ok]]
+    if chunk is not None:
+        owner = chunk.row_ids(owner)
+    return _Part(ex, ok, q[ok], qrad[ok], owner, ev.e)
+
+
+def _joined(parts: list[_Part], mccormick: bool, prune: float
+            ) -> tuple[LinearRelaxation, Expansion] | None:
+    """One relaxation of the parts' usable rows, each known by its place among all the
+    parts' rows (as quadratic.relax_quadratic numbers an expansion in chunks)."""
+    first = parts[0].ex
+    if len(parts) == 1:
+        ex = first
+    else:
+        ex = Expansion(first.center, first.half, first.pairs,
+                       joined([p.ex.rows for p in parts]))
+    ok = np.concatenate([p.ok for p in parts])
     if not np.any(ok):
         return None
-    keys = np.flatnonzero(ok)
-    return _relaxation(ex, keys, q[keys], qrad[keys], owner[e_at[keys]], ev.e, len(ok),
-                       mccormick, prune)
+    width = max(p.q.shape[1] for p in parts)
+    q, qrad = (np.concatenate([np.pad(getattr(p, a), ((0, 0), (0, width - p.q.shape[1])))
+                               for p in parts]) for a in ("q", "qrad"))
+    e = functools.reduce(widest, [p.e for p in parts])
+    return _relaxation(ex, np.flatnonzero(ok), q, qrad, np.concatenate([p.owner for p in parts]),
+                       e, len(ok), mccormick, prune)
 
 
 def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray,
@@ -94,6 +151,7 @@ def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray
                 ) -> tuple[LinearRelaxation, Expansion]:
     m = ex.rows.models.take(keys)
     tlo, thi = ex.rows.lo[keys], ex.rows.hi[keys]
+    e = np.pad(e, (0, max(q.shape[1] - len(e), 0)))
     keep, dropped = kept_products(m, tlo, thi, prune)
     ex.kept = keep
     n, pairs = m.c1.shape[1], ex.pairs
@@ -114,6 +172,7 @@ def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray
     cell_keys = n + len(pairs.i) + cells[:, 0] * q.shape[1] + cells[:, 1]
     rel = LinearRelaxation(
         matrix, b_up, clo, chi, main=n, b_lo=b_lo, scale=ex.half, family=FAMILY,
+        key_space=KEY_SPACE, slack=padded(slack, len(b_up)),
         keys=np.concatenate([keys, mkeys]),
         col_keys=np.concatenate([np.arange(n), n + keep, cell_keys]))
     return rel, ex

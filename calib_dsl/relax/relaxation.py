@@ -98,6 +98,14 @@ class LinearRelaxation:
     scale: np.ndarray | None = None
     family: str = ""
     col_keys: np.ndarray | None = None  # which quantity each column is (increasing), likewise
+    # How the keys number the rows: relaxations of two families with the same key_space
+    # (not "") mean the same constraint by the same key (one's LPs' binding rows are where
+    # the other's row generation starts).
+    key_space: str = ""
+    # Each row's remainder: how much its right-hand sides are widened for what the relaxation
+    # drops (the model's higher orders over the box), where known. Multipliers times it are
+    # what the remainders cost a bound (Certificates.remainder_cost).
+    slack: np.ndarray | None = None
     # the slot each row compares with (its measured or bounded side), where known: what a row
     # means in any LP over the same constraints (lp/starts.py)
     targets: np.ndarray | None = None

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl import settings
-from calib_dsl.compile.chunks import chunked
+from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import Layout, independents, layout, row_key
 from calib_dsl.relax.models import SUPPORTED, Models, Pairs, add, apply, constant, up
@@ -83,15 +83,26 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
         ex = _expand(ch.prog, ch.box(lo), ch.box(hi))
         if ex is None:
             return None
-        keep = np.flatnonzero(ch.kept(ex.rows.slots))
-        part = ex.rows.take(keep)
-        part.slots = ch.slots(part.slots)
-        parts.append(part)
+        parts.append(chunk_rows(ex.rows, ch))
     assert ex is not None  # (chunks are never empty)
-    return Expansion(ex.center, ex.half, ex.pairs,
-                     Constraints(_concat([c.models for c in parts]),
-                                 *(np.concatenate([getattr(c, a) for c in parts])
-                                   for a in ("lo", "hi", "slots"))))
+    return Expansion(ex.center, ex.half, ex.pairs, joined(parts))
+
+
+def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
+    """The rows of a chunk's expansion that the chunk contributes (compile/chunks.py), their
+    slots numbered as in the whole program; their keys stay the chunk's (matched only
+    against another pass over the same chunk)."""
+    part = rows.take(np.flatnonzero(ch.kept(rows.slots)))
+    part.slots = ch.slots(part.slots)
+    return part
+
+
+def joined(parts: list[Constraints]) -> Constraints:
+    """The rows of several passes, one after the other, without keys (a key is a place in
+    one pass's program)."""
+    return Constraints(_concat([c.models for c in parts]),
+                       *(np.concatenate([getattr(c, a) for c in parts])
+                         for a in ("lo", "hi", "slots")))
 
 
 def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:

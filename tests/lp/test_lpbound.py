@@ -819,6 +819,15 @@ def test_row_generation_starts_where_the_same_objectives_bound(monkeypatch):
         other = replace(rel, family="g")
         lp_bounds(other, np.eye(3), certificates=certs.copy(), threads=1)
         assert np.array_equal(loaded[-1], starting_rows(rel))
+        # another family whose keys mean the same rows (LinearRelaxation.key_space) starts
+        # from them; a different key space, or none, does not
+        spaced = Certificates()
+        lp_bounds(replace(rel, key_space="s"), np.eye(3), certificates=spaced, threads=1)
+        for space, rows in (("s", [0, 1, 2]), ("t", starting_rows(rel)),
+                            ("", starting_rows(rel))):
+            lp_bounds(replace(rel, family="g", key_space=space), np.eye(3),
+                      certificates=spaced.copy(), threads=1)
+            assert np.array_equal(loaded[-1], rows), space
 
 
 def _with_row_generation(rel, objectives):
@@ -892,3 +901,29 @@ def test_minimize_agrees_with_scipys_linprog(seed, n, m):
     assert ref.status == 0 and x is not None
     assert abs(cost @ x - ref.fun) <= 1e-7 * (1 + abs(ref.fun))
     assert np.all(A @ x <= b + 1e-7 * (1 + np.abs(A) @ np.abs(x)))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(3, 40))
+def test_remainder_cost_is_what_the_remainders_add_to_the_bounds(seed, n, m):
+    """Certificates.remainder_cost: the kept multipliers certify, on the same rows without
+    their slack, bounds narrower by exactly the cost (to rounding), in the unknown's units."""
+    rng = np.random.default_rng(seed)
+    rel, _ = two_sided_lp(rng, n, m)
+    slack = rng.exponential(0.3, m) * (rng.random(m) < 0.7)
+    rel.keys, rel.family, rel.col_keys = np.arange(m), "f", np.arange(n)
+    rel.scale, rel.slack = rng.uniform(0.5, 2.0, n), slack
+    certs = Certificates()
+    lp_bounds(rel, np.eye(n), certificates=certs)
+    cost = certs.remainder_cost(rel, n)
+    assert np.all(cost >= 0)
+    tight = replace(rel, b=rel.b - slack, b_lo=rel.b_lo + slack)
+    gained = np.zeros(n)
+    for (i, sign), (_, y) in certs.y.items():
+        c = sign * np.eye(n)[i]
+        t = y / rel.scale[i]  # (kept for the unknown p = scale t)
+        gained[i] += (certified_max(rel, c, t) - certified_max(tight, c, t)) * rel.scale[i]
+    assert np.allclose(gained, cost, rtol=1e-6, atol=1e-9), (gained, cost)
+    # nothing is known without the slack, or for another family's relaxation
+    assert not np.any(certs.remainder_cost(replace(rel, slack=None), n))
+    assert not np.any(certs.remainder_cost(replace(rel, family="g"), n))

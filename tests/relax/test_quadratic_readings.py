@@ -18,6 +18,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from relax.test_linearize import (  # the sibling test modules: model generators, checks
@@ -152,16 +153,21 @@ def test_a_model_without_readings_gets_none(tmp_path) -> None:
     assert relax_quadratic_readings(prog, prog.slots.lo.copy(), prog.slots.hi.copy()) is None
 
 
-def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory):
+@pytest.mark.parametrize("after_mccormick", [False, True])
+def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory, after_mccormick):
     """Whole tight solves of random robots (joint readings of three sizes), the fine rounds
     with the readings as LP columns forced wherever a model allows them (any remainder
-    share): the result holds the truth every time, and those rounds ran in most solves."""
+    share), from the start or after McCormick's fine rounds (then with McCormick's
+    inequalities too, whatever the remainders cost): the result holds the truth every time,
+    and those rounds ran in most solves."""
     from dataclasses import replace
 
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy.tight import solve_tight
 
-    forced = replace(DEFAULT, remainder_readings=0.0, remainder_wide=2.0)
+    forced = (replace(DEFAULT, remainder_readings=0.0, remainder_wide=0.0, readings_cost=0.0,
+                      fine_min_gain=1.0) if after_mccormick
+              else replace(DEFAULT, remainder_readings=0.0, remainder_wide=2.0))
     rng = np.random.default_rng(2026)
     ran = 0
     for trial in range(12):
@@ -178,5 +184,61 @@ def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory):
         assert res.status == "contracted", trial
         assert np.all(res.lo[ind] <= sim.p_true) and np.all(sim.p_true <= res.hi[ind]), trial
         assert res.history is not None
-        ran += any("readings as LP columns" in s.label for s in res.history.steps)
+        labels = [s.label for s in res.history.steps]
+        this = any("readings as LP columns" in label for label in labels)
+        ran += this
+        if after_mccormick and this:  # (McCormick's rounds first)
+            first = next(k for k, label in enumerate(labels) if "readings" in label)
+            assert "(second order" in labels[first - 1], labels
     assert ran >= 6, ran
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(5, 10),
+       formulation=st.sampled_from(["matrix", "rotation"]), mccormick=st.booleans())
+def test_chunks_give_the_whole_programs_relaxation(tmp_path_factory, monkeypatch, seed, joints,
+                                                  rows, formulation, mccormick):
+    """Relaxed two rows at a time (compile/chunks.py), the relaxation has the whole one's
+    rows and columns (matched by target slot and by cell), holds the truth, and certifies
+    the same bounds; its rows are numbered as relax_quadratic numbers the same chunks (the
+    row keys a later LP starts from)."""
+    import calib_dsl.relax.quadratic_readings as qr
+    import calib_dsl.relax.taylor as taylor
+    from calib_dsl.relax.quadratic import relax_quadratic
+
+    rng = np.random.default_rng(seed)
+    source = robot_source(rng, joints, 1e-4, 1e-4, True)
+    sim = simulate_cal(tmp_path_factory.mktemp("robot"), source, clean_version(source), rows,
+                       seed, formulation)
+    prog = sim.prog
+    assume(prog.rows is not None)
+    lo, hi = random_box(rng, prog, sim.p_true, sim.cell_true, False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        whole = relax_quadratic_readings(prog, lo, hi, mccormick=mccormick)
+        small = prog.rows.shared + 2 * prog.rows.width
+        monkeypatch.setattr(qr, "CHUNK_SLOTS", small)
+        monkeypatch.setattr(taylor, "CHUNK_SLOTS", small)
+        assert len(qr.chunked(prog, small, None) or []) == (rows + 1) // 2
+        parts = relax_quadratic_readings(prog, lo, hi, mccormick=mccormick)
+        plain = relax_quadratic(prog, lo, hi, prune=0.0, mccormick=mccormick)
+    assume(whole is not None)
+    assert parts is not None and plain is not None
+    (rw, ew), (rp, ep) = whole, parts
+    assert rw.A.shape == rp.A.shape and sorted(rw.col_keys) == sorted(rp.col_keys)
+    m = len(ew.rows.slots)
+    rows_of = [sorted(e.rows.slots[r.keys[r.keys < m]]) for r, e in (whole, parts)]
+    assert rows_of[0] == rows_of[1]
+    z = true_columns(prog, lo, hi, rp, ep, sim.p_true, sim.cell_true)
+    assert z is not None
+    assert_holds_truth(rp, ep, z, sim.p_true, "chunks", False)
+    n = rw.main
+    bw, bp = lp_bounds(rw, np.eye(n)), lp_bounds(rp, np.eye(n))
+    assert np.allclose(bw[0], bp[0], atol=1e-7) and np.allclose(bw[1], bp[1], atol=1e-7)
+    # the same key means the same constraint in both second-order families
+    rq, eq = plain
+    own = rq.keys[rq.keys < m]
+    at = {int(k): int(s) for k, s in zip(own, eq.rows.slots[own], strict=True)}
+    for k in rp.keys[rp.keys < m]:
+        assert at.get(int(k)) == int(ep.rows.slots[k])
