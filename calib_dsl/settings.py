@@ -53,7 +53,7 @@ class Settings:
     # remainders), fine rounds with the readings' errors as LP columns and McCormick's
     # inequalities follow. On the UR10 (e = 1 mm) the largest share is 0.08 on every 15th
     # row, 0.23 on every 3rd and 0.39 on all 1495 rows.
-    readings_cost: float = 0.15
+    readings_cost: float = 0.2
     # A fine round gaining less than this (the largest share of an unknown's width) is the
     # last: on all 1495 UR10 rows the rounds gained 0.83, 0.45, 0.12, 0.026, then 0.005 for
     # a sixth of the solve.
