@@ -12,7 +12,9 @@ A round is four named steps:
    fine second-order rounds follow: every product kept, each tied to its factors by
    McCormick's inequalities. Where that share is smaller but not negligible
    (`remainder_readings`) and the model reads measured values, the fine rounds keep the
-   readings' errors as LP columns instead (relax/quadratic_readings.py).
+   readings' errors as LP columns instead (relax/quadratic_readings.py). When McCormick's
+   fine rounds stall while the rows' remainders still cost the bounds much (what their LPs'
+   multipliers pay for them: `readings_cost`), rounds with both follow.
 2. `bounds`: certified bounds on every unknown, from the last LPs' multipliers on the new
    box (a matrix product) while that pays, else from LPs solved again.
 3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
