@@ -127,6 +127,7 @@ def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
         i = prog.slots.names.index(name)
         assert fine.lo[i] <= t <= fine.hi[i], (seed, name, fine.lo[i], t, fine.hi[i])
     ratio = (fine.hi[ind] - fine.lo[ind]) / width
+    assert fine.work.fine_rounds > 0 and first.work.fine_rounds == 0  # (counted apart)
     assert np.median(ratio) < 0.7  # first order alone: nothing narrows from these priors
     assert np.median((first.hi[ind] - first.lo[ind]) / width) > 0.95
 
@@ -172,7 +173,7 @@ def test_the_readings_rounds_on_many_public_rows():
                     consts={"e": "1.0"})
     prog = load(TRACKER, inputs=inputs)
     sol = solve_tight(prog)
-    assert sol.history is not None
+    assert sol.history is not None and sol.work.fine_rounds >= 3
     labels = [s.label for s in sol.history.steps]
     first = next(k for k, label in enumerate(labels) if "readings as LP columns" in label)
     ind = independents(prog)

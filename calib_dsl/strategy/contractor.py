@@ -24,16 +24,18 @@ from calib_dsl.strategy.history import History
 
 @dataclass(frozen=True)
 class Work:
-    """What a contractor spent: propagation sweeps, rounds of LPs, and rounds that reused
-    earlier LPs' multipliers instead."""
+    """What a contractor spent: propagation sweeps, rounds of LPs (`fine_rounds` of them the
+    fine second-order rounds), and rounds that reused earlier LPs' multipliers instead."""
 
     sweeps: int = 0
     lp_rounds: int = 0
     reused_rounds: int = 0
+    fine_rounds: int = 0
 
     def __add__(self, other: Work) -> Work:
         return Work(self.sweeps + other.sweeps, self.lp_rounds + other.lp_rounds,
-                    self.reused_rounds + other.reused_rounds)
+                    self.reused_rounds + other.reused_rounds,
+                    self.fine_rounds + other.fine_rounds)
 
 
 @dataclass(frozen=True)

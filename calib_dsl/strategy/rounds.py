@@ -269,7 +269,7 @@ class _Rounds:
             self.work = self.work + Work(reused_rounds=1)
             self.reuse = best >= s.reuse_gain
             return True
-        self.work = self.work + Work(lp_rounds=1)
+        self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.fine))
         # the next round first tries this round's multipliers, unless its LPs are as cheap
         # as a relaxation (folded first-order rounds), or the second-order phase is over
         # (a round without a first-order relaxation: the second-order one's estimate of the

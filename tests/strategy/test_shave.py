@@ -177,6 +177,31 @@ def test_shaving_keeps_to_the_sweeps_left_and_to_the_time_budget(tmp_path):
     assert one.work.lp_rounds < every.work.lp_rounds  # the first end only, against all six
 
 
+def test_a_program_in_chunks_is_shaved_by_default_only_after_fine_rounds(tmp_path,
+                                                                       monkeypatch):
+    """A program relaxed in chunks of rows: by default (a budget) only where the solve ran
+    fine rounds; asked (no budget), always."""
+    import calib_dsl.strategy.shave as module
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.elaborate.rows import Selection, parse_ranges
+
+    root = Path(__file__).resolve().parents[2]
+    prog = load(root / "models" / "ur10_tracker.cal",  # (its shipped simulated table)
+                inputs=Inputs(rows={"m": Selection(parse_ranges("1..100:10"), ())}))
+    assert prog.rows is not None  # (the loop over the rows, compiled once)
+    sol = solve_tight(prog, combinations=False)
+    inner = inner_bounds(prog, sol.lo, sol.hi)
+    monkeypatch.setattr(module, "CHUNK_SLOTS", 1)  # (a chunk a row)
+    plain = replace(sol, work=replace(sol.work, fine_rounds=0))
+    fine = replace(sol, work=replace(sol.work, fine_rounds=2))
+    one = replace(EVERY, shave_unknowns=1)
+    assert shave(prog, plain, inner.lo, inner.hi, one, budget=1e-9) == (plain, None)
+    assert shave(prog, plain, inner.lo, inner.hi, one)[1] is not None  # (asked)
+    assert shave(prog, fine, inner.lo, inner.hi, one, budget=1e-9)[1] is not None
+    monkeypatch.setattr(module, "CHUNK_SLOTS", 10**9)  # (one piece: as before)
+    assert shave(prog, plain, inner.lo, inner.hi, one, budget=1e-9)[1] is not None
+
+
 def test_the_api_says_what_it_shaved(tmp_path):
     import calib_dsl
 
