@@ -63,9 +63,14 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
     centre = 0.5 * lo[ind] + 0.5 * hi[ind]
     chunks = chunked(prog, CHUNK_SLOTS, None)
     if chunks is None:
-        parts = [_part(prog, lo, hi, ind, centre, None)]
+        parts = [_part(prog, reading, lo, hi, ind, centre, None)]
     else:
-        parts = [_part(ch.prog, ch.box(lo), ch.box(hi), ind, centre, ch) for ch in chunks]
+        # (one program serves every chunk: its readings are found once)
+        local = _readings(chunks[0].prog)
+        if local is None:
+            return None
+        parts = [_part(ch.prog, local, ch.box(lo), ch.box(hi), ind, centre, ch)
+                 for ch in chunks]
     if any(part is None for part in parts):
         return None
     return _joined([part for part in parts if part is not None], mccormick, prune)
@@ -86,19 +91,18 @@ class _Part:
     e: np.ndarray
 
 
-def _part(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray, centre: np.ndarray,
-          chunk: Chunk | None) -> _Part | None:
-    reading = _readings(prog)
-    if reading is None:
-        return None
+def _part(prog: Program, reading: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+          ind: np.ndarray, centre: np.ndarray, chunk: Chunk | None) -> _Part | None:
     ev = Evaluation(prog, lo, hi, ind, centre)
     forms = ev.run()
+    if not forms:
+        return None
     # the models with every reading at the midpoint the evaluation's errors are about
     at = np.flatnonzero(reading)
     mlo, mhi = lo.copy(), hi.copy()
     mlo[at] = mhi[at] = 0.5 * (lo[at] + hi[at])  # (as the evaluation's midpoints)
     ex = expand(prog, mlo, mhi)
-    if ex is None or ex.rows.keys is None or not forms:
+    if ex is None or ex.rows.keys is None:
         return None
     if chunk is not None:  # this chunk's own rows, in the whole program's numbering
         ex.rows = chunk_rows(ex.rows, chunk)
@@ -138,9 +142,8 @@ def _joined(parts: list[_Part], mccormick: bool, prune: float
     ok = np.concatenate([p.ok for p in parts])
     if not np.any(ok):
         return None
-    width = max(p.q.shape[1] for p in parts)
-    q, qrad = (np.concatenate([np.pad(getattr(p, a), ((0, 0), (0, width - p.q.shape[1])))
-                               for p in parts]) for a in ("q", "qrad"))
+    # (the chunks' program is one: the same readings' columns, each chunk's own bounds)
+    q, qrad = (np.concatenate([getattr(p, a) for p in parts]) for a in ("q", "qrad"))
     e = functools.reduce(widest, [p.e for p in parts])
     return _relaxation(ex, np.flatnonzero(ok), q, qrad, np.concatenate([p.owner for p in parts]),
                        e, len(ok), mccormick, prune)
@@ -151,7 +154,6 @@ def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray
                 ) -> tuple[LinearRelaxation, Expansion]:
     m = ex.rows.models.take(keys)
     tlo, thi = ex.rows.lo[keys], ex.rows.hi[keys]
-    e = np.pad(e, (0, max(q.shape[1] - len(e), 0)))
     keep, dropped = kept_products(m, tlo, thi, prune)
     ex.kept = keep
     n, pairs = m.c1.shape[1], ex.pairs
