@@ -40,7 +40,9 @@ CASES = [("1..1495:15", "1.0", "<= 1.2x the yardstick, <= 10 s"),
          ("1..1495", "0.9", "infeasible (exit 1), <= 60 s, <= 2 GB; the solve alone"),
          ("1..1495", "0.9", "infeasible, and the rows at fault named (the diagnosis too)"),
          ("1..1495 without 533, 856", "0.9",
-          "not refuted, a narrow enclosure (the smallest bound is about 0.893), <= 60 s")]
+          "not refuted, a narrow enclosure (the smallest bound is about 0.893), <= 60 s"),
+         ("1..1495", "0.9", "--outliers 2: consistent, row 856 a certain outlier; 533 and "
+          "855 possible (each is proven consistent with all rows but 856 and the other)")]
 
 
 def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, float]]:
@@ -65,10 +67,11 @@ def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, fl
     return out
 
 
-def solve(rows: str, e: str, data: Path, runs: int, tmp: Path, diagnose: bool) -> dict:
+def solve(rows: str, e: str, data: Path, runs: int, tmp: Path, diagnose: bool,
+          extra: tuple[str, ...] = ()) -> dict:
     rows, _, without = rows.partition(" without ")
     cmd = [*calibc_command(), "solve", str(MODEL), "--data", f"m={data}", "-D", f"e={e}",
-           "--rows", rows, "--json", str(tmp / "out.json")]
+           "--rows", rows, "--json", str(tmp / "out.json"), *extra]
     cmd += ["--exclude", without.replace(" ", "")] if without else []
     cmd += [] if diagnose else ["--no-diagnose"]
     measured = [run_process(cmd) for _ in range(runs)]
@@ -89,10 +92,14 @@ def report(data: Path, runs: int) -> str:
         tmp = Path(name)
         for rows, e, goal in CASES:
             diagnose = "diagnosis" in goal
-            r = solve(rows, e, data, 1 if diagnose else runs, tmp, diagnose)
+            extra = ("--outliers", "2") if goal.startswith("--outliers") else ()
+            r = solve(rows, e, data, 1 if diagnose or extra else runs, tmp, diagnose, extra)
             status = r["json"]["status"]
             head = (f"- rows `{rows}`, e = {e} mm (goal: {goal}): **{status}**, "
                     f"{r['wall']:.1f} s, peak {r['rss']:.0f} MB")
+            if extra:
+                lines.append(head + _outliers(r["json"]))
+                continue
             if status != "contracted":
                 named = r["json"].get("conflict", {}).get("rows", [])
                 lines.append(head + (f"; rows named: {', '.join(str(x['row']) for x in named)}"
@@ -114,6 +121,17 @@ def report(data: Path, runs: int) -> str:
             lines.append("  | " + " | ".join(f"{v:.2f}" for v in ratios.values()) + " |")
             lines.append("")
     return "\n".join(lines) + "\n"
+
+
+def _outliers(out: dict) -> str:
+    """The rows an --outliers run names, and its widths over the domains."""
+    found = out.get("outliers", {})
+    ratios = [p["result"][1] - p["result"][0] for p in out.get("parameters", {}).values()]
+    domains = [p["domain"][1] - p["domain"][0] for p in out.get("parameters", {}).values()]
+    narrowed = [r / d for r, d in zip(ratios, domains, strict=True) if r < d]
+    return (f"; certain outliers: {found.get('certain')}, possible: {found.get('possible')}; "
+            f"{len(narrowed)} of {len(ratios)} parameters narrowed, to a median "
+            f"{statistics.median(narrowed) if narrowed else 1.0:.2f} of their domains.")
 
 
 def write(out: Path, section: str, title: str = SECTION) -> None:

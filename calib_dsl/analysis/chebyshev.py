@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import exact_inside
+from calib_dsl.analysis.certify_point import check_point, exact_inside
 from calib_dsl.analysis.lsq import estimate, linearized, rows_at
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
@@ -125,3 +125,15 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
     q = np.clip(point + x[:n], lo, hi)
     scale = float(np.max(lin.half[fit])) if len(fit) else 1.0  # the bound rows share it
     return q, readings.values(x[n:n + k]), float(x[-1]) * scale
+
+
+def proven_consistent(prog: Program) -> bool:
+    """Whether a point is proven to satisfy every row (certify_point.py): the Chebyshev fit
+    in units of the rows' bounds, else one more step of it with the joint readings free
+    (on all 1495 UR10 rows but 855 and 856 at e = 0.9 mm the fit needs 1.004 of the bounds,
+    with the readings 0.888)."""
+    point, need = chebyshev(prog, normalized=True)
+    if need <= 1.0 and check_point(prog, point).holds:
+        return True
+    step = with_readings(prog, point, np.ones(len(rows_at(prog, point)[0]), dtype=bool))
+    return step is not None and check_point(prog, step[0], step[1]).holds

@@ -16,8 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.chebyshev import proven_consistent
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.analysis.min_error import Loader, row_owners
 from calib_dsl.analysis.outlier_rows import Row
@@ -68,20 +67,30 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
 
 def ranked_rows(model: Model, prog: Program) -> list[DataRow]:
     """The data rows by their largest least-squares residual (in bounds), largest first."""
-    est = estimate(prog, max_evaluations=200)
-    d, _ = residuals(prog, est.values)
-    owners = row_owners(prog)
     tables = {t.name: t for t in model.tables}
-    worst: dict[tuple[str, int], float] = {}
-    for key, r in zip(owners, np.abs(d).tolist(), strict=False):
-        if key is not None and key[0] in tables:
-            worst[key] = max(worst.get(key, 0.0), r)
     rows = []
-    for (table, k), r in sorted(worst.items(), key=lambda kv: -kv[1]):
-        t = tables[table]
-        if k - 1 < len(t.numbers):
+    for (table, k), r in _ranked(prog):
+        t = tables.get(table)
+        if t is not None and k - 1 < len(t.numbers):
             rows.append(DataRow(table, t.path, t.lines[k - 1], t.numbers[k - 1], r))
     return rows
+
+
+def ranked_ids(prog: Program) -> list[tuple[int, float]]:
+    """ranked_rows as data row ids (`Slots.row_keys`) and residuals."""
+    ids = {key: i for i, key in enumerate(prog.slots.row_keys or [])}
+    return [(ids[key], r) for key, r in _ranked(prog) if key in ids]
+
+
+def _ranked(prog: Program) -> list[tuple[tuple[str, int], float]]:
+    """Each data row's key (table, k) and largest least-squares residual, largest first."""
+    est = estimate(prog, max_evaluations=200)
+    d, _ = residuals(prog, est.values)
+    worst: dict[tuple[str, int], float] = {}
+    for key, r in zip(row_owners(prog), np.abs(d).tolist(), strict=False):
+        if key is not None:
+            worst[key] = max(worst.get(key, 0.0), r)
+    return sorted(worst.items(), key=lambda kv: -kv[1])
 
 
 def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> bool:
@@ -92,8 +101,7 @@ def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> boo
         rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
     try:
         _, prog = load(replace(inputs, rows=rows))
-        point, need = chebyshev(prog, normalized=True)
-        return need <= 1.0 and check_point(prog, point).holds
+        return proven_consistent(prog)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False  # not proven
 

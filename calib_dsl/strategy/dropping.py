@@ -13,7 +13,8 @@ parameter vector of the box that satisfies all rows but those of a set J of at m
 rows satisfies the new rows with z the indicator of J (integer, sum <= K), and a fortiori the
 LP with z continuous: its certified bounds (lp/, the z columns are nuisance columns like the
 cells') hold for every such vector. A row that depends on several data rows (MIXED) is left
-out (fewer rows: a relaxation still).
+out (fewer rows: a relaxation still). Rows of data rows known to hold on the set (the sets of
+rows of strategy/outliers.py show which may fail) stay as they are.
 """
 
 from __future__ import annotations
@@ -39,12 +40,17 @@ def relax_owned(prog: Program, lo: np.ndarray, hi: np.ndarray
     return rel, owners[rel.keys]
 
 
-def dropping(rel: LinearRelaxation, owners: np.ndarray, k: int) -> LinearRelaxation:
-    """The relaxation of `rel` in which the rows of at most k data rows may fail (above)."""
+def dropping(rel: LinearRelaxation, owners: np.ndarray, k: int,
+             may_fail: set[int] | None = None) -> LinearRelaxation:
+    """The relaxation of `rel` in which the rows of at most k data rows may fail (above): of
+    the data rows `may_fail` only, if given (the others hold on the set relaxed)."""
     m, n = rel.A.shape
     b_lo = rel.b_lo if rel.b_lo is not None else np.full(m, -np.inf)
-    hard = np.flatnonzero(owners == NONE)
-    soft = np.flatnonzero(owners >= 0)
+    held = np.zeros(m, dtype=bool)  # rows of data rows that hold on the set
+    if may_fail is not None:
+        held = (owners >= 0) & ~np.isin(owners, np.array(sorted(may_fail), dtype=owners.dtype))
+    hard = np.flatnonzero((owners == NONE) | held)
+    soft = np.flatnonzero((owners >= 0) & ~held)
     data, z_of = np.unique(owners[soft], return_inverse=True)
     top, bottom = _row_ranges(rel, soft)
     up = soft[np.isfinite(rel.b[soft]) & np.isfinite(top)]

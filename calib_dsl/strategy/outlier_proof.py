@@ -22,8 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev
+from calib_dsl.analysis.chebyshev import proven_consistent
 from calib_dsl.analysis.conflict import DataRow, ranked_rows
 from calib_dsl.analysis.min_error import Loader
 from calib_dsl.elaborate.elaborator import Inputs
@@ -118,11 +117,9 @@ def _unproven(inputs: Inputs, load: Loader, model: Model, sets: list[list[int]]
 
 
 def _consistent(prog: Program) -> bool:
-    """A point proven to satisfy every row (the Chebyshev fit, checked by interval
-    evaluation)."""
+    """A point proven to satisfy every row (analysis/chebyshev.py)."""
     try:
-        point, need = chebyshev(prog, normalized=True)
-        return bool(need <= 1.0 and check_point(prog, point).holds)
+        return proven_consistent(prog)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False
 

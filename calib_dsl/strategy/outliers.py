@@ -3,20 +3,20 @@ that satisfies all data rows but at most K (S_K, the union over the sets J of at
 rows of the solutions of the rest).
 
 Propagation treats every constraint as hard, so it could remove a vector that fails a row.
-Two steps contract S_K's box instead. First, sets of rows: cut the data rows into m groups
-(round robin); the rows a vector of S_K fails lie in at most K of them, so it satisfies every
-row of the other m - K. S_K lies in the union of the solution sets of the C(m, K) sets that
-leave out K groups, and the hull of their tight solves (each with every row of its set hard:
-propagation, LPs, second order) encloses it. With m = K + 1 each set is a single group; more
-groups make larger sets, each solved on more rows (tighter, and more often proven empty), at
-the cost of more solves: m is the largest that keeps them at MOST_SETS (K + 1 at least). On all
-1495 UR10 rows with one outlier left, four sets of three quarters of the rows narrow 22 of
-the 23 parameters where two halves narrowed 19. Then LPs alone, over relaxations made
-from the box (relax/evaluation.py recomputes every temporary's range from the unknowns'
-box), with the rows of each data row allowed to fail through the big-M columns of
-strategy/dropping.py. Each round relaxes on the box the last one left (a smaller box:
-smaller M, a tighter relaxation) until no unknown narrows by `gain`. Every bound is
-certified (lp/), so the box holds S_K whatever the LP solver did.
+Two steps contract S_K's box instead. First, sets of rows: cut the data rows into groups;
+the rows a vector of S_K fails lie in at most K of them, so it satisfies every row of the
+others. S_K lies in the union of the solution sets of the sets that leave out K groups, and
+the hull of their tight solves (each with every row of its set hard: propagation, LPs,
+second order) encloses it. The groups (`partition`): the suspects (the rows least squares
+leaves worst) each alone, then the other rows in m groups; more groups make larger sets,
+each solved on more rows (tighter, and more often proven empty), at the cost of more
+solves. A row that no set still consistent leaves out holds on all of S_K, and a single
+consistent set of K suspects proves them certain (`Blocks`). Then LPs alone, over
+relaxations made from the box (relax/evaluation.py recomputes every temporary's range from
+the unknowns' box), with the rows of each data row the sets left possible allowed to fail
+through the big-M columns of strategy/dropping.py. Each round relaxes on the box the last
+one left (a smaller box: smaller M, a tighter relaxation) until no unknown narrows by
+`gain`. Every bound is certified (lp/), so the box holds S_K whatever the LP solver did.
 """
 
 from __future__ import annotations
@@ -24,15 +24,17 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.analysis.conflict import ranked_ids
 from calib_dsl.analysis.outliers import classify
+from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
-from calib_dsl.progress import Meter, Progress
+from calib_dsl.progress import Meter, Progress, labelled
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT, Settings
@@ -45,6 +47,13 @@ GAIN = 0.01  # a round that narrows no unknown by 1 % of its width ends the loop
 MAX_ROUNDS = 40
 LP_ITERATIONS = 5000  # per objective; a stopped LP still certifies a (weaker) bound
 MOST_SETS = 4  # tight solves of sets of rows at most, unless K + 1 are needed (block_box)
+# With suspects in groups of their own, the sets at most (k = 1: four suspects). On all UR10
+# rows but 856 at e = 0.9 mm, rows 533 and 855 alone and four quarters of the others: six
+# sets, those without 533 or without 855 consistent, the four with both refuted.
+MOST_SUSPECT_SETS = 8
+SUSPECT_RESIDUAL = 1.0  # a least-squares residual above this many bounds makes a suspect
+DEAL_SEED = 0  # the shuffle that deals the other rows into groups (fixed: results repeat)
+EXTRA_SUSPECTS = 3  # suspects beyond k (partition keeps as many as MOST_SUSPECT_SETS allows)
 
 
 @dataclass(frozen=True)
@@ -59,39 +68,88 @@ class OutlierBox:
     seconds: float
 
 
+@dataclass(frozen=True)
+class Blocks:
+    """The hull of block_box's sets not refuted (over the program's slots), and the data rows
+    each of them leaves out: every vector of S_k fails only rows of one of those."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    work: Work
+    left_out: list[frozenset[int]]
+    solved: bool = True  # False: k rows or fewer, every vector of the domains is in S_k
+
+    def may_fail(self) -> set[int]:
+        """The data rows some vector of S_k may fail: every other holds on all of S_k."""
+        return set().union(*self.left_out)
+
+    def certain(self, k: int) -> list[int]:
+        """The rows every vector of S_k fails, proven by the sets alone: when only one set is
+        not refuted and it leaves out k rows (k groups of one row each), a vector of S_k
+        lies in a set that leaves out the groups of the rows it fails, padded with any other
+        group; were those fewer than k, two paddings would give two sets not refuted."""
+        one = self.solved and len(self.left_out) == 1
+        return sorted(self.left_out[0]) if one and len(self.left_out[0]) == k else []
+
+
 def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
               tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
-              progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray, Work] | None:
-    """The hull of the tight solves of the sets of data rows that leave out k of `groups(k)`
-    groups (round robin: row i in group i mod m), over `prog`'s slots (the declared unknowns
-    narrowed, matched by name), or None when every set is proven inconsistent (then no
-    vector fails at most k rows)."""
+              progress: Progress | None = None, suspects: Sequence[int] = ()) -> Blocks | None:
+    """The hull of the tight solves of the sets of data rows that leave out k of the groups
+    (`partition`: each suspect alone, the other rows dealt into m), over `prog`'s slots (the
+    declared unknowns narrowed, matched by name), or None when every set is proven
+    inconsistent (then no vector fails at most k rows)."""
     ids = list(range(len(prog.slots.row_keys or [])))
     if len(ids) <= k:  # (every row may fail: no set is sure to hold)
-        return prog.slots.lo.copy(), prog.slots.hi.copy(), Work()
+        return Blocks(prog.slots.lo.copy(), prog.slots.hi.copy(), Work(), [frozenset(ids)],
+                      solved=False)
     ind = independents(prog)
     lo, hi = np.full(len(ind), np.inf), np.full(len(ind), -np.inf)
     work = Work()
-    m = groups(k)
-    for out in itertools.combinations(range(m), k):
-        part = without([i for i in ids if i % m in out])
+    left_out = []
+    sets = list(itertools.combinations(partition(ids, k, suspects), k))
+    for number, out in enumerate(sets, 1):
+        rows = sorted(set().union(*out))
+        part = without(rows)
+        label = f"set {number}/{len(sets)} of rows: "
         sol = solve_tight(part, tol=tol, max_sweeps=max_sweeps, settings=settings,
-                          progress=progress)
+                          progress=labelled(progress, label))
         work = work + sol.work
         if sol.status == "infeasible":
             continue
+        left_out.append(frozenset(rows))
         names = {part.slots.names[i]: i for i in part.slots.declared}
         for n, i in enumerate(ind):
             j = names.get(prog.slots.names[i])
             a, c = (sol.lo[j], sol.hi[j]) if j is not None else (prog.slots.lo[i],
                                                                   prog.slots.hi[i])
             lo[n], hi[n] = min(lo[n], a), max(hi[n], c)
-    if np.all(lo > hi):
+    if not left_out:
         return None
     out_lo, out_hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     out_lo[ind] = np.maximum(out_lo[ind], lo)
     out_hi[ind] = np.minimum(out_hi[ind], hi)
-    return out_lo, out_hi, work
+    return Blocks(out_lo, out_hi, work, left_out)
+
+
+def partition(ids: list[int], k: int, suspects: Sequence[int] = (),
+              most: int = MOST_SUSPECT_SETS) -> list[frozenset[int]]:
+    """block_box's groups of the data rows `ids` (more than k): the first suspects each a
+    group of its own, as many as keep the sets (every choice of k groups) at `most`, and the
+    other rows dealt in groups(k) groups in a fixed shuffled order. A suspect alone makes
+    the sets that leave it out solve every other row, and those that keep it hold it: with
+    the rows at fault alone, only their sets stay consistent. Shuffled, because campaigns
+    repeat their poses in patterns: on all UR10 rows but 533, 855 and 856, the rows of one
+    round-robin quarter (every 4th row) take the Chebyshev fit of the others with both rows
+    from 1.021 to 0.986 of the bounds, where shuffled quarters leave 1.010-1.019."""
+    m = groups(k)
+    alone = [r for r in dict.fromkeys(suspects) if r in set(ids)]
+    while alone and math.comb(len(alone) + m, k) > most:
+        alone.pop()
+    rest = np.array([r for r in ids if r not in set(alone)], dtype=np.int64)
+    rest = rest[np.random.default_rng(DEAL_SEED).permutation(len(rest))]
+    pooled = [frozenset(rest[j::m].tolist()) for j in range(m)]
+    return [frozenset([r]) for r in alone] + [g for g in pooled if g]
 
 
 def groups(k: int, most: int = MOST_SETS) -> int:
@@ -105,9 +163,11 @@ def groups(k: int, most: int = MOST_SETS) -> int:
 
 def outlier_box(prog: Program, k: int, meter: Meter | None = None,
                 max_rounds: int = MAX_ROUNDS,
-                box: tuple[np.ndarray, np.ndarray] | None = None) -> OutlierBox:
-    """Rounds of certified LPs over the relaxations that let at most k data rows fail, from
-    `box` (the program's domains if None)."""
+                box: tuple[np.ndarray, np.ndarray] | None = None,
+                may_fail: set[int] | None = None) -> OutlierBox:
+    """Rounds of certified LPs over the relaxations that let at most k data rows fail (of
+    `may_fail` only, if given: every other is known to hold on S_k), from `box` (the
+    program's domains if None)."""
     start = time.perf_counter()
     ind = independents(prog)
     lo, hi = ((prog.slots.lo.copy(), prog.slots.hi.copy()) if box is None
@@ -117,7 +177,7 @@ def outlier_box(prog: Program, k: int, meter: Meter | None = None,
         made = relax_owned(prog, lo, hi)
         if made is None:  # an unbounded unknown: nothing to linearize over
             break
-        lp = dropping(*made, k)
+        lp = dropping(*made, k, may_fail)
         lower, upper = lp_bounds(lp, np.eye(lp.main), iterations=LP_ITERATIONS)
         rounds += 1
         new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
@@ -155,23 +215,30 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     outlier of any such vector: none is possible)."""
     start = time.perf_counter()
     meter = Meter(progress, independents(prog), start) if progress is not None else None
-    blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress)
+    blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress,
+                       suspects(prog, k))
     if blocks is None:  # every set inconsistent: no vector fails at most k rows
         empty = OutlierBox(prog.slots.lo, prog.slots.hi, True, 0, time.perf_counter() - start)
         return _none(prog, k, empty, Work(), start, [])
     if meter is not None:
-        meter("sets of rows", blocks[0], blocks[1])
-    box = outlier_box(prog, k, meter, box=blocks[:2])
-    work = blocks[2] + Work(lp_rounds=box.rounds)
+        meter("sets of rows", blocks.lo, blocks.hi)
+    if blocks.certain(k):  # the hull is the tight solve without them: nothing more to gain
+        sol = Solution("tight", blocks.lo, blocks.hi, "sets of rows",
+                       time.perf_counter() - start, blocks.work)
+        return WithOutliers(sol, blocks.certain(k), [])
+    may_fail = blocks.may_fail()
+    box = outlier_box(prog, k, meter, box=(blocks.lo, blocks.hi), may_fail=may_fail)
+    work = blocks.work + Work(lp_rounds=box.rounds)
     if box.empty:
         return _none(prog, k, box, work, start, [])
     found = classify(prog, box.lo, box.hi)
     if found.hard_violated or len(found.certain) > k:
         return _none(prog, k, box, work, start, found.certain)
+    possible = [r for r in found.possible if r in may_fail]
     if not found.certain or len(found.certain) < k:
         sol = Solution("tight", box.lo, box.hi, "outlier LPs", time.perf_counter() - start,
                        work)
-        return WithOutliers(sol, found.certain, found.possible)
+        return WithOutliers(sol, found.certain, possible)
     rest = without(found.certain)
     inner = solve_tight(rest, tol=tol, max_sweeps=max_sweeps, settings=settings,
                         progress=progress)
@@ -182,6 +249,17 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     sol = Solution("tight", lo, hi, inner.stop, time.perf_counter() - start, work,
                    split=inner.split, combinations=inner.combinations)
     return WithOutliers(sol, found.certain, [])
+
+
+def suspects(prog: Program, k: int) -> list[int]:
+    """The data rows (ids) whose least-squares residual exceeds SUSPECT_RESIDUAL bounds, the
+    worst first, at most k + EXTRA_SUSPECTS (none when the estimate fails: then every group
+    is dealt)."""
+    try:
+        ranked = ranked_ids(prog)
+    except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return []
+    return [i for i, r in ranked if r > SUSPECT_RESIDUAL][:k + EXTRA_SUSPECTS]
 
 
 def _intersect(prog: Program, box: OutlierBox, rest: Program,

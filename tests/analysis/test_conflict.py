@@ -62,3 +62,25 @@ def test_the_command_names_the_row(tmp_path, calibc):
     text = subprocess.run([*calibc, "solve", str(MODEL), "--data", str(data)],
                           capture_output=True, text=True, timeout=300)
     assert f"{data}:18 (data row 17" in text.stdout
+
+
+def test_the_joint_readings_prove_what_the_fit_alone_cannot():
+    """Between the bound the Chebyshev fit needs and the one it needs with the joint readings
+    free (simulated UR10 rows), the rows are proven consistent only with the readings: a point
+    and readings that satisfy every row under interval evaluation."""
+    from calib_dsl.analysis.chebyshev import chebyshev, proven_consistent, with_readings
+    from calib_dsl.analysis.lsq import rows_at
+
+    ur10 = ROOT / "models" / "ur10_tracker.cal"
+    prog = load(ur10, inputs=Inputs(consts={"e": "1.2"}))
+    point, alone = chebyshev(prog, normalized=True)
+    step = with_readings(prog, point, np.ones(len(rows_at(prog, point)[0]), dtype=bool))
+    assert step is not None
+    freed = step[2] / 1.2
+    assert freed < 0.97 * alone  # the readings' freedom is worth a few per cent here
+    e = 1.2 * (alone + freed) / 2
+    prog = load(ur10, inputs=Inputs(consts={"e": repr(e)}))
+    assert chebyshev(prog, normalized=True)[1] > 1.0
+    assert proven_consistent(prog)
+    low = load(ur10, inputs=Inputs(consts={"e": repr(1.2 * freed * 0.9)}))
+    assert not proven_consistent(low)

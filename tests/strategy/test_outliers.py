@@ -86,6 +86,27 @@ def test_the_enclosure_holds_the_exact_hull(seed, k, n):
     assert len(run.outliers.certain) <= k
     for r in run.outliers.certain:  # fails for every vector of S_K
         assert not _satisfiable_with(x, v, k, r.row - 1), r
+    listed = {r.row for r in run.outliers.certain + run.outliers.possible}
+    for r in range(n):  # a row neither listed holds for every vector of S_K
+        assert r + 1 in listed or not _fails_somewhere(x, v, k, r), r + 1
+
+
+def _fails_somewhere(x: np.ndarray, v: np.ndarray, k: int, row: int) -> bool:
+    """Whether a vector fails row `row` and satisfies all the other rows but at most k - 1."""
+    others = [i for i in range(len(x)) if i != row]
+    for out in itertools.combinations(others, min(k - 1, len(others))):
+        keep = np.setdiff1d(others, out)
+        A = np.concatenate([np.stack([x[keep], np.ones(len(keep))], 1),
+                            -np.stack([x[keep], np.ones(len(keep))], 1)])
+        b = np.concatenate([v[keep] + E, E - v[keep]])
+        for side in (1.0, -1.0):  # beyond the row's bound, above or below
+            A_r = -side * np.array([[x[row], 1.0]])
+            b_r = np.array([-side * v[row] - E - 1e-9])
+            r = linprog([0, 0], A_ub=np.concatenate([A, A_r]), b_ub=np.concatenate([b, b_r]),
+                        bounds=[(-2, 2)] * 2, method="highs")
+            if r.status == 0:
+                return True
+    return False
 
 
 def _satisfiable_with(x: np.ndarray, v: np.ndarray, k: int, row: int) -> bool:
@@ -228,10 +249,12 @@ def test_groups_keep_the_sets_within_their_count():
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(n=st.integers(2, 12), k=st.integers(1, 3))
-def test_some_set_leaves_out_any_k_rows(n, k):
+@given(n=st.integers(2, 12), k=st.integers(1, 3), data=st.data())
+def test_some_set_leaves_out_any_k_rows(n, k, data):
     """Whatever k rows a vector fails, block_box solves a set of rows without them: the sets
-    it solves (the rows each leaves out, as `without` is asked) cover every choice of k."""
+    it solves (the rows each leaves out, as `without` is asked) cover every choice of k,
+    whichever rows are suspects."""
+    suspects = data.draw(st.lists(st.integers(0, n - 1), max_size=5, unique=True))
     prog = load(ROOT / "models" / "examples" / "paper_cse.cal")
     prog.slots.row_keys = [("m", r + 1) for r in range(n)]
     left_out: list[set[int]] = []
@@ -247,12 +270,90 @@ def test_some_set_leaves_out_any_k_rows(n, k):
     real = outliers.solve_tight
     outliers.solve_tight = refuted
     try:
-        box = outliers.block_box(prog, k, without)
+        box = outliers.block_box(prog, k, without, suspects=suspects)
     finally:
         outliers.solve_tight = real
     if n <= k:
         assert left_out == [] and box is not None  # every row may fail: the domains
         return
-    assert box is None and len(left_out) == math.comb(outliers.groups(k), k)
+    parts = outliers.partition(list(range(n)), k, suspects)
+    assert box is None and len(left_out) == math.comb(len(parts), k)
     for failed in itertools.combinations(range(n), k):
         assert any(set(failed) <= out for out in left_out), failed
+
+
+def test_rows_that_exclude_each_other_are_both_possible_and_all_others_hold(tmp_path):
+    """Two readings of the same point 2.4 bounds apart: either may be the outlier, so neither
+    is certain. The sets that keep both out of the way are refuted, so they are the only
+    rows any vector of S_1 fails (before the sets, every row stayed possible)."""
+    x = list(range(9)) + [4]
+    v = [0.1 * a + 0.2 for a in range(9)] + [0.0]
+    v[4], v[9] = 0.6 + 0.06, 0.6 - 0.06  # rows 5 and 10
+    (tmp_path / "d.csv").write_text("x,v\n" + "".join(f"{a},{b:.3f}\n" for a, b in zip(
+        x, v, strict=True)))
+    (tmp_path / "line.cal").write_text(LINE)
+    run = solve_report(tmp_path / "line.cal", outliers=1, identify=False)
+    assert run.res.status == "contracted" and run.outliers is not None
+    assert run.outliers.certain == []
+    assert sorted(r.row for r in run.outliers.possible) == [5, 10]
+    hull = _hull(np.array(x, float), np.round(v, 3), 1)
+    assert hull is not None
+    names = run.prog.slots.names
+    for row, name in enumerate(("a", "b")):
+        i = names.index(name)
+        assert run.res.lo[i] <= hull[row, 0] + 1e-9 and run.res.hi[i] >= hull[row, 1] - 1e-9
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(5, 40), k=st.integers(1, 3), data=st.data())
+def test_partition_puts_suspects_alone_and_keeps_the_sets_few(n, k, data):
+    ids = list(range(n))
+    suspects = data.draw(st.lists(st.integers(0, n - 1), max_size=6, unique=True))
+    parts = outliers.partition(ids, k, suspects)
+    assert sorted(r for g in parts for r in g) == ids  # every row in exactly one group
+    m = outliers.groups(k)
+    j = max(s for s in range(len(suspects) + 1)
+            if s == 0 or math.comb(s + m, k) <= outliers.MOST_SUSPECT_SETS)
+    assert parts[:j] == [frozenset([r]) for r in suspects[:j]]  # the worst first, alone
+    assert len(parts) <= j + m  # the others in groups(k) groups (fewer if few rows)
+    assert math.comb(len(parts), k) <= max(outliers.MOST_SUSPECT_SETS, math.comb(m, k))
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n=st.integers(3, 10), k=st.integers(1, 2), data=st.data())
+def test_what_the_sets_prove_holds_in_any_world(n, k, data):
+    """A world of conflicts: a set of rows is consistent unless it holds all the rows of some
+    conflict. Whatever the conflicts and the suspects, the rows block_box calls certain fail
+    at every vector of S_k (every consistent set of all rows but at most k misses them) and
+    every row some vector fails is among those it says may fail."""
+    rows = st.lists(st.integers(0, n - 1), min_size=1, max_size=3, unique=True)
+    conflicts = [set(c) for c in data.draw(st.lists(rows, max_size=4))]
+    suspects = data.draw(st.lists(st.integers(0, n - 1), max_size=4, unique=True))
+    prog = load(ROOT / "models" / "examples" / "paper_cse.cal")
+    prog.slots.row_keys = [("m", r + 1) for r in range(n)]
+    asked: list[set[int]] = []
+
+    def without(out: list[int]):
+        asked.append(set(range(n)) - set(out))
+        return prog
+
+    def solve_set(*_a, **_k):
+        bad = any(c <= asked[-1] for c in conflicts)
+        return Solution("tight", prog.slots.lo, prog.slots.hi, "empty" if bad else "fixed point",
+                        0.0, Work(), Emptied("x", None, None) if bad else None)
+
+    real = outliers.solve_tight
+    outliers.solve_tight = solve_set
+    try:
+        blocks = outliers.block_box(prog, k, without, suspects=suspects)
+    finally:
+        outliers.solve_tight = real
+    # S_k, as the sets of rows its vectors fail: J, |J| <= k, whose rest is consistent
+    fails = [set(j) for size in range(k + 1) for j in itertools.combinations(range(n), size)
+             if not any(c <= set(range(n)) - set(j) for c in conflicts)]
+    if blocks is None:
+        assert fails == []
+        return
+    for r in blocks.certain(k):
+        assert all(r in j for j in fails), (r, fails)
+    assert set().union(*fails) <= blocks.may_fail()
