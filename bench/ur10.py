@@ -98,7 +98,7 @@ def report(data: Path, runs: int) -> str:
             head = (f"- rows `{rows}`, e = {e} mm (goal: {goal}): **{status}**, "
                     f"{r['wall']:.1f} s, peak {r['rss']:.0f} MB")
             if extra:
-                lines.append(head + _outliers(r["json"]))
+                lines += [head + _outliers(r["json"]), ""]
                 continue
             if status != "contracted":
                 named = r["json"].get("conflict", {}).get("rows", [])

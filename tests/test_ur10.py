@@ -183,3 +183,20 @@ def test_the_readings_rounds_on_many_public_rows():
     hull = yardstick(prog)
     for i, n in zip(ind, names, strict=True):
         assert sol.hi[i] - sol.lo[i] <= 1.25 * (hull[n][1] - hull[n][0]), n
+
+
+@needs_ur10
+@pytest.mark.parametrize("left_out", [855, 533])
+def test_rows_533_and_855_each_fit_the_rest_at_0_9(left_out):
+    """At e = 0.9 mm all rows but 856 are inconsistent, but all rows but 856 and 855 are
+    proven consistent (a point and joint readings that satisfy every row under interval
+    evaluation), and so are all rows but 856 and 533: a vector that fails two rows satisfies
+    row 533, another row 855, so `--outliers 2` can prove neither certain (docs/real-data.md)."""
+    from calib_dsl.analysis.chebyshev import proven_consistent
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.elaborate.rows import Selection
+    from calib_dsl.pipeline import load
+
+    inputs = Inputs(data={"m": UR10}, rows={"m": Selection((), (left_out, 856))},
+                    consts={"e": "0.9"})
+    assert proven_consistent(load(TRACKER, inputs=inputs))
