@@ -248,6 +248,17 @@ def test_groups_keep_the_sets_within_their_count():
         assert m >= k + 1 and (m == k + 1 or math.comb(m, k) <= MOST_SETS)
 
 
+def _block_box_with(solve_set, prog, k, without, suspects):
+    """block_box with `solve_set` in place of the tight solve of each set (a hypothesis test
+    cannot take pytest's monkeypatch)."""
+    real = outliers.solve_tight
+    outliers.solve_tight = solve_set
+    try:
+        return outliers.block_box(prog, k, without, suspects=suspects)
+    finally:
+        outliers.solve_tight = real
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(n=st.integers(2, 12), k=st.integers(1, 3), data=st.data())
 def test_some_set_leaves_out_any_k_rows(n, k, data):
@@ -267,12 +278,7 @@ def test_some_set_leaves_out_any_k_rows(n, k, data):
         return Solution("tight", prog.slots.lo, prog.slots.hi, "empty", 0.0, Work(),
                         Emptied("x", None, None))
 
-    real = outliers.solve_tight
-    outliers.solve_tight = refuted
-    try:
-        box = outliers.block_box(prog, k, without, suspects=suspects)
-    finally:
-        outliers.solve_tight = real
+    box = _block_box_with(refuted, prog, k, without, suspects)
     if n <= k:
         assert left_out == [] and box is not None  # every row may fail: the domains
         return
@@ -342,12 +348,7 @@ def test_what_the_sets_prove_holds_in_any_world(n, k, data):
         return Solution("tight", prog.slots.lo, prog.slots.hi, "empty" if bad else "fixed point",
                         0.0, Work(), Emptied("x", None, None) if bad else None)
 
-    real = outliers.solve_tight
-    outliers.solve_tight = solve_set
-    try:
-        blocks = outliers.block_box(prog, k, without, suspects=suspects)
-    finally:
-        outliers.solve_tight = real
+    blocks = _block_box_with(solve_set, prog, k, without, suspects)
     # S_k, as the sets of rows its vectors fail: J, |J| <= k, whose rest is consistent
     fails = [set(j) for size in range(k + 1) for j in itertools.combinations(range(n), size)
              if not any(c <= set(range(n)) - set(j) for c in conflicts)]
