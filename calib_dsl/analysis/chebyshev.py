@@ -86,13 +86,14 @@ def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
     return float(np.max(np.abs(d / unit)[rows]))
 
 
-def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
+def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = None,
                   box: tuple[np.ndarray, np.ndarray] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """One more step of the fit from `point`, the joint readings free within their intervals
     (their errors lower the largest residual where the arm's lever is long): the point, the
-    readings (Readings order) and the linear model's largest residual on `rows`; None
-    when the model has no readings or the LP fails. A point and a hope, as above."""
+    readings (Readings order) and the linear model's largest residual on `rows` (all if
+    None); None when the model has no readings or the LP fails. A point and a hope, as
+    above."""
     from scipy import sparse
 
     readings = Readings(prog)
@@ -110,6 +111,7 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray,
     B = sparse.csr_matrix((v / unit[r], (r, c)), shape=(m, k))
     J = sparse.hstack([sparse.csr_matrix(lin.jac / unit[:, None]), B]).tocsr()
     t_col = sparse.csr_matrix(np.ones((m, 1)))
+    rows = np.ones(m, dtype=bool) if rows is None else rows
     fit, other = np.flatnonzero(rows), np.flatnonzero(~rows)
     A = sparse.vstack([sparse.hstack([J[fit], -t_col[fit]]), sparse.hstack([-J[fit], -t_col[fit]]),
                        sparse.hstack([J[other], 0 * t_col[other]]),
@@ -135,5 +137,5 @@ def proven_consistent(prog: Program) -> bool:
     point, need = chebyshev(prog, normalized=True)
     if need <= 1.0 and check_point(prog, point).holds:
         return True
-    step = with_readings(prog, point, np.ones(len(rows_at(prog, point)[0]), dtype=bool))
+    step = with_readings(prog, point)
     return step is not None and check_point(prog, step[0], step[1]).holds
