@@ -40,7 +40,6 @@ MODEL_B = ROOT / "models" / "rx90_recalibrate.cal"  # all 33 parameters, 1/20 of
 MODEL_FULL = ROOT / "models" / "rx90_full.cal"  # all 33 parameters, the section-4 domains
 TARGET_B = 10.0  # s of solve time, tight, all 33 parameters, 50 configurations
 OUT = ROOT / "docs" / "benchmarks.md"
-HISTORY = "## Design measurements (history)"  # kept by every new bench
 SEED = 2004
 SIZES = (50, 200, 1000)
 TIGHT_SIZES = (50, 200, 1000)
@@ -228,7 +227,8 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
         "# Benchmarks",
         "",
         f"Written by `make bench` (`bench/run.py`) on {date}, in {elapsed / 60:.1f} minutes. "
-        f"Every figure is the median of {runs} runs, each in a fresh process.",
+        f"Every figure is the median of {runs} runs, each in a fresh process. The "
+        "measurements that chose the design are records in `docs/decisions/`.",
         "",
         "## Machine",
         "",
@@ -390,17 +390,17 @@ def write_report(out: Path, info: dict[str, str], results: list[dict[str, Any]],
         "Re-run with `make bench` (or `python bench/run.py --runs 5`).",
         "",
     ]
-    out.write_text("\n".join(lines) + _kept_history(out), encoding="utf-8")
+    out.write_text("\n".join(lines) + _kept_sections(out), encoding="utf-8")
 
 
 # the sections the other bench scripts write (bench/ur10.py, inner.py, scale.py): kept as
-# they are, so the scripts may run in any order
+# they are, so the scripts may run in any order. Nothing else is kept: the measurements that
+# chose the design are records in docs/decisions/, not part of this file.
 OTHERS = ("## Real data: UR10 (Series B)", "## Certified inner bounds", "## Scale")
 
 
-def _kept_history(out: Path) -> str:
-    """The other scripts' sections and the file's measured history (from HISTORY on), which
-    a new bench keeps as they are."""
+def _kept_sections(out: Path) -> str:
+    """The other scripts' sections of `out`, as they are."""
     old = out.read_text(encoding="utf-8") if out.exists() else ""
     kept = []
     for title in OTHERS:
@@ -408,8 +408,7 @@ def _kept_history(out: Path) -> str:
         if at >= 0:
             end = old.find("\n## ", at + len(title))
             kept.append(old[at: end if end >= 0 else len(old)].rstrip("\n") + "\n")
-    at = _heading(old, HISTORY)
-    return "".join("\n" + k for k in kept) + ("\n" + old[at:] if at >= 0 else "")
+    return "".join("\n" + k for k in kept)
 
 
 def _heading(text: str, title: str) -> int:

@@ -33,7 +33,6 @@ MODEL = ROOT / "models" / "ur10_tracker.cal"
 DATA = ROOT.parent / "shared" / "data" / "ur10" / "measurements_joint_configurations.csv"
 OUT = ROOT / "docs" / "benchmarks.md"
 SECTION = "## Real data: UR10 (Series B)"
-HISTORY = "## Design measurements (history)"
 # (rows, e in mm, what is expected): the issue's goals
 CASES = [("1..1495:15", "1.0", "<= 1.2x the yardstick, <= 10 s"),
          ("1..1495", "1.0", "<= 1.2x the yardstick, <= 60 s, <= 2 GB"),
@@ -135,15 +134,14 @@ def _outliers(out: dict) -> str:
 
 
 def write(out: Path, section: str, title: str = SECTION) -> None:
-    """Replace the section `title` in `out` (or put it before the history)."""
+    """Replace the section `title` in `out` (or add it at the end)."""
     text = out.read_text(encoding="utf-8") if out.exists() else ""
     start = ("\n" + text).find("\n" + title + "\n")  # the heading's own line
     if start >= 0:
         end = text.find("\n## ", start + len(title))
         text = text[:start] + section + (text[end + 1:] if end >= 0 else "")
     else:
-        at = text.find(HISTORY)
-        text = (text[:at] + section + "\n" + text[at:]) if at >= 0 else text + "\n" + section
+        text = text.rstrip("\n") + "\n\n" + section
     out.write_text(text, encoding="utf-8")
 
 
