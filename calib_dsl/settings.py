@@ -21,7 +21,7 @@ class Settings:
     preliminary_tol: float = 1e-2
 
     # -- rounds of LPs (strategy/rounds.py) --------------------------------------------------
-    max_rounds: int = 40  # rounds of LPs at most, a guard: real solves stop after 3-16
+    max_rounds: int = 40  # rounds of LPs at most, a guard: real solves stop far sooner
     min_gain: float = 0.1  # a cell round gaining less than this (relative width) is the last
     # Measurement errors get LP columns of their own (the hull of the linearized problem)
     # up to this many measured values; beyond, the LP would grow too large and they stay
@@ -33,30 +33,30 @@ class Settings:
     # next relaxation would be the same LP.
     settled: float = 0.01
     # Above this curvature (the first-order remainder over the first-order range, median
-    # over rows: about 1/7 on the RX90 from the paper's domains) first-order rounds stall,
-    # and rounds use second-order models instead.
+    # over rows) first-order rounds stall, and rounds use second-order models instead
+    # (docs/decisions/01: rounds converge below about a seventh).
     wide: float = 0.06
     wide_min_gain: float = 0.02  # a second-order round gaining less ends the search
     # When first-order rounds are over and their remainder is still above this share of the
-    # rows' widths, the error bounds are tighter than the model is linear over the box (real
-    # data from realistic priors: the UR10's is about 0.7), and fine second-order rounds
-    # follow: every product kept and tied to its factors by McCormick's inequalities.
+    # rows' widths, the error bounds are tighter than the model is linear over the box (as
+    # real data from realistic priors are), and fine second-order rounds follow: every
+    # product kept and tied to its factors by McCormick's inequalities.
     remainder_wide: float = 0.5
     # Below that but above this share, where the model reads measured values (joint
     # readings) as arguments, the fine rounds keep their errors as LP columns instead
-    # (quadratic_readings.py), without McCormick's inequalities (on the RX90's 33
-    # parameters they narrowed 0.2 % more at 15 times the LP time). The RX90's Test A ends
-    # at 0.0003 (nothing to gain), its 33-parameter models at 0.026 and 0.18.
+    # (quadratic_readings.py), without McCormick's inequalities (which add rows for little
+    # more narrowing there). Below it the remainder leaves nothing to gain
+    # (docs/decisions/10).
     remainder_readings: float = 0.005
     # When fine rounds with McCormick's inequalities stall and the rows' remainders still cost
     # some unknown's bounds this share of its width (the last LPs' multipliers times the
     # remainders), fine rounds with the readings' errors as LP columns and McCormick's
-    # inequalities follow. On the UR10 (e = 1 mm) the largest share is 0.08 on every 15th
-    # row, 0.23 on every 3rd and 0.39 on all 1495 rows.
+    # inequalities follow. Below this share such rounds cost about a solve again for a few
+    # per cent (docs/decisions/10).
     readings_cost: float = 0.2
     # A fine round gaining less than this (the largest share of an unknown's width) is the
-    # last: on all 1495 UR10 rows the rounds gained 0.83, 0.45, 0.12, 0.026, then 0.005 for
-    # a sixth of the solve.
+    # last: the gains fall fast, and a round costs the same whatever it gains
+    # (docs/decisions/12).
     fine_min_gain: float = 0.05
     # The second-order LPs are dense and one objective's optimum is far from the next's:
     # the simplex from the previous objective's optimum beats the interior point method,
@@ -89,16 +89,15 @@ class Settings:
     sample_rows: int = 1000
     # After the sample's rounds, a round of LPs on all rows; when it narrows some unknown by
     # sample_gain of its width, the rows it binds on join the sample and its rounds run
-    # again. At most sample_passes rounds on all rows: on 11,910 UR10 rows a second one
-    # gained 1% for a quarter of the solve.
+    # again. At most sample_passes rounds on all rows: a second one gains little for a round
+    # on every row (docs/decisions/11).
     sample_gain: float = 0.05
     sample_passes: int = 1
 
     # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------
     # A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its
-    # outputs' models in the unknowns they depend on only). Above it (the RX90 with 33
-    # unknowns: about 350 configurations) there are no models, and the strategies keep to
-    # first order rather than exhaust the memory.
+    # outputs' models in the unknowns they depend on only). Above it there are no models,
+    # and the strategies keep to first order rather than exhaust the memory.
     max_table_bytes: float = 600e6
 
     # A product goes back into the remainders when that costs no row more than this share of
@@ -124,15 +123,14 @@ class Settings:
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
 
     # -- certified inner bounds (analysis/inner.py) ---------------------------------------------
-    # Each certified point is checked on every row, and each end is an LP over every row
-    # (0.2-0.3 s a check on 11,910 UR10 rows: a minute for 23 unknowns' ends; 14 s on 1,000
-    # RX90 rows): above this many primitives `solve` computes them only when asked (--inner).
+    # Each certified point is checked on every row, and each end is an LP over every row, so
+    # their cost grows with the rows times the unknowns' ends and no chunking helps: above
+    # this many primitives `solve` computes them only when asked (--inner; docs/decisions/11).
     inner_max_primitives: int = 1_000_000
     # The joint readings are the inner bounds' LP columns up to this many (beyond, they stay
     # at their middles): each one's freedom is tiny, but the ends of a thin solution set sit
-    # where many rows meet, and on all 1495 UR10 rows (8970 readings) the readings at their
-    # middles left the inner intervals a median 1.52 times narrower than the result, 1.22
-    # with them free (5.3 s against 6.6 s).
+    # where many rows meet, and each row's reading freedom moves them: with the readings at
+    # their middles the inner intervals are far narrower than the hull (docs/decisions/10).
     inner_reading_columns: int = 20_000
 
     # -- shaving (strategy/shave.py) ---------------------------------------------------------
@@ -141,9 +139,8 @@ class Settings:
     # contracted as a slice of its own, by at most shave_rounds fine rounds of LPs; an end
     # whose gap is under shave_min_gap of the result's width is left as it is. By default an
     # end starts only if, at the mean cost of the ends before, shaving stays within
-    # shave_share of the solve's time (an end costs 1.1-1.8 s on the UR10's every 15th row
-    # and on rx90_full.cal: rounds of LPs of its own). Three rounds close 90 % of d4's gap
-    # there, four 97 %.
+    # shave_share of the solve's time (an end costs rounds of LPs of its own). Three rounds
+    # close most of a gap; a fourth adds little for a third more time (docs/decisions/15).
     shave_above: float = 1.05
     shave_unknowns: int = 8
     shave_rounds: int = 3
@@ -178,10 +175,9 @@ class Settings:
     rows_added: int = 500
     # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
     # primal. Each objective starts from the last one's optimum, which a new cost leaves
-    # primal feasible; on all 1495 UR10 rows (second-order LPs of 5033 rows and 160 dense
-    # columns) the solve took 32 s, 49 s with the dual simplex. With few columns the dual
-    # stays faster (11,910 UR10 rows, first-order LPs of 3000-4920 rows and 23 columns: 3.7 s
-    # against 4.5 s), and on LPs that hold all their rows (rx90_full 8.1 s against 13.6 s).
+    # primal feasible, so the primal simplex needs fewer pivots than the dual. With few
+    # columns the dual stays faster, and on LPs that hold all their rows
+    # (docs/decisions/06).
     tall_simplex: int = 4
     tall_primal_columns: int = 64
     lp_scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)

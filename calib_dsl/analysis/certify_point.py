@@ -86,7 +86,7 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
                  owners: bool = False) -> list[PointCheck]:
     """check_point for each row of `points` (with the same row of `readings`): one pass over
     the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
-    pass: eight points cost about three times one on the RX90)."""
+    pass over the primitives, not the points in it)."""
     if not len(points):
         return []
     at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))

@@ -132,8 +132,8 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
 def proven_consistent(prog: Program) -> bool:
     """Whether a point is proven to satisfy every row (certify_point.py): the Chebyshev fit
     in units of the rows' bounds, else one more step of it with the joint readings free
-    (on all 1495 UR10 rows but 855 and 856 at e = 0.9 mm the fit needs 1.004 of the bounds,
-    with the readings 0.888)."""
+    (near the least error the data allow, the readings' freedom can decide whether a point
+    fits at all; docs/decisions/16)."""
     point, need = chebyshev(prog, normalized=True)
     if need <= 1.0 and check_point(prog, point).holds:
         return True

@@ -33,33 +33,32 @@ from calib_dsl.settings import DEFAULT
 
 # A failed LP optimum is pulled back towards the centre only where that costs the end at
 # most this share of the unknown's width; else its LP is re-solved with the failed rows
-# tightened, which loses less (rx90_full.cal: worst outer/inner 1.0395, against 1.0507 when
-# a pull-back may cost up to REFINE)
+# tightened, which loses less of the end than a long pull-back (docs/decisions/14)
 PULLED = 1e-3
-# Ends per wave: their LPs shared among the threads, their points checked in one pass (eight
-# points cost about three checks of one on the RX90); a wider wave runs LPs for ends that an
-# earlier wave's points would have reached (Test A, medians of 7: 4 ends 0.31 s, 8 0.24 s,
-# 16 0.20 s, 24 0.25 s)
+# Ends per wave: their LPs shared among the threads, their points checked in one pass (a
+# pass over many points costs little more than one check); a narrower wave leaves the
+# threads idle, a wider one runs LPs for ends that an earlier wave's points would have
+# reached (docs/decisions/14)
 WAVE = 16
 CORRECTIONS = 6  # re-solves of one end's LP with the rows the check found violated tightened
 ESCALATE = 4.0  # how much more a row that fails again is tightened
 OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
 # An end that a certified point reaches to within this share of the outer width gets no LP of
-# its own (an earlier end's LP often puts the other unknowns at their bounds: on Test A the 19
-# parameters known to +-1e-5). The ends an LP finds fall about as short (Test A: 1e-3 of the
-# width), so a tighter share buys LPs, not width
+# its own (an earlier end's LP often puts the other unknowns at their bounds, notably those
+# known beforehand as well as the data know them). The ends an LP finds fall about as short,
+# so a tighter share buys LPs, not width
 REACHED = 1e-3
 COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
 PULLBACKS = 10  # halvings towards the centre when the corrections did not succeed
 # An end whose certified point falls short of its LP's optimum by more than this share of the
 # unknown's width (the remainder made the corrections pull it in) is sought again over the
 # model linearized at that point, where the remainder is small (while the LP holds all its
-# rows at once). On the UR10's every 15th row 17 of 46 ends, each reaching 1-4 % of its width
-# further (outer/inner median 1.092 -> 1.053)
+# rows at once). A smaller share seeks more ends again for no wider inner interval, a larger
+# one leaves ends short (docs/decisions/14)
 REFINE = 1e-2
 # The centre's fit stops once its linearized model predicts the largest residual to within
-# this share: the centre needs a margin inside every bound, not the best fit (on Test A the
-# second and third steps lowered it by 2e-6, 0.07 s)
+# this share: the centre needs a margin inside every bound, not the best fit, and the fit's
+# later steps gain next to nothing
 SETTLE = 1e-3
 
 
@@ -101,7 +100,8 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
                  starts: Starts | None = None) -> Inner:
     """Certified inner intervals of the unknowns, searched within the outer box [lo, hi] (over
     the program's slots: the solve's result); each end's LP from the solve's final basis for
-    that end where `starts` has one (a sixth of the pivots on Test A)."""
+    that end where `starts` has one (the same rows and columns near the same optimum: far
+    fewer pivots than from scratch)."""
     start = time.perf_counter()
     ind = independents(prog)
     names = tuple(prog.slots.names[i] for i in ind)
@@ -197,8 +197,8 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: LinearModel
               found: _Points) -> None:
     """Both ends of every unknown that can move, over the linearized model `lp`; then
     those that fell well short, over the model linearized at their own points (where the LP
-    holds all its rows: above, each would be a cold LP generating its rows, 0.33 s an end on
-    all 1495 UR10 rows, 28 ends for a median outer/inner of 1.178 against 1.225)."""
+    holds all its rows: above, each would be a cold LP generating its rows, which triples
+    the inner bounds' time for a few per cent of width; docs/decisions/14)."""
     solvers = lp.solvers(DEFAULT.lp_workers)
     with ThreadPoolExecutor(len(solvers)) as pool:
         short = _waves(prog, lp, solvers, pool, found)

@@ -21,7 +21,8 @@ from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 from calib_dsl.settings import DEFAULT
 
 # Each row aims inside this share of its bound: room for the rounding and for the remainder of
-# the linearization at the LP's optimum (measured on the RX90: 1e-6 to 1e-5 of the bounds).
+# the linearization at the LP's optimum, which is of this order near a thin solution set;
+# aiming deeper costs the ends width (docs/decisions/14).
 AIM = 1.0 - 1e-5
 
 
@@ -146,8 +147,8 @@ class Solver:
             self.tightened = tighten.copy()
         h.run()
         if start is not None and not optimal(h):
-            # a mapped basis may leave the simplex stuck (status unknown on
-            # rx90_recalibrate.cal): solve again from HiGHS's own start
+            # a mapped basis may leave the simplex stuck (status unknown): solve again from
+            # HiGHS's own start
             h.clearSolver()
             h.run()
         check = RowCheck(self.rel) if len(self.in_lp) < m.rows else None

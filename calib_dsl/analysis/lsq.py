@@ -97,9 +97,8 @@ def estimate(prog: Program, start: np.ndarray | None = None,
     a loop compiled once of more than 2 x MIN_SAMPLE_ROWS configurations, it is first found
     on an evenly spread sample of them (a tenth, from MIN_SAMPLE_ROWS to SAMPLE_ROWS), then
     polished on all: the sample brings it near, where the problem is nearly linear and a
-    few evaluations of every row finish it (on the UR10's 1495 rows: 17 evaluations of 100
-    rows and 5 of all, 1.9 s, against 21 of all, 5.1 s; on 11,910 rows a sample of 1000
-    takes 8.4 s, one of 100 9.1 s)."""
+    few evaluations of every row finish it, where a fit from far away would take many
+    (docs/decisions/11)."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     if start is None:

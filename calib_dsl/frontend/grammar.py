@@ -36,6 +36,6 @@ def grammar_text() -> str:
 def cal_parser() -> Lark:
     """The LALR(1) parser (built once): the tree keeps line/column positions."""
     # cache=True: Lark keeps the built LALR tables in the temp directory (keyed by the
-    # grammar's hash): about 80 ms saved on every command after the first
+    # grammar's hash), so no command after the first builds them again
     return Lark(grammar_text(), parser="lalr", lexer="basic", propagate_positions=True,
                 maybe_placeholders=True, cache=True)

@@ -173,8 +173,8 @@ def _first_rows(rel: LinearRelaxation, share: list,
                 certificates: Certificates | None) -> np.ndarray:
     """The rows a tall LP's row generation starts from: those the same objectives' LPs bound
     on last time, over a relaxation of the same family on the box before (the optimum moves
-    little, and binds mostly on the same rows: on all 1495 UR10 rows a fine round's LPs take
-    a quarter of the time they take from evenly spread rows), else evenly spread rows."""
+    little, and binds mostly on the same rows, so few rows need adding; docs/decisions/12),
+    else evenly spread rows."""
     known = (certificates.binding(rel, [(i, sign) for i, sign, _ in share])
              if certificates is not None else None)
     return known if known is not None else starting_rows(rel)

@@ -107,7 +107,7 @@ class Certificates:
     on every box, so the same combination of them still bounds the unknown on a smaller box,
     and its bound is checked there as any multipliers are (certified_max): a matrix product
     instead of an LP. It stays near the new LP's optimum as long as the active rows do not
-    change (on the RX90 from section 4, within 1% of the fresh bound a round later)."""
+    change (docs/decisions/04)."""
 
     family: str = ""
     key_space: str = ""  # the kept LPs' relaxation's (LinearRelaxation.key_space)

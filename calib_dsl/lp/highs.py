@@ -126,8 +126,8 @@ def load(rel: LinearRelaxation, rows: np.ndarray | None = None,
     h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
     # HiGHS equilibrates rows and columns by default. Our relaxations are built scaled (the
     # second-order ones in t-units, each column in [-1, 1]), and without HiGHS's own scaling
-    # the simplex takes about half the pivots from the same bases to the same bounds
-    # (docs/benchmarks.md).
+    # the simplex takes far fewer pivots from the same bases to the same bounds
+    # (docs/decisions/06).
     if scaling is not None:
         h.setOptionValue("simplex_scale_strategy", scaling)
     if rows is not None and len(rows) < rel.A.shape[0]:
@@ -156,7 +156,7 @@ def minimize(rel: LinearRelaxation, cost: np.ndarray) -> np.ndarray | None:
     """x minimizing cost.x over all of the relaxation's rows and column bounds (None when HiGHS
     does not find the optimum): a plain LP, with HiGHS's own scaling (its rows are not built
     scaled) and no pivot limit. scipy's linprog would do the same, but importing
-    scipy.optimize costs 0.3-0.4 s of a short command."""
+    scipy.optimize is slow, a large share of a short command (docs/decisions/14)."""
     h = load(rel, iterations=MANY_PIVOTS, scaling=None)
     n = rel.A.shape[1]
     h.changeColsCost(n, np.arange(n, dtype=np.int32), np.asarray(cost, dtype=float))

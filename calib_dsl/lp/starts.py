@@ -5,8 +5,8 @@ unknown's slot, a measured cell) rather than by their places in the LP that made
 The inner bounds (analysis/inner.py) solve, for each end of each unknown, an LP over the
 model linearized at a point, the joint readings' errors among its columns: the same rows and
 columns as the solve's last first-order LPs with the errors as columns, over another box. From
-the solve's final basis for the same end, HiGHS needs a sixth of the pivots (Test A: 670
-against 4423 for 41-43 LPs). A start only saves pivots: from any basis the simplex reaches the
+the solve's final basis for the same end, HiGHS starts near the optimum and needs far fewer
+pivots (docs/decisions/14). A start only saves pivots: from any basis the simplex reaches the
 same optimal value (another optimal vertex where it is not unique, so other candidates).
 """
 

@@ -10,10 +10,11 @@ mean-value theorem on the box [p] gives
 so every solution satisfies two linear inequalities in p. G is the *mixed* (Hansen) form:
 its column j encloses the derivative in p_j over the box in which the unknowns before j keep
 their ranges and those after j sit at the center (f(p) - f(p^) telescopes one unknown at a
-time, so the form holds as well); each column sees about half the box, and the relaxation's
-slack on the RX90 is about half the plain form's. The coefficients are the midpoints of G;
-the radii of G, the width of f(p^) (it holds the data's uncertainty, folded in instead of one
-LP variable per measured joint angle) and every rounding error go into the right-hand sides.
+time, so the form holds as well); each column sees about half the box, and so the
+relaxation's slack is about half the plain form's (docs/decisions/02). The coefficients are
+the midpoints of G; the radii of G, the width of f(p^) (it holds the data's uncertainty,
+folded in instead of one LP variable per measured joint angle) and every rounding error go
+into the right-hand sides.
 Gradients are propagated forward through the flat program with the same grouping as the
 propagator, in interval arithmetic over the *whole* box (not the contracted temporaries: the
 mean-value theorem needs the derivative along segments that leave the solution set).

@@ -161,7 +161,8 @@ def _cubic(a1: np.ndarray, b2: np.ndarray, pairs: Pairs) -> tuple[np.ndarray, np
     |t_j^2 - 1/2| <= 1/2, and t_i^3 = 3 t_i / 4 + (4 t_i^3 - 3 t_i) / 4 with |4 t^3 - 3 t| <= 1
     (Chebyshev). So the squares of b2 give a1_i (sum_j b_jj / 2 + b_ii / 4) t_i exactly, and
     leave half their bound (a quarter for i = j); the other products t_j t_k leave all of it.
-    On the RX90 the squares (from the cosines of the angles) carry most of the curvature."""
+    In robot models the squares (from the cosines of the angles) carry most of the
+    curvature."""
     sq = b2[:, pairs.squares]
     gain = a1 * (0.5 * sq.sum(axis=1)[:, None] + 0.25 * sq)
     mag_a = np.abs(a1)

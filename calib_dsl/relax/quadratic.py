@@ -6,12 +6,12 @@ Each constraint row is, over the box (taylor.py, p = c + w t, t in [-1, 1]^n),
 
 Give each product t_i t_j an LP column y_k of its own, bounded by [-1, 1] ([0, 1] for a
 square): the rows become linear in (t, y), and every solution p gives a point (t, y) that
-satisfies them. The columns y are *shared* by all rows: 453 rows of the RX90 see the same
+satisfies them. The columns y are *shared* by all rows: hundreds of rows see the same
 few hundred products, so the LP pins the curvature down as it pins t, where a first-order
 relaxation pays each row's curvature alone in its right-hand side. Products whose
 coefficients are small in every row go back into the rows' remainders (fewer columns).
-Optionally, McCormick's inequalities tie each y_k to its t_i and t_j; on the RX90 they add
-little to the shared columns and quadruple the rows, so they are off by default.
+Optionally, McCormick's inequalities tie each y_k to its t_i and t_j; they add little to
+the shared columns and quadruple the rows, so they are off by default.
 
 The LP's bounds on t are certified by lpbound like any other relaxation; `to_box` maps them
 back to p with outward rounding.
@@ -84,10 +84,9 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
 def _curvature(m: Models) -> float:
     """An estimate of the first-order relaxation's curvature on the same box (linearize:
     median over rows of its remainder over its first-order range) from the models: their
-    second-order terms and remainder over their first-order terms. On the RX90 from section
-    4 it runs at 0.6-0.7 times the first-order one (0.36 against 0.51 in the wide phase,
-    0.011 against 0.019 where it ends), on the same side of tight.WIDE; it spares a
-    first-order relaxation (a fifth of a second) only made to be measured."""
+    second-order terms and remainder over their first-order terms. It runs below the
+    first-order one but on the same side of `Settings.wide`, so it decides the same way; it
+    spares a first-order relaxation only made to be measured."""
     with np.errstate(invalid="ignore", divide="ignore"):
         r = (np.abs(m.c2).sum(axis=1) + m.r) / np.abs(m.c1).sum(axis=1)
     r = r[np.isfinite(r)]

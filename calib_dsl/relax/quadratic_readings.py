@@ -3,9 +3,9 @@
 quadratic.py folds each reading's error (a joint angle read to +-1e-5 rad) into every row's
 remainder, where the rows of one configuration share it: near the end that costs more than
 the curvature it keeps. linearize.py keeps the errors as LP columns but pays the curvature
-in every row's right-hand side: 2 % of a row's width on the RX90's 33 parameters, and 7 % of
-each parameter's width, since the feasible set's width is the rows' width less the least
-error the data allow. Here a row is split by the mean-value theorem in the readings alone:
+in every row's right-hand side: a small share of a row's width becomes a large share of each
+parameter's, since the feasible set's width is the rows' width less the least error the
+data allow (docs/decisions/10). Here a row is split by the mean-value theorem in the readings alone:
 
     f(p, m + dq) = f(p, m) + D dq,      D over the box (p, and the readings in their ranges)
 
@@ -16,8 +16,8 @@ every solution (p, dq) satisfies
     c0 + c1.t + c2.y + D^.dq  in  [lo, hi] + [-(r + rad(D).e), r + rad(D).e]
 
 (D^ D's midpoint), each product y an LP column in [-1, 1] ([0, 1] for a square), shared by
-all rows. McCormick's inequalities tying y to its factors are optional: on the RX90's 33
-parameters they narrowed 0.2 % more for 15 times the LP time (1534 rows against 454). The
+all rows. McCormick's inequalities tying y to its factors are optional: they more than
+triple the rows for little more narrowing (docs/decisions/10). The
 two passes' rows are matched by their place in the program (layout.row_key). A row whose
 readings come from two configurations (the evaluation folds those) is left out: the rows of
 a valid relaxation, fewer, still hold every solution. A program with no readings gets None.

@@ -24,7 +24,8 @@ RHS_ABS = 1e-300
 class Rows:
     """A sparse matrix stored by rows (CSR: the same three arrays as scipy's csr_matrix). The
     tight strategy builds its relaxations as these, so that it never imports scipy.sparse
-    (a fifth of a second of a Test A solve); a scipy CSR matrix is accepted wherever a Rows is.
+    (a slow import, a noticeable share of a small solve); a scipy CSR matrix is accepted
+    wherever a Rows is.
     """
 
     data: np.ndarray

@@ -1,9 +1,10 @@
 """Second-order Taylor models of every slot of a program over a box (rigorous).
 
 On a wide box the first-order (mean-value) relaxation of `linearize` pays the model's whole
-curvature in its right-hand sides; on the RX90's section-4 domains that is a quarter of the
-first-order range, and no linear relaxation contracts. A second-order model keeps the
-curvature as coefficients and leaves only the third-order terms to a remainder.
+curvature in its right-hand sides; on wide domains that can be a large share of the
+first-order range, and then no linear relaxation contracts (docs/decisions/01). A
+second-order model keeps the curvature as coefficients and leaves only the third-order
+terms to a remainder.
 
 Each unknown p_i is written p_i = c_i + w_i t_i with t_i in [-1, 1] (c the box's midpoint, w
 its half-width rounded up, so the t-box covers the p-box in exact arithmetic). A *model* of a

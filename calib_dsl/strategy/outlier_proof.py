@@ -11,8 +11,8 @@ their tight solve encloses it, and no other row can fail for any vector of it.
 Candidates are the rows with the largest least-squares residuals (analysis/conflict.py); a
 candidate that is not proven costs one solve (the first set's, or none when a set is proven
 consistent with it) and is passed over, and tried again after another row is proven (then
-with one set fewer, each larger: the UR10's row 533 fails with the thirds of the other rows
-at e = 0.9 mm, one of which fits it at 0.883 mm).
+with one set fewer, each larger: a row that no small set refutes may fail with every
+large one).
 """
 
 from __future__ import annotations

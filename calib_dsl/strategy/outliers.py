@@ -47,9 +47,9 @@ GAIN = 0.01  # a round that narrows no unknown by 1 % of its width ends the loop
 MAX_ROUNDS = 40
 LP_ITERATIONS = 5000  # per objective; a stopped LP still certifies a (weaker) bound
 MOST_SETS = 4  # tight solves of sets of rows at most, unless K + 1 are needed (block_box)
-# With suspects in groups of their own, the sets at most (k = 1: four suspects). On all UR10
-# rows but 856 at e = 0.9 mm, rows 533 and 855 alone and four quarters of the others: six
-# sets, those without 533 or without 855 consistent, the four with both refuted.
+# With suspects in groups of their own, the sets at most (k = 1: four suspects): with the
+# rows at fault alone, the sets that leave one out are consistent and the others refuted,
+# which names exactly those rows (docs/decisions/16).
 MOST_SUSPECT_SETS = 8
 SUSPECT_RESIDUAL = 1.0  # a least-squares residual above this many bounds makes a suspect
 DEAL_SEED = 0  # the shuffle that deals the other rows into groups (fixed: results repeat)
@@ -139,9 +139,8 @@ def partition(ids: list[int], k: int, suspects: Sequence[int] = (),
     other rows dealt in groups(k) groups in a fixed shuffled order. A suspect alone makes
     the sets that leave it out solve every other row, and those that keep it hold it: with
     the rows at fault alone, only their sets stay consistent. Shuffled, because campaigns
-    repeat their poses in patterns: on all UR10 rows but 533, 855 and 856, the rows of one
-    round-robin quarter (every 4th row) take the Chebyshev fit of the others with both rows
-    from 1.021 to 0.986 of the bounds, where shuffled quarters leave 1.010-1.019."""
+    repeat their poses in patterns: a round-robin group (every m-th row) can hold so much of
+    what the rows at fault contradict that the rest fits them (docs/decisions/16)."""
     m = groups(k)
     alone = [r for r in dict.fromkeys(suspects) if r in set(ids)]
     while alone and math.comb(len(alone) + m, k) > most:

@@ -49,7 +49,7 @@ def along_combinations(prog: Program, s: Settings = DEFAULT) -> Reparametrized |
     program over `routine_max_primitives`, where the analysis would cost more than it
     saves)."""
     if len(prog.primitives) > s.routine_max_primitives:
-        return None  # the analysis would cost more than it can save (Test A, 1000 configs)
+        return None  # the analysis would cost more than it can save
     info = analyse_design(prog)
     if info is None:
         return None

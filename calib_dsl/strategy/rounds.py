@@ -274,8 +274,8 @@ class _Rounds:
         # as a relaxation (folded first-order rounds), or the second-order phase is over
         # (a round without a first-order relaxation: the second-order one's estimate of the
         # curvature)
-        # (not in the fine rounds: on the UR10 their multipliers certified nothing narrower
-        # on the next box, each costing an expansion)
+        # (not in the fine rounds: there the next box is too close for old multipliers to
+        # certify anything narrower, and each try costs an expansion; docs/decisions/12)
         wide = this.quad is not None
         self.reuse = self.cells or (wide and not self.fine
                                     and (this.first or this.target).curvature > s.wide)
@@ -295,9 +295,9 @@ class _Rounds:
         """The fine rounds (McCormick's) are over: whether fine rounds with the readings' errors
         as LP columns (and McCormick's inequalities) follow. They do where the rows'
         remainders cost some unknown's bounds `readings_cost` of its width (measured from the
-        last LPs' multipliers): on all 1495 UR10 rows a third of d4's width, nearly all of
-        it the joint readings' errors (1e-5 rad each), which columns meet where a
-        remainder pays them in every row. Not on a sample of rows (no such relaxation)."""
+        last LPs' multipliers): on many rows with joint readings that cost is mostly the
+        readings' errors, which columns meet where a remainder pays them in every row
+        (docs/decisions/10). Not on a sample of rows (no such relaxation)."""
         if self.fine_readings or self.spec.rows is not None or this.quad is None:
             return False
         width = self.hi[self.ind] - self.lo[self.ind]

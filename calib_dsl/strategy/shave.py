@@ -6,18 +6,17 @@ with p in [lo, a], and that slice is contracted on its own: propagation, then fi
 second-order rounds of LPs (the readings' errors as LP columns where the program has them).
 Over the slice the relaxation is tighter than over the whole box (the expansion is centred
 in the slice, the products with p are narrower), the other unknowns narrow, and the next
-round is tighter again: on the UR10's every 15th row, six rounds closed 99 % of d4's gap.
-Rounds over the whole box gain nothing there. The slice's own lower end is the new lo (a
-itself lies in the slice: a sound contraction keeps it); the upper end likewise.
+round is tighter again, where the same rounds over the whole box gain nothing (a thin
+solution set in a box loose in its tails; docs/decisions/15). The slice's own lower end is
+the new lo (a itself lies in the slice: a sound contraction keeps it); the upper end likewise.
 
 Only the unknowns whose result is wider than `shave_above` times their inner interval are
 shaved, the loosest first, at most `shave_unknowns` of them: each end costs rounds of LPs of
-its own (on all 1495 UR10 rows, 10-12 s for three: by default only the first end fits the
-budget there, and it takes d4 from 1.24 to 1.10 times the linearized yardstick). A program
+its own, so by default they fit a share of the solve's time (the first always runs). A program
 relaxed in chunks (thousands of rows) is shaved by default only where its solve ran fine
 rounds: there a slice's rounds cost about what the solve's did, where a solve that ended at
-its first-order fixed point says nothing of them (the RX90's 33 parameters on 1000
-configurations: one end took 157 s after a 15 s solve).
+its first-order fixed point says nothing of them (a slice's fine relaxation can cost many
+times that solve).
 """
 
 from __future__ import annotations

@@ -122,7 +122,7 @@ def worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray, s: Settings,
     alone = {n for members, _ in info.groups for n in members}
     group = np.array([prog.slots.names[int(k)] in alone for k in every], dtype=bool)
     # a candidate must be wider than every unknown the data pins down (not one known
-    # beforehand to 1e-5, like 19 of Test A's, which no split would help)
+    # beforehand as well as the data know it, which no split would help)
     pinned = (hi[every] - lo[every])[~group]
     floor = float(pinned.max(initial=0.0))
     ind = every[group & (hi[every] - lo[every] > floor)]
