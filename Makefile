@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test test-random lint bench clean fetch-ur10
+.PHONY: install test test-fast test-random lint bench clean fetch-ur10
 
 install: $(VENV)/.installed
 
@@ -13,10 +13,15 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/pip install -q -e ".[dev]"
 	touch $@
 
-# test: the same pseudo-random property cases on every run (reproducible, as CI runs it);
-# test-random: fresh cases each run, to look for failures the fixed ones miss.
+# test: every test, the same pseudo-random property cases on every run (reproducible, as CI
+# runs it), on every core (pytest-xdist, `-n auto` in pyproject.toml); test-fast: all but the
+# tests marked slow (whole-CLI runs on real data, heavy property tests), the loop to run
+# while editing; test-random: fresh cases each run, to look for failures the fixed ones miss.
 test: install
 	$(BIN)/pytest
+
+test-fast: install
+	$(BIN)/pytest -m "not slow"
 
 test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest

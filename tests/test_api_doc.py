@@ -7,9 +7,12 @@ from __future__ import annotations
 import doctest
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_the_api_guide_runs_as_doctests(monkeypatch):
     monkeypatch.chdir(ROOT)  # the guide's paths are the repository's
     result = doctest.testfile(str(ROOT / "docs" / "api.md"), module_relative=False,

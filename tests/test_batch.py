@@ -169,6 +169,7 @@ def test_an_internal_error_is_a_failed_line(tmp_path, monkeypatch):
 
 # -- a batch, and resuming it --------------------------------------------------------------------
 
+@pytest.mark.slow
 @needs_dask
 def test_batch_then_resume(tmp_path, monkeypatch):
     jobs = write_project(tmp_path / "p")

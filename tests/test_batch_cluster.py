@@ -73,6 +73,7 @@ def cluster(tmp_path):
             p.wait()
 
 
+@pytest.mark.slow
 def test_batch_on_a_dask_cluster(cluster, calibc, tmp_path):
     address, workers = cluster
     assert len(workers) == 2
@@ -98,6 +99,7 @@ def test_batch_on_a_dask_cluster(cluster, calibc, tmp_path):
     assert table[-1] == f"{len(STATUS)} jobs: 6 contracted, 2 error, 1 infeasible"
 
 
+@pytest.mark.slow
 def test_a_jobs_split_pieces_are_tasks_of_the_cluster(cluster):
     """From a task on one worker (one thread: the job seceded while it waits, or the pieces
     would wait for it), the pieces run on the cluster; the workers' events count them."""

@@ -432,6 +432,7 @@ def test_version():
     assert res.exit_code == 0 and "0.1.0" in res.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cap", [1, 4, 9, 1000])
 def test_max_sweeps_caps_the_tight_strategy(cap, calibc):
     """--max-sweeps caps the sweeps of the whole tight solve (its propagations and rounds
@@ -452,6 +453,7 @@ def test_max_sweeps_caps_the_tight_strategy(cap, calibc):
         assert lo <= truth[name] <= hi, (cap, name)
 
 
+@pytest.mark.slow
 def test_known_parameters_are_named_not_listed_unless_all():
     """Test A's 19 parameters known to +-1e-5: the data cannot improve them, so the table
     names them on one line (--all lists them); those not identifiable alone stay listed."""

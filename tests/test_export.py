@@ -44,6 +44,7 @@ def interval(p: dict) -> tuple[float, float]:
     return tuple(float(x) for x in p["result"])  # type: ignore[return-value]
 
 
+@pytest.mark.slow
 def test_recalibration_round_trip(rx90, tmp_path):
     """The model with the exported domains in place of its own declarations, solved again:
     every result within the first (no wider), and every true value inside."""

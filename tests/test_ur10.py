@@ -32,6 +32,7 @@ def solve(calibc, *args):
     return out.returncode, (json.loads(out.stdout) if out.stdout.strip() else None), out.stderr
 
 
+@pytest.mark.slow
 def test_the_tracker_model_runs_on_its_shipped_table(calibc):
     code, data, err = solve(calibc)
     assert code == 0, err
@@ -45,6 +46,7 @@ def test_the_tracker_model_runs_on_its_shipped_table(calibc):
     assert len(data["narrowed"]) >= 20  # e = 1.2 mm against 0.1 mm of noise: most narrow
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [11, 12])
 def test_fresh_simulated_draws_hold_the_truth(tmp_path, calibc, seed):
     table = tmp_path / "sim.csv"
@@ -75,6 +77,7 @@ def solved_with_lsq_inside(calibc, model: Path, *args: str, rows: str = "1..1495
     return data
 
 
+@pytest.mark.slow
 @needs_ur10
 def test_the_public_data_every_15th_row(calibc):
     """As the issue runs it: exit 0, and the least-squares estimate inside the enclosure."""
@@ -84,6 +87,7 @@ def test_the_public_data_every_15th_row(calibc):
     assert np.isfinite(data["parameters"]["tz"]["least_squares"])
 
 
+@pytest.mark.slow
 @needs_ur10
 def test_the_six_dof_model_uses_the_orientations(calibc):
     """models/ur10_tracker6d.cal: positions and the tracker's Euler angles of every 50th row
@@ -105,6 +109,7 @@ def _noisy_simulation_model(tmp_path: Path, noise: float) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(5))
 def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
     """Few rows whose noise fills the error bound (1 mm against priors of 5 mm): first-order
@@ -132,6 +137,7 @@ def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
     assert np.median((first.hi[ind] - first.lo[ind]) / width) > 0.95
 
 
+@pytest.mark.slow
 @needs_ur10
 def test_the_public_data_within_1_2_of_the_yardstick():
     """Every 15th row at e = 1.0 mm: every parameter's width within 1.2x of the linearized
@@ -155,6 +161,7 @@ def test_the_public_data_within_1_2_of_the_yardstick():
         assert sol.hi[i] - sol.lo[i] <= 1.2 * (hull[n][1] - hull[n][0]), n
 
 
+@pytest.mark.slow
 @needs_ur10
 def test_the_readings_rounds_on_many_public_rows():
     """Every 3rd row at e = 1.0 mm (500 configurations): McCormick's fine rounds stall where
@@ -185,6 +192,7 @@ def test_the_readings_rounds_on_many_public_rows():
         assert sol.hi[i] - sol.lo[i] <= 1.25 * (hull[n][1] - hull[n][0]), n
 
 
+@pytest.mark.slow
 @needs_ur10
 @pytest.mark.parametrize("left_out", [855, 533])
 def test_rows_533_and_855_each_fit_the_rest_at_0_9(left_out):

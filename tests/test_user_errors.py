@@ -315,6 +315,7 @@ BAD_COMMANDS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, message", BAD_COMMANDS)
 def test_bad_commands_exit_2_with_one_message(tmp_path, calibc, args, message):
     import subprocess
@@ -395,6 +396,7 @@ for k in 1..rows(m) { a * m.x[k] + b == m.y[k]; }
 """
 
 
+@pytest.mark.slow
 @given(st.lists(st.tuples(st.sampled_from(CELLS), st.sampled_from(CELLS)), max_size=8),
        st.sampled_from(["x,y", "y,x", "x", "x,y,z", "", "x,,y"]))
 @settings(max_examples=200, deadline=30_000,  # a guard against hangs, not a speed test

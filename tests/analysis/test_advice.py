@@ -25,6 +25,7 @@ def tracker_subset() -> list[str]:
     return re.findall(r"param (\w+) in", text)
 
 
+@pytest.mark.slow
 def test_the_ur10_with_every_parameter_free():
     """On the shipped simulated table: 25 directions seen of 33, the base absorbing the first
     joint, r2 + r3 + r4 and tz + r6 the only sums seen, alpha6 and d6 nearly not
@@ -62,6 +63,7 @@ for k in 1..rows(m) { (a + b) * m.x[k] + c + f * m.x[k]^2 == m.y[k]; }
     assert a.subset == ["a", "c"] and a.subset_condition <= COND_MAX
 
 
+@pytest.mark.slow
 def test_identify_json(calibc):
     out = subprocess.run([*calibc, "identify", str(ALL), "--json"], capture_output=True,
                          text=True, timeout=300)
@@ -72,6 +74,7 @@ def test_identify_json(calibc):
     assert data["suggested_subset"]["condition_number"] <= 300
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not UR10.exists(), reason=f"the public UR10 data set is not at "
                     f"{UR10.parent} (make fetch-ur10 downloads it; docs/real-data.md)")
 def test_the_public_data_every_15th_row():

@@ -46,6 +46,7 @@ def _hull(x: np.ndarray, y: np.ndarray, e: float, k: int, sign: float) -> float:
 coord = st.floats(-3, 3, allow_nan=False, width=32)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(coord, coord), min_size=2, max_size=8, unique_by=lambda t: t[0]),
        st.floats(0.05, 2.0))
@@ -144,6 +145,7 @@ def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
                 assert abs(gap - dist) <= _exact("1e-5")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("at_once", [None, 3])
 def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once):
     """check_points (one pass for many points) says of each point what check_point says of
@@ -179,6 +181,7 @@ def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once
         assert np.allclose(c.excess, alone.excess, rtol=1e-6, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_test_a_inner_reaches_the_outer_box():
     """Within 1.05 of the result; and the same inner intervals on a second run, though the
     ends' LPs and checks run in threads (a wave's points count in order, not as they come)."""
@@ -209,6 +212,7 @@ def _pivots(monkeypatch) -> list[int]:
     return counts
 
 
+@pytest.mark.slow
 def test_the_solves_bases_start_the_inner_lps(monkeypatch):
     """From the solve's final basis of each end, the inner bounds' LPs take under half the
     pivots (Test A: 670 against 4423) and reach the same inner intervals."""
@@ -226,6 +230,7 @@ def test_the_solves_bases_start_the_inner_lps(monkeypatch):
     assert np.all(np.abs(warm.hi - cold.hi) <= 1e-3 * width)
 
 
+@pytest.mark.slow
 def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
     """Every row's and column's status garbled (a basis with no meaning for these LPs): the
     same inner intervals as with no start at all."""
@@ -251,6 +256,7 @@ def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
     assert np.all(np.abs(warm.hi - cold.hi) <= 1e-3 * width)
 
 
+@pytest.mark.slow
 def test_no_optimum_at_the_middle_falls_back_to_the_fit(monkeypatch):
     """Where the model linearized at the box's middle gives no LP optimum at all (a wide
     box's), the ends are sought again over the model linearized at the Chebyshev fit: Test A
@@ -274,6 +280,7 @@ def test_no_optimum_at_the_middle_falls_back_to_the_fit(monkeypatch):
     assert np.all((sol.hi[ind] - sol.lo[ind]) / (inner.hi - inner.lo) <= 1.05)
 
 
+@pytest.mark.slow
 def test_33_parameters_reach_their_inner_bounds():
     """rx90_recalibrate.cal on its shipped data: every unknown within 1.05 of its certified
     inner interval (1.0146 at worst; 1.087 before the fine rounds that keep the readings'
@@ -308,6 +315,7 @@ def _solve(tmp_path: Path, *args: str):
     return res, json.loads(out.read_text())
 
 
+@pytest.mark.slow
 def test_cli_reports_inner_bounds_inside_the_result(tmp_path):
     res, data = _solve(tmp_path)
     assert res.exit_code == 0, res.output
@@ -325,6 +333,7 @@ def test_cli_reports_inner_bounds_inside_the_result(tmp_path):
     assert a <= float(a_text) <= float(b_text) <= b
 
 
+@pytest.mark.slow
 def test_cli_no_inner(tmp_path):
     res, data = _solve(tmp_path, "--no-inner")
     assert res.exit_code == 0, res.output
@@ -368,6 +377,7 @@ def _circle_row_holds(point: np.ndarray, x: str, y: str, e: Fraction = Fraction(
     return ax + ay <= r * r <= bx + by
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.floats(-2, 2), st.floats(-2, 2), st.floats(1, 4), st.floats(0, 6.28),
        st.lists(st.tuples(st.floats(-0.3, 0.3), st.floats(-9e-4, 9e-4), st.floats(-9e-4, 9e-4)),
@@ -478,6 +488,7 @@ def test_inequality_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, 
         assert inner.hi[k] - inner.lo[k] >= hull * (1 - 1e-3)
 
 
+@pytest.mark.slow
 def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
     """Importing scipy.optimize costs 0.3-0.4 s, most of the inner bounds' time on Test A: the
     Chebyshev fit that finds their centre calls HiGHS itself."""

@@ -66,6 +66,7 @@ def test_a_point_outside_a_bound_is_not_proven(tmp_path):
                        np.array([1.0, 0.0])).holds
 
 
+@pytest.mark.slow
 def test_the_command(tmp_path, calibc):
     (tmp_path / "d.csv").write_text("x,y\n0,0.1\n1,0.9\n2,2.1\n3,3.0\n")
     model = tmp_path / "line.cal"
@@ -88,6 +89,7 @@ UR10 = Path(__file__).resolve().parents[3] / "shared" / "data" / "ur10" / \
     "measurements_joint_configurations.csv"
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not UR10.exists(), reason=f"the public UR10 data set is not at "
                     f"{UR10.parent} (make fetch-ur10 downloads it; docs/real-data.md)")
 def test_the_public_data_every_50th_row():

@@ -29,6 +29,7 @@ def simulated(calibc, path: Path, rows: int, seed: int) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 4])
 def test_held_out_measurements_lie_in_their_boxes(tmp_path, calibc, seed):
     """Calibrated on 40 rows, each held-out measurement (truth + noise within NOISE) lies
@@ -42,6 +43,7 @@ def test_held_out_measurements_lie_in_their_boxes(tmp_path, calibc, seed):
     assert np.all(p.hi - p.lo < 30)  # narrower than the priors' sum (a real prediction)
 
 
+@pytest.mark.slow
 def test_predict_needs_no_measurements_and_validate_reports(tmp_path, calibc):
     held = simulated(calibc, tmp_path / "held.csv", 6, 9)
     lines = held.read_text().splitlines()

@@ -82,6 +82,7 @@ def test_bad_lsq_domains(tmp_path, domain, message):
         load(path)
 
 
+@pytest.mark.slow
 def test_an_estimate_started_on_a_sample_is_the_estimate_of_all_rows(tmp_path, monkeypatch):
     """Over 250 simulated UR10 configurations the least-squares estimate is first fitted on
     a spread sample of 100, then polished on all: the same estimate as fitting all rows from

@@ -145,6 +145,7 @@ def solution_case(rng: np.random.Generator, op: str):
     return zbox, boxes, pts, z, n
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("op", ALL_OPS)
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
@@ -462,6 +463,7 @@ def _grid_projection(z, y, x, n: int = 401):
     return (ay.min(), ay.max()), (ax.min(), ax.max())
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_atan2_near_optimal(seed: int) -> None:

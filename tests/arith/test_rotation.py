@@ -137,6 +137,7 @@ def test_sound(seed: int) -> None:
 
 # -- closeness to the optimal projection ----------------------------------------------------
 
+@pytest.mark.slow
 @pytest.mark.parametrize("wb,w,wout", [(1e-5, 1e-4, 1e-4), (1e-3, 1e-4, 1e-4),
                                        (0.035, 1e-4, 1e-4), (0.2, 1e-4, 1e-4),
                                        (0.2, 1e-3, 1e-4), (1e-5, 1e-2, 1e-4)])

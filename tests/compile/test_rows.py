@@ -68,6 +68,7 @@ def declared_box(prog, sol) -> dict[str, tuple[float, float]]:
             for i in independents(prog)}
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                   HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(3, 9),

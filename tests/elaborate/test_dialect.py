@@ -176,6 +176,7 @@ def run(calibc, *args):
                           timeout=60)
 
 
+@pytest.mark.slow
 def test_command_line_options(tmp_path, calibc):
     model = model_with(tmp_path, "value\n1\n2\n3\n", 'v = "value" in rad')
     other = small_file(tmp_path, "value\n7\n", "other.csv")

@@ -207,6 +207,7 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
             1 + float(np.abs(c) @ np.maximum(np.abs(lo), np.abs(hi))))
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(0, 7),
        unbounded=st.booleans(), nuisance=st.integers(0, 2), solver=SOLVERS)
@@ -280,6 +281,7 @@ def linprog_max(A, b, lo, hi, c):
     return -res.fun, res.x, y
 
 
+@pytest.mark.slow
 @settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8),
        infinite=st.booleans())
@@ -315,6 +317,7 @@ def test_certified_max_random_float_lps(seed, n, m, infinite):
         assert tight <= sol[0] + 1e-5 * scale
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 7),
        infinite=st.booleans(), solver=SOLVERS)
@@ -334,6 +337,7 @@ def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite, solver):
             assert lower[i] == -box_max_up(-c, -c, lo, hi)
 
 
+@pytest.mark.slow
 @settings(max_examples=120, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(8, 14), m=st.integers(1, 10))
@@ -554,6 +558,7 @@ def sides_around(ax: np.ndarray, upper: np.ndarray, lower: np.ndarray, gap: np.n
     return b, b_lo
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8),
        solver=SOLVERS)
@@ -613,6 +618,7 @@ def nearby_lp(rng: np.random.Generator, rel: LinearRelaxation, x0: np.ndarray,
     return out, x1
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 8),
        solver=SOLVERS)
@@ -731,6 +737,7 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
 
 # -- row generation: a tall LP solved from a subset of its rows ---------------------------
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 120),
        two_sided=st.booleans(), solver=SOLVERS, primal=st.booleans())
@@ -764,6 +771,7 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver,
             assert le_exact(obj, p, gen[1][i]) and ge_exact(obj, p, gen[0][i])
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 80),
        primal=st.booleans())

@@ -19,6 +19,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -293,6 +294,7 @@ CASES = dict(trees=st.lists(expressions(rotations=True), min_size=1, max_size=4)
              tol=st.sampled_from([0.0, 1e-5, 1e-2]))
 
 
+@pytest.mark.slow
 @settings(max_examples=1200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(**CASES)
 def test_propagation_keeps_the_point(trees, point, widths, relations, tol):
@@ -304,6 +306,7 @@ def test_propagation_keeps_the_point(trees, point, widths, relations, tol):
     check_sound(prog, res, at, f"hc4 {trees}")
 
 
+@pytest.mark.slow
 @settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(**CASES)
 def test_tight_strategy_keeps_the_point(trees, point, widths, relations, tol):
@@ -315,6 +318,7 @@ def test_tight_strategy_keeps_the_point(trees, point, widths, relations, tol):
     check_sound(prog, res, at, f"tight {trees}")
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(trees=st.lists(expressions(rotations=True), min_size=1, max_size=3),
        point=st.tuples(*[POINTS] * NVARS),
@@ -390,6 +394,7 @@ def bound(x: float) -> str:
     return "-oo" if x == -math.inf else "+oo" if x == math.inf else repr(x)
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(trees=st.lists(expressions(rotations=False).filter(has_var), min_size=1, max_size=3),

@@ -396,6 +396,7 @@ def random_box(rng: np.random.Generator, prog: Program, p_true: np.ndarray,
     return lo, hi
 
 
+@pytest.mark.slow
 @settings(max_examples=70, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(0, 3),
@@ -415,6 +416,7 @@ def test_relaxation_holds_at_solutions_of_random_expression_models(seed, n_p, n_
     check_lp_bounds(prog, lo, hi, p_true, modes=(seed % 2 == 0,))
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(2, 5), n_cfg=st.integers(1, 4),
        n_con=st.integers(2, 8), models=st.integers(1, 6))
@@ -576,6 +578,7 @@ def check_boxes(rng: np.random.Generator, sim: Simulated, trials: int, propagate
             check_relaxation(prog, res.lo, res.hi, p_true, cell_true, f"propagated {trial}")
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(1, 6),
        spatial=st.booleans(), formulation=st.sampled_from(["matrix", "rotation"]),
@@ -591,6 +594,7 @@ def test_relaxation_holds_on_random_robots(tmp_path_factory, seed, joints, rows,
     check_lp_bounds(sim.prog, lo, hi, sim.p_true, modes=(seed % 2 == 0,))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation,seed", [("matrix", 3), ("rotation", 4)])
 def test_relaxation_holds_on_rx90(tmp_path, formulation, seed):
     source = (ROOT / "models" / "rx90_lengths.cal").read_text(encoding="utf-8")
@@ -782,6 +786,7 @@ _ENDS = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, -3.0, 1e-300, -1e-300, 5e-32
                          -1e300, math.inf, -math.inf, 0.1, -0.7])
 
 
+@pytest.mark.slow
 @settings(max_examples=1000, deadline=None)
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        args=st.integers(1, 3), mixed=st.booleans())
@@ -841,6 +846,7 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
             assert np.all(lo[zero] == 0) and np.all(hi[zero] == 0)
 
 
+@pytest.mark.slow
 @settings(max_examples=1000, deadline=None)
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        signs=st.lists(st.sampled_from([1.0, -1.0]), min_size=1, max_size=3))

@@ -84,6 +84,7 @@ def check_readings(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.nda
     return True
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(1, 6),
        spatial=st.booleans(), formulation=st.sampled_from(["matrix", "rotation"]),
@@ -101,6 +102,7 @@ def test_the_relaxation_holds_the_truth_on_random_robots(tmp_path_factory, seed,
     assert any(built), "the robot's joint readings give no relaxation"
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(1, 3),
@@ -118,6 +120,7 @@ def test_the_relaxation_holds_the_truth_where_rows_mix_configurations(seed, n_p,
         check_readings(prog, lo, hi, p_true, cell_true, f"trial {trial}")
 
 
+@pytest.mark.slow
 def test_rx90_33_parameters_narrow_past_the_first_order_fixed_point() -> None:
     """rx90_recalibrate.cal from the box the first-order rounds end on (their fixed point,
     7 % wider than the hull): one round of these LPs narrows every identifiable parameter,
@@ -153,6 +156,7 @@ def test_a_model_without_readings_gets_none(tmp_path) -> None:
     assert relax_quadratic_readings(prog, prog.slots.lo.copy(), prog.slots.hi.copy()) is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("after_mccormick", [False, True])
 def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory, after_mccormick):
     """Whole tight solves of random robots (joint readings of three sizes), the fine rounds
@@ -193,6 +197,7 @@ def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory, after_
     assert ran >= 6, ran
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(5, 10),

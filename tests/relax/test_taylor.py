@@ -16,6 +16,7 @@ from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from relax.test_linearize import (  # the sibling test module: its model generators
@@ -148,6 +149,7 @@ def check_program(prog: Program, lo: np.ndarray, hi: np.ndarray, rng: np.random.
 SUPPORTED_OPS = ("neg", "sqr", "add", "sub", "mul", "sin", "cos")
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(0, 3),
@@ -215,6 +217,7 @@ def assert_holds_truth(rel: LinearRelaxation, ex, z: np.ndarray, p_true: np.ndar
     assert np.all(plo <= p_true) and np.all(p_true <= phi), (what, "narrowed")
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(1, 6),
        spatial=st.booleans(), formulation=st.sampled_from(["matrix", "rotation"]),
@@ -231,6 +234,7 @@ def test_models_and_relaxation_hold_on_random_robots(tmp_path_factory, seed, joi
         check_quadratic(sim.prog, lo, hi, sim.p_true, f"box {trial}", bounds=trial == 0)
 
 
+@pytest.mark.slow
 def test_rx90_section_4_models_and_relaxation_hold() -> None:
     """The 33-parameter RX90 at the paper's section-4 domains (the shipped data are simulated
     from the true values): the rows' models enclose sampled values, the relaxation holds at
@@ -254,6 +258,7 @@ def test_rx90_section_4_models_and_relaxation_hold() -> None:
     assert np.all(narrowed < 0.9), narrowed  # 0.72-0.81 measured; first order gives 1.0
 
 
+@pytest.mark.slow
 @settings(max_examples=1000, deadline=None)
 @given(data=st.data(), n=st.integers(1, 5))
 def test_narrowed_product_columns_hold_every_product(data, n) -> None:

@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -58,6 +59,7 @@ def _hull(x: np.ndarray, v: np.ndarray, k: int) -> np.ndarray | None:
     return hull
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), k=st.sampled_from([1, 2]), n=st.integers(4, 7))
 def test_the_enclosure_holds_the_exact_hull(seed, k, n):
@@ -131,6 +133,7 @@ def _simulated(seed: int, rows: int, tmp: Path) -> str:
     return _DATA[seed]
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 3), row=st.integers(1, 20), column=st.sampled_from(COLUMNS),
        fault=st.floats(0.005, 0.03), sign=st.sampled_from([-1.0, 1.0]))
@@ -160,6 +163,7 @@ def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, 
 UR10 = ROOT / "models" / "ur10_tracker.cal"
 
 
+@pytest.mark.slow
 def test_a_ur10_row_moved_by_a_centimetre_is_proven_an_outlier(tmp_path):
     """Realistic priors, where the outlier LPs alone narrow little: the row is proven an
     outlier of every vector that fails at most one row (two disjoint halves of the other rows

@@ -137,6 +137,7 @@ def test_no_change_on_a_program_too_large_to_analyse(sum_model, monkeypatch) -> 
 finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
 
 
+@pytest.mark.slow
 @settings(max_examples=2000, deadline=None)
 @given(data=st.data(), n=st.integers(1, 5))
 def test_sum_enclosure_holds_every_sum(data, n) -> None:
@@ -173,6 +174,7 @@ def test_echelon_spans_the_same_combinations(data, k, extra) -> None:
     assert np.linalg.matrix_rank(np.vstack([rows, mat]), tol=1e-6) == k
 
 
+@pytest.mark.slow
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1))
 def test_parallel_axes_solved_along_their_sum(tmp_path_factory, seed) -> None:

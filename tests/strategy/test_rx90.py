@@ -38,6 +38,7 @@ def _assert_truth_inside(prog, res) -> None:
         assert lo <= true <= hi, f"{name}: true {true} outside [{lo}, {hi}]"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation", ["matrix", "rotation"])
 @pytest.mark.parametrize("seed", [11, 23, 37, 41, 53])
 def test_truth_inside_hc4(tmp_path: Path, formulation: str, seed: int) -> None:
@@ -51,6 +52,7 @@ def test_truth_inside_hc4(tmp_path: Path, formulation: str, seed: int) -> None:
     assert after < 0.97 * before  # it did contract
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation", ["matrix", "rotation"])
 @pytest.mark.parametrize("seed", [5, 19])
 def test_truth_inside_tight_and_tighter_than_hc4(tmp_path: Path, formulation: str,
@@ -67,6 +69,7 @@ def test_truth_inside_tight_and_tighter_than_hc4(tmp_path: Path, formulation: st
         assert tight[name][1] - tight[name][0] < 0.2 * (plain[name][1] - plain[name][0])
 
 
+@pytest.mark.slow
 def test_rotation_not_wider_than_matrix() -> None:
     """The issue's check of the paper's claim: the rotation formulation (with its rotation
     contractor) is not wider than the matrix one under plain propagation."""
@@ -83,6 +86,7 @@ def test_shipped_data_solves_with_truth_inside() -> None:
     _assert_truth_inside(prog, propagate(prog, tol=1e-5))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation,seed", [("matrix", 101), ("rotation", 202)])
 def test_tight_within_ten_percent_of_the_hull(tmp_path: Path, formulation: str,
                                               seed: int) -> None:
@@ -103,6 +107,7 @@ def test_tight_within_ten_percent_of_the_hull(tmp_path: Path, formulation: str,
         assert width <= 1.1 * best, f"{name}: {width:.3g} vs hull {best:.3g}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation,seed,shift,scale", [("matrix", 303, 0.5, 1.0),
                                                           ("rotation", 404, 0.4, 1.0),
                                                           ("matrix", 505, 0.5, 2.5)])

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -19,6 +20,7 @@ from tests.relax.test_linearize import random_robot, robot_draws
 SMALL = replace(DEFAULT, sample_rows=6, sample_gain=0.0)  # a sample of 6 rows, grown always
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(**robot_draws(st.integers(14, 30)))

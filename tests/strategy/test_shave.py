@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -73,6 +74,7 @@ def _solutions(cxy: np.ndarray, cells: np.ndarray, e: float) -> np.ndarray:
     return np.vstack([np.column_stack([cxy[some], r]) for r in radii])
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), points=st.integers(4, 7),
@@ -115,6 +117,7 @@ def test_shaving_narrows_the_circle_to_its_inner_bounds(tmp_path):
     assert np.all(after < 1.03), after
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(**robot_draws(st.integers(6, 14)))
@@ -145,6 +148,7 @@ def test_no_time_and_no_count_shave_nothing(tmp_path):
     assert shave(prog, sol, inner.lo, inner.hi, replace(EVERY, shave_unknowns=0)) == (sol, None)
 
 
+@pytest.mark.slow
 def test_cli_reports_what_it_shaved(tmp_path):
     _circle(tmp_path, 0, 5, 0.04, 0.05)
     model = str(tmp_path / "circle.cal")
@@ -177,6 +181,7 @@ def test_shaving_keeps_to_the_sweeps_left_and_to_the_time_budget(tmp_path):
     assert one.work.lp_rounds < every.work.lp_rounds  # the first end only, against all six
 
 
+@pytest.mark.slow
 def test_a_program_in_chunks_is_shaved_by_default_only_after_fine_rounds(tmp_path,
                                                                        monkeypatch):
     """A program relaxed in chunks of rows: by default (a budget) only where the solve ran

@@ -81,6 +81,7 @@ def rx90(tmp_path: Path, configs: int, seed: int, formulation: str) -> Program:
     return compile_model(elaborate(RX90, formulation=formulation, data=data))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation,configs,seed", [
     ("matrix", 8, 101), ("matrix", 11, 102), ("matrix", 14, 103), ("matrix", 17, 104),
     ("matrix", 20, 105), ("matrix", 20, 2004), ("rotation", 8, 106), ("rotation", 10, 107),
@@ -102,6 +103,7 @@ def _calibc() -> list[str]:
             "sys.argv[0] = 'calibc'; main()"]
 
 
+@pytest.mark.slow
 def test_rx90_cli_simulate_and_solve(tmp_path):
     """The documented commands end to end: `calibc simulate`, then `calibc solve --json`."""
     calibc = _calibc()
@@ -119,6 +121,7 @@ def test_rx90_cli_simulate_and_solve(tmp_path):
         assert lo <= truth[name] <= hi, name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("formulation", ["matrix", "rotation"])
 def test_rx90_inconsistent_data_gives_a_valid_status(tmp_path, formulation):
     """One measured coordinate moved by 0.01 (100 times its tolerance): no parameter value
@@ -145,6 +148,7 @@ def test_rx90_inconsistent_data_gives_a_valid_status(tmp_path, formulation):
 
 # -- random models -------------------------------------------------------------------------
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(2, 8),
        spatial=st.booleans(), formulation=st.sampled_from(["matrix", "rotation"]),
@@ -165,6 +169,7 @@ def test_random_robots_tight_holds_the_truth(tmp_path_factory, seed, joints, row
     assert_sound_and_tighter(prog, tight, hc4, truth, names, tol)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(0, 3),
@@ -341,6 +346,7 @@ def _wide_arm(tmp: Path, seed: int):
     return sim.prog, sim.p_true
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1))
 def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory, seed):
@@ -362,6 +368,7 @@ def test_second_order_rounds_contract_where_first_order_cannot(tmp_path_factory,
     assert np.all(second.hi[ind] - second.lo[ind] <= first.hi[ind] - first.lo[ind])
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1))
 def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, seed):
@@ -442,6 +449,7 @@ def arm_solved_twice(tmp: Path, seed: int, first: dict, second: dict) -> tuple:
     return prog, sim.p_true, ind, [prog.slots.names[i] for i in ind], a, b
 
 
+@pytest.mark.slow
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1))
 def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
@@ -482,6 +490,7 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
     assert b - a <= 1.01 * (b0 - a0)  # not wider (narrower unless r2 + r3 is near its edge)
 
 
+@pytest.mark.slow
 def test_split_pieces_go_to_a_cluster_when_there_is_one(tmp_path, monkeypatch):
     """Where a batch job runs on a cluster (strategy/cluster.py), the split hands its pieces to
     it instead of child processes; the result is the same, bit for bit."""
@@ -509,6 +518,7 @@ def test_split_pieces_go_to_a_cluster_when_there_is_one(tmp_path, monkeypatch):
     assert np.array_equal(here.lo, there.lo) and np.array_equal(here.hi, there.hi)
 
 
+@pytest.mark.slow
 def test_split_pieces_refined_in_children_as_here(tmp_path, monkeypatch):
     """The pieces go to two child processes (workers.py); the result is the one the solving
     process gives when it refines them itself, bit for bit."""
@@ -548,6 +558,7 @@ def test_no_split_where_it_does_not_pay(tmp_path):
     assert res.status == "contracted" and res.split == () and res.pieces == ()
 
 
+@pytest.mark.slow
 def test_split_is_reported(tmp_path):
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
