@@ -203,9 +203,9 @@ def _as_fractions(py: str) -> str:
 
 
 def test_huge_exact_powers_fall_back_to_intervals(tmp_path):
-    start = time.perf_counter()
+    start = time.process_time()  # this process's CPU: the same on a shared, busy machine
     model = elab(tmp_path, "var x; x == ((10^300)^300)^300 * x; x == (1/3)^2000 * x;")
-    assert time.perf_counter() - start < 1.0  # not a 10^27000000 integer
+    assert time.process_time() - start < 1.0  # not a 10^27000000 integer
     big, small = [model.dag.nodes[model.dag.nodes[c.rhs].args[1]].data
                   for c in model.dag.constraints]
     assert big[0] >= 1.7e308 and big[1] == math.inf  # sound: the value is beyond any float
@@ -543,9 +543,9 @@ def test_thousand_configurations_elaborate_fast(tmp_path, monkeypatch):
     rng = np.random.default_rng(0)
     lines = [",".join(repr(x) for x in row) for row in rng.uniform(-1, 1, (1000, 15)).tolist()]
     (tmp_path / "d.csv").write_text(",".join(cols) + "\n" + "\n".join(lines) + "\n")
-    start = time.perf_counter()
+    start = time.process_time()  # this process's CPU: the same on a shared, busy machine
     model = elaborate(MODELS / "rx90_lengths.cal", data=tmp_path / "d.csv",
                       inputs=Inputs(unroll=True))
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     assert len(model.dag.constraints) == 9 * 1000 + 3
     assert elapsed < 2.0
