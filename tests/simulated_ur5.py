@@ -51,7 +51,8 @@ def simulate_rows(tmp: Path, rows: int, seed: int, e: float,
     """`rows` configurations (joints uniform in [-pi, pi]) and their positions within +- e of
     the true robot's, as dicts q1..q6, x, y, z."""
     model = tmp / "simulation.cal"
-    model.write_text(header(e, true) + (
+    wide = {name: 1000 * w for name, (_, w, _) in PARAMS.items()}  # (a truth beyond a prior)
+    model.write_text(header(e, true, wide) + (
         'table m = "simulation.csv" {\n  q1, q2, q3, q4, q5, q6 : +- 0 simulate in [-pi, pi];\n'
         "  x, y, z : +- e;\n}\nfor k in 1..rows(m) {\n"
         f"  ur5({JOINTS}) at (tx, ty, tz) == (m.x[k], m.y[k], m.z[k]);\n}}\n"),
