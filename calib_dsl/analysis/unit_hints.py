@@ -7,7 +7,8 @@ factor (1000: mm and m; 180/pi: deg and rad):
   predictions of them at the middle of the search domains (the file's unit is not the one
   declared);
 - least squares leaves most of a measured column's residuals (BOUND_QUANTILE of them)
-  within that many times its error bound (the bound is in another unit than the model's);
+  within that many times its error bound, by a fit that gross rows do not pull, and most
+  rows beyond it (the bound is in another unit than the model's);
 - a joint reading column declared `in deg` whose values all lie within one 180/pi-th of a
   half turn (radians declared as degrees);
 - and least squares that does not converge from the middle of the domains is said too.
@@ -19,7 +20,7 @@ import math
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import estimate, linearized
+from calib_dsl.analysis.lsq import estimate, linearized, residuals
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -29,6 +30,8 @@ NEAR = 1.5  # a ratio within this factor of a unit factor (either way) is named
 # Least squares leaves data drawn within their bounds with most residuals near a bound (the
 # largest just over it); this quantile of them measures the bound, a few gross rows aside.
 BOUND_QUANTILE = 0.9
+MOST = 0.5  # a bound in the wrong unit leaves more than this share of the rows beyond it
+ROBUST_EVALUATIONS = 50  # of the robust fit, from the least-squares estimate (nearby)
 
 
 def unit_hints(model: Model, prog: Program) -> list[str]:
@@ -44,7 +47,7 @@ def unit_hints(model: Model, prog: Program) -> list[str]:
                    "check the units of the table's columns (`in mm`, `in deg`) and of the "
                    "error bounds")
     elif np.all(np.isfinite(est.values)):
-        out += _bounds(prog, est.values)
+        out += _bounds(prog, _robust(prog, est.values))
     return out
 
 
@@ -91,9 +94,29 @@ def _spreads(prog: Program, middle: np.ndarray) -> list[str]:
     return out
 
 
+def _robust(prog: Program, start: np.ndarray) -> np.ndarray:
+    """A fit that gross rows do not pull: least squares with a soft L1 loss past one bound
+    (least squares spreads one gross row's error over every row, and most residuals would
+    be large for it alone)."""
+    from scipy.optimize import least_squares
+
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    with np.errstate(invalid="ignore", over="ignore"):
+        sol = least_squares(lambda p: residuals(prog, p)[0], np.clip(start, lo, hi),
+                            jac=lambda p: residuals(prog, p)[1], bounds=(lo, hi), method="trf",
+                            x_scale="jac", loss="soft_l1", f_scale=1.0,
+                            max_nfev=ROBUST_EVALUATIONS)
+    return np.asarray(sol.x) if np.all(np.isfinite(sol.x)) else start
+
+
 def _bounds(prog: Program, p: np.ndarray) -> list[str]:
     found: dict[str, list[tuple[str, float]]] = {}
-    for name, (_, d, half) in _by_column(prog, p).items():
+    columns = _by_column(prog, p)
+    over = [np.abs(d) > half for _, d, half in columns.values()]
+    if not over or np.mean(np.concatenate(over)) < MOST:
+        return []  # most rows hold: a few gross ones, not a unit
+    for name, (_, d, half) in columns.items():
         ok = half > 0
         if not ok.any():
             continue
