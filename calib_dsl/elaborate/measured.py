@@ -76,12 +76,15 @@ class Measured(Context):
     def _cell_terms(self, cells: Terms) -> tuple[Table, int, dict[str, int]] | None:
         """The table, row and signed columns of cell terms that qualify, else None."""
         coef: dict[tuple[str, str, int], int] = {}
+        single = [next(iter(self.dag.cells[n])) for _, n in cells if len(self.dag.cells[n]) == 1]
+        rows = {(t, r) for t, _, r in single}
         for s, node in cells:
-            tags = self.dag.cells[node]
-            if len(tags) != 1:  # a value several cells share: no row of its own
+            # an exact value several cells share (equal numbers are one node): the one of
+            # this row's
+            tags = [k for k in self.dag.cells[node] if (k[0], k[2]) in rows]
+            if len(tags) != 1:
                 return None
-            (key,) = tags
-            coef[key] = coef.get(key, 0) + s
+            coef[tags[0]] = coef.get(tags[0], 0) + s
         coef = {k: c for k, c in coef.items() if c}
         if len({(t, r) for t, _, r in coef}) != 1 or any(abs(c) != 1 for c in coef.values()):
             return None

@@ -139,3 +139,12 @@ def test_two_cells_with_errors_stay_two_readings(compile_src) -> None:
                        files={"d.csv": "t,d\n1.5,0.25\n"})
     assert [k for k in prog.slots.kinds if k == "const"]  # t and d: cells of their own
     assert not prog.slots.measured_sides
+
+
+def test_an_exact_value_two_rows_share_is_still_folded(write_model) -> None:
+    """Equal exact numbers are one DAG node (0.5 in rows 1 and 2): each row takes its own."""
+    model = elaborate(write_model(SMALL.replace("SIGN", "+"),
+                                  files={"d.csv": "t,d\n0.5,0.125\n0.5,0.375\n0.75,0.25\n"}))
+    dag = model.dag
+    tags = [dag.cells.get(c.rhs) for c in dag.constraints]
+    assert tags == [{("m", "t+d", k)} for k in (1, 2, 3)]
