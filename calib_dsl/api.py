@@ -185,7 +185,7 @@ class Result:
     warnings: tuple[str, ...]
     # certified bounds of combinations the data see when their members are not identifiable
     combinations: tuple[tuple[str, float, float], ...]
-    conflict: Conflict | None  # for inconsistent data: the rows without which they are not
+    conflict: Conflict | None  # for inconsistent data: the priors, units or rows at fault
     outliers: Outliers | None  # with outliers=K: the rows certainly and possibly at fault
     # the solver's own result (boxes over all slots)
     solution: Solution = field(repr=False, compare=False)

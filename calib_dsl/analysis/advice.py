@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.analysis.lsq import estimate, residuals
+from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
@@ -58,7 +59,12 @@ def advise(prog: Program) -> Advice:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point, where = _point(prog, ind)
-    _, jac = residuals(prog, point)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        _, jac = residuals(prog, point)
+    if not np.all(np.isfinite(jac)):
+        raise CalError(f"identify: the model's rows cannot be differentiated at {where} (a "
+                       "value or derivative is not finite there, as sqrt(x) at x <= 0): "
+                       "narrow the search domains to where the model is defined")
     half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
     half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
     js = jac * half

@@ -1,5 +1,8 @@
-"""Which data rows make the data inconsistent: the rows without which the rest is proven
-consistent.
+"""Which priors or data rows make the data inconsistent: the domains with which widened, or the
+rows without which, the rest is proven consistent.
+
+The priors come first (prior_faults.py), then the units (unit_hints.py): a wrong domain or
+unit makes every row look wrong, and rows are named only when neither is found.
 
 The solve proved the whole data set inconsistent. The rows are ranked by their least-squares
 residual (in units of their bounds; a configuration's rows count as one data row), and the
@@ -12,7 +15,7 @@ each is left in again in turn: where the rest stays unproven, that row is needed
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -20,6 +23,8 @@ from calib_dsl.analysis.chebyshev import proven_consistent
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.analysis.min_error import Loader, row_owners
 from calib_dsl.analysis.outlier_rows import Row
+from calib_dsl.analysis.prior_faults import PriorFault, prior_faults
+from calib_dsl.analysis.unit_hints import unit_hints
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.frontend.diagnostics import CalError
@@ -40,6 +45,9 @@ class Conflict:
     consistent: bool
     needed: bool | None  # each of them needed (the rest with any one back not proven); None
     #                      for one row (removing nothing was refuted by the solve)
+    # domains with which widened every row is proven to hold (then no row is named)
+    priors: list[PriorFault] = field(default_factory=list)
+    units: list[str] = field(default_factory=list)  # columns or bounds whose unit to check
 
 
 def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
@@ -48,6 +56,18 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
     model, prog = load(inputs)
     if not model.tables:
         return None
+    try:
+        priors = prior_faults(prog)
+    except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        priors = []  # not proven: the rows are looked at
+    if priors:
+        return Conflict([], True, None, priors)
+    try:
+        units = unit_hints(model, prog)
+    except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        units = []
+    if units:  # every row looks wrong: naming some would mislead
+        return Conflict([], False, None, units=units)
     try:
         ranked = ranked_rows(model, prog)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):

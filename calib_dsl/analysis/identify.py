@@ -39,7 +39,11 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point = _nominal(prog, ind, names, design)
-    J = constraint_jacobian(prog, point)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        J = constraint_jacobian(prog, point)
+    if not np.all(np.isfinite(J)):  # (the SVD would not converge)
+        raise CalError("the model's rows cannot be differentiated at the nominal values (a "
+                       "derivative is not finite there, as sqrt(x) at x <= 0)")
     scale = prog.slots.hi[ind] - prog.slots.lo[ind]
     scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
     Js = J * scale

@@ -64,7 +64,8 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
     ev = evaluation(prog, lo, hi, ind, p, point=True, owners=owners, rows=rows)
-    done = ev.run()
+    with np.errstate(invalid="ignore", over="ignore"):  # (a point where the model is not
+        done = ev.run()                                 # defined: nan rows, said by callers)
     if not done:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
         return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
@@ -72,7 +73,8 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
                           np.zeros(0, np.int64))
 
     def mid(part: int) -> np.ndarray:
-        return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in done])
+        with np.errstate(invalid="ignore", over="ignore"):
+            return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in done])
 
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in done])
     return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
@@ -98,23 +100,43 @@ def estimate(prog: Program, start: np.ndarray | None = None,
     on an evenly spread sample of them (a tenth, from MIN_SAMPLE_ROWS to SAMPLE_ROWS), then
     polished on all: the sample brings it near, where the problem is nearly linear and a
     few evaluations of every row finish it, where a fit from far away would take many
-    (docs/decisions/11)."""
+    (docs/decisions/11).
+
+    A fit that stops on its budget of evaluations, not on a tolerance, has not failed: it
+    goes on from where it stopped, then starts again from the middle of the domains, each
+    with a budget of at least EVALUATIONS_PER_UNKNOWN per unknown; the estimate is the best
+    fit found, converged when one of them stopped on a tolerance."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    with np.errstate(invalid="ignore"):
+        middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
+                          np.clip(0.0, lo, hi))
     if start is None:
-        start = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi),
-                         np.clip(0.0, lo, hi))
+        start = middle
+    budget = max(max_evaluations, EVALUATIONS_PER_UNKNOWN * len(ind))
     sample = spread_rows(prog, min(SAMPLE_ROWS, max(MIN_SAMPLE_ROWS, loop_rows(prog) // 10)))
+    polish = budget
     if sample is not None:
-        near = _fit(prog, start, max_evaluations, sample)
+        near = _fit(prog, start, budget, sample)
         if near.converged and np.all(np.isfinite(near.values)):
-            start, max_evaluations = near.values, POLISH_EVALUATIONS
-    return _fit(prog, start, max_evaluations, None)
+            start, polish = near.values, POLISH_EVALUATIONS
+    best = _fit(prog, start, polish, None)
+    for again in (lambda b: b.values, lambda b: middle):
+        if best.converged and np.isfinite(best.rms):
+            break
+        nxt = _fit(prog, again(best), budget, None)
+        if nxt.converged or not best.rms <= nxt.rms:
+            best = nxt
+    return best
 
 
 SAMPLE_ROWS = 1000  # the largest sample a least-squares estimate starts on
 MIN_SAMPLE_ROWS = 100  # the smallest (a tenth of the configurations in between)
-POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate
+POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate (then more if needed)
+# A Levenberg-Marquardt-type fit needs a few evaluations per unknown from a far start (its
+# Jacobian's columns explored once each, then the nearly linear end): the smallest budget
+# of a fit that did not stop on a tolerance, per unknown.
+EVALUATIONS_PER_UNKNOWN = 10
 
 
 def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
@@ -137,6 +159,10 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
     # nearly linear near its solution, so a few Jacobian evaluations suffice.
     bounds = (np.where(np.isfinite(lo), lo, -np.inf), np.where(np.isfinite(hi), hi, np.inf))
     start = np.clip(start, bounds[0], bounds[1])
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r0, j0 = both(start)
+    if not (np.all(np.isfinite(r0)) and np.all(np.isfinite(j0))):  # (no fit starts there)
+        return Estimate(names, start, float("inf"), float("inf"), False)
     sol = least_squares(lambda p: both(p)[0], start, jac=lambda p: both(p)[1], bounds=bounds,
                         method="trf", x_scale="jac", max_nfev=max_evaluations)
     r = both(sol.x)[0]

@@ -36,6 +36,7 @@ from calib_dsl.relax.layout import independents
 BINDING = 0.01  # a row within this share of the bound's value binds it
 STEPS = (1.02, 1.05, 1.1, 1.25, 1.5, 2.0, 4.0)  # lower trials: hi divided by these, in turn
 MAX_SOLVES = 8  # tight solves to prove the lower end, at most
+CERTIFY_TRIES = 4  # raises of the bound by the point's excess before the upper end gives up
 
 
 @dataclass(frozen=True)
@@ -78,13 +79,13 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
         point, need = step[0], step[2]
         readings = Readings(prog).by_cell(step[1])
     try:
-        hi, check_prog = _certified(name, inputs, load, point, need, readings)
+        hi, check_prog, point = _certified(name, inputs, load, point, need, readings)
     except CalError:
         if readings is None:
             raise
         point, need = chebyshev(prog, rows)  # the readings' step could not be proven: without
         readings = None
-        hi, check_prog = _certified(name, inputs, load, point, need)
+        hi, check_prog, point = _certified(name, inputs, load, point, need)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
     del model, prog, check_prog  # each trial loads its own: one program in memory at a time
@@ -109,21 +110,29 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
 
 
 def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need: float,
-               readings: dict[int, float] | None = None) -> tuple[float, Program]:
+               readings: dict[int, float] | None = None
+               ) -> tuple[float, Program, np.ndarray]:
     """The smallest tried bound (from `need` up) at which the point (with these joint
-    readings, else their middles) is proven feasible."""
+    readings, else their middles; kept within the domains) is proven feasible, the program
+    that proved it, and the point."""
     e = need * (1 + 1e-6) + 1e-12
-    for _ in range(4):
+    computed = False
+    for _ in range(CERTIFY_TRIES):
         _, prog = load(_with(inputs, name, e))
+        ind = independents(prog)  # (domains centred on least squares move with the data)
+        point = np.clip(point, prog.slots.lo[ind], prog.slots.hi[ind])
         check = check_point(prog, point,
                             None if readings is None else Readings(prog).from_cells(readings))
         if check.holds:
-            return e, prog
+            return e, prog, point
         e += float(np.max(check.excess[np.isfinite(check.excess)], initial=0.0)) + 1e-9 * e
         if not np.all(np.isfinite(check.excess)):
+            computed = True
             break
-    raise CalError(f"--min-error {name}: no point could be proven feasible (a constraint "
-                   "compares two computed values, which interval evaluation cannot prove)")
+    why = ("a constraint compares two computed values, which interval evaluation cannot "
+           "prove" if computed else f"the fit's point still broke a row at {name} = {e:.6g} "
+           f"after {CERTIFY_TRIES} raises of the bound")
+    raise CalError(f"--min-error {name}: no point could be proven feasible ({why})")
 
 
 def _lower(out: MinError, inputs: Inputs, load: Loader, solve: Solver) -> None:

@@ -99,9 +99,11 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
     if not lines:
         raise CalError(f"'{at}' is empty: it has no header")
     header = [h.strip() for h in lines[0].split(t.separator)]
-    names = [c.header or c.name for c in t.columns]
+    files = [c for c in t.columns if not c.derived]  # (a derived column is no file's)
+    names = [c.header or c.name for c in files]
     missing = [n for n in names if n not in header]
-    present = {c.name for c in t.columns if (c.header or c.name) in header}
+    present = {c.name for c in files if (c.header or c.name) in header}
+    present |= {c.name for c in t.columns if c.derived and set(c.derived) <= present}
     if not missing:
         return at, present
     out = tmp / at.name

@@ -39,7 +39,9 @@ def centre_on_least_squares(prog: Program) -> None:
     if bad or not est.converged:
         raise CalError("the least-squares estimate that centres the lsq domains ("
                        f"{', '.join(prog.priors)}) did not converge: give a start nearer the "
-                       "solution, as lsq(start) +- w")
+                       "solution, as lsq(start) +- w, or check the units the table declares "
+                       "(a position in m where the file has mm, joints in deg where it has "
+                       "rad)")
     for name, (_, w) in prog.priors.items():
         v = values[name]
         slot = prog.slots.names.index(name)

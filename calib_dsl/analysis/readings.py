@@ -56,9 +56,13 @@ class Readings:
         return np.clip(self.mid, *self.inside)
 
     def from_cells(self, values: dict[int, float]) -> np.ndarray:
-        """`by_cell`'s values in this program's order (the middle where a cell has none)."""
+        """`by_cell`'s values in this program's order (the middle where a cell has none),
+        each kept inside this program's interval: another program's (the same data at another
+        error bound, --min-error's trials) may not hold it, and a value outside proves
+        nothing."""
         mid = self.middles()
-        return np.array([values.get(k, m) for k, m in zip(self.keys.tolist(), mid, strict=True)])
+        got = np.array([values.get(k, m) for k, m in zip(self.keys.tolist(), mid, strict=True)])
+        return np.clip(got, *self.inside)
 
     def values(self, z: np.ndarray) -> np.ndarray:
         """The readings at errors z (in units of their half-widths)."""

@@ -114,6 +114,9 @@ class Batching(Context):
                 self.block(s.body, inner, top=False)
         finally:
             self.loop_product = outer
+        for key, derived in self.derived_columns.items():  # sums of cells (measured.py)
+            if isinstance(derived, Cells):
+                cells[key] = (derived.lo, derived.hi)
         self.batch = RowBatch(list(range(lo, hi + 1)), (lo, lo + 1), cells, s.loc,
                               self.unrolled_model)
         return True

@@ -4,7 +4,7 @@ The methods one part calls on another are declared here for the type checker onl
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +36,9 @@ class Context:
     units_loc: Loc | None  # where the model stated them
     simulate_rows: int | None  # simulation mode: this many rows, no file read
     tables: list[Table]
+    # (table, column) -> the cells of a column derived from others (elaborate/measured.py)
+    derived_columns: dict[tuple[str, str], Sequence[int]]
+    negated_cells: dict[int, int]  # the constant -c of an exact cell c's node -> c's node
     globals: Scope
     including: list[tuple[Path, str]]  # the include stack (resolved, as shown)
     included: set[Path]
@@ -69,3 +72,4 @@ class Context:
         def _robot_axes(self, e: ast.RobotAxes, scope: Scope) -> tuple[int, ...]: ...
         def _robot(self, s: ast.Robot, scope: Scope, top: bool) -> None: ...
         def _table(self, s: ast.TableDecl, scope: Scope, top: bool) -> None: ...
+        def measured_pair(self, lhs: int, rhs: int) -> tuple[int, int] | None: ...

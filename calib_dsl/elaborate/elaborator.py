@@ -19,7 +19,7 @@ Names may also denote a family of unknowns, a macro, a robot or a table (the `En
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
@@ -30,6 +30,7 @@ from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.elaborate.context import DEFAULT_UNITS
 from calib_dsl.elaborate.expressions import Expressions
 from calib_dsl.elaborate.loops import Loops
+from calib_dsl.elaborate.measured import Measured
 from calib_dsl.elaborate.robots import Robots
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import (
@@ -108,7 +109,7 @@ def _check_used(inputs: Inputs, run: Elaborator) -> None:
                        f"consts: {', '.join(consts)})")
 
 
-class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables):
+class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measured):
     """One elaboration: the shared state, and each AST node type's part."""
 
     def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
@@ -128,6 +129,8 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables):
         self.units_loc: Loc | None = None
         self.simulate_rows = simulate_rows
         self.tables: list[Table] = []
+        self.derived_columns: dict[tuple[str, str], Sequence[int]] = {}
+        self.negated_cells: dict[int, int] = {}
         self.globals = Scope()
         self.including: list[tuple[Path, str]] = []  # the include stack (resolved, as shown)
         self.included: set[Path] = set()

@@ -105,7 +105,12 @@ class Expressions(Context):
         return self._negate(v, e.loc)
 
     def _negate(self, v: Scalar, loc: Loc) -> Scalar:
-        return -v if isinstance(v, Fraction) else self._op("neg", (v,), loc)
+        if isinstance(v, Fraction):
+            return -v
+        out = self._op("neg", (v,), loc)
+        if v in self.dag.cells and self.dag.point(v) is not None:
+            self.negated_cells[out] = v  # an exact cell, negated (folded): still that cell
+        return out
 
     def _binop(self, e: ast.BinOp, scope: Scope) -> Value:
         if e.op == "^":

@@ -130,7 +130,10 @@ class Statements(Context):
                            f"means the same as '{s.rel}=' - write that", s.rel_loc)
         lhs, rhs = self.value(s.lhs, scope), self.value(s.rhs, scope)
         for a, b in pairs(lhs, rhs, "compare", s.rel_loc):
-            self.dag.constrain(self.node(a, s.lhs.loc), s.rel, self.node(b, s.rhs.loc), s.loc)
+            left, right = self.node(a, s.lhs.loc), self.node(b, s.rhs.loc)
+            if s.rel == "==":  # a measured side that sums cells, one with an error: one reading
+                left, right = self.measured_pair(left, right) or (left, right)
+            self.dag.constrain(left, s.rel, right, s.loc)
 
     # -- declarations of unknowns ---------------------------------------------------------
     def _decl(self, s: ast.Decl, scope: Scope, top: bool) -> None:

@@ -21,6 +21,9 @@ class Column:
     header: str | None = None  # its name in the file, when not `name`
     unit: str | None = None  # its unit in the file, when stated (converted to the model's)
     factor: tuple[float, float] = (1.0, 1.0)  # file unit -> model unit, an enclosure
+    # not in the file: the sum of these columns (a measured side elaborate/measured.py made
+    # one reading), each row's cell the sum of theirs rounded outward
+    derived: tuple[str, ...] = ()
 
 
 @dataclass

@@ -41,15 +41,28 @@ def min_error_json(r: MinError) -> dict[str, Any]:
 
 
 def render_conflict(c: Conflict) -> str:
+    if c.priors:
+        return "\n".join(["the priors at fault: with these search domains widened the data are "
+                          "proven consistent (a point satisfies every row under interval "
+                          "evaluation), so no row need be wrong:"]
+                         + [f"  {f.text()}" for f in c.priors]
+                         + ["widen them, or check their nominal values, before leaving out "
+                            "any row"])
+    units = ["units to check (every row looks wrong; no row is named):"] \
+        + [f"  {u}" for u in c.units] if c.units else []
     rows = ", ".join(f"{r.file}:{r.line} (data row {r.row}, {r.residual:.3g} bounds off by "
                      "least squares)" for r in c.rows)
+    if not c.rows:
+        return "\n".join(units)
     if not c.consistent:
-        return (f"the worst rows by least squares: {rows}; without them the rest was not "
-                "proven consistent (more rows may be at fault, or the model does not fit)")
+        return "\n".join(units + [
+            f"the worst rows by least squares: {rows}; without them the rest was not "
+            "proven consistent (more rows may be at fault, or the model does not fit)"])
     one = len(c.rows) == 1
-    lines = [f"without {'this row' if one else 'these rows'} the rest of the data is proven "
-             f"consistent (a point satisfies every other row under interval evaluation): {rows}",
-             "every conflicting set of rows contains " + ("it" if one else "one of them")]
+    lines = units + [
+        f"without {'this row' if one else 'these rows'} the rest of the data is proven "
+        f"consistent (a point satisfies every other row under interval evaluation): {rows}",
+        "every conflicting set of rows contains " + ("it" if one else "one of them")]
     if c.needed is not None:
         lines.append("each of them is needed (with any one back the rest was not proven "
                      "consistent)" if c.needed else "not proven minimal: fewer of them may do")
@@ -59,4 +72,6 @@ def render_conflict(c: Conflict) -> str:
 def conflict_json(c: Conflict) -> dict[str, Any]:
     return {"rows": [{"file": r.file, "line": r.line, "row": r.row, "residual": r.residual}
                      for r in c.rows],
-            "rest_consistent": c.consistent, "each_needed": c.needed}
+            "rest_consistent": c.consistent, "each_needed": c.needed, "units": c.units,
+            "priors": [{"name": f.name, "wanted": f.wanted, "end": f.end,
+                        "domain": [f.lo, f.hi]} for f in c.priors]}

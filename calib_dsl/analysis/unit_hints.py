@@ -1,0 +1,158 @@
+"""Units to check, for data proven inconsistent: a column or an error bound off by a unit's
+factor makes every row look wrong, and the rows are not what to blame.
+
+Each rule measures a ratio and names a column when the ratio sits within NEAR of a unit
+factor (1000: mm and m; 180/pi: deg and rad):
+- a measured column's values spread that many times more or less than the model's
+  predictions of them at the middle of the search domains (the file's unit is not the one
+  declared);
+- least squares leaves most of a measured column's residuals (BOUND_QUANTILE of them)
+  within that many times its error bound, by a fit that gross rows do not pull, and most
+  rows beyond it (the bound is in another unit than the model's);
+- a joint reading column declared `in deg` whose values all lie within one 180/pi-th of a
+  half turn (radians declared as degrees);
+- and least squares that does not converge from the middle of the domains is said too.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from calib_dsl.analysis.lsq import estimate, linearized, residuals
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+
+FACTORS = ((1000.0, "1000 (mm and m)"), (180 / math.pi, "57 (deg and rad)"))
+NEAR = 1.5  # a ratio within this factor of a unit factor (either way) is named
+# Least squares leaves data drawn within their bounds with most residuals near a bound (the
+# largest just over it); this quantile of them measures the bound, a few gross rows aside.
+BOUND_QUANTILE = 0.9
+MOST = 0.5  # a bound in the wrong unit leaves more than this share of the rows beyond it
+ROBUST_EVALUATIONS = 50  # of the robust fit, from the least-squares estimate (nearby)
+
+
+def unit_hints(model: Model, prog: Program) -> list[str]:
+    """A line per column (or bound) whose unit to check; empty when no ratio points at one."""
+    s = prog.slots
+    ind = independents(prog)
+    lo, hi = s.lo[ind], s.hi[ind]
+    middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
+    out = _spreads(prog, middle) + _readings(model, prog)
+    est = estimate(prog, start=middle, max_evaluations=200)
+    if not est.converged:
+        out.append("least squares did not converge from the middle of the search domains: "
+                   "check the units of the table's columns (`in mm`, `in deg`) and of the "
+                   "error bounds")
+    elif np.all(np.isfinite(est.values)):
+        out += _bounds(prog, _robust(prog, est.values))
+    return out
+
+
+def _near(ratio: float) -> str | None:
+    for factor, label in FACTORS:
+        for f in (factor, 1 / factor):
+            if ratio > 0 and abs(math.log(ratio / f)) <= math.log(NEAR):
+                return label
+    return None
+
+
+def _by_column(prog: Program, p: np.ndarray) -> dict[str, tuple[np.ndarray, ...]]:
+    """Per measured column: its values (the middles of the cells), the model's residuals at
+    p (predicted minus measured) and the bounds."""
+    s = prog.slots
+    sides = s.measured_sides or {}
+    lin = linearized(prog, p, owners=False)
+    cols: dict[str, list[int]] = {}
+    for i, slot in enumerate(lin.slots.tolist()):
+        if slot in sides and s.col_keys is not None:
+            cols.setdefault(s.col_keys[sides[slot][1]][1], []).append(i)
+    out: dict[str, tuple[np.ndarray, ...]] = {}
+    for name, rows in cols.items():
+        at = lin.slots[rows]
+        out[name] = (0.5 * s.lo[at] + 0.5 * s.hi[at], lin.d[rows], lin.half[rows])
+    return out
+
+
+def _spreads(prog: Program, middle: np.ndarray) -> list[str]:
+    found: dict[tuple[str, bool], list[tuple[str, float]]] = {}
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        for name, (values, d, _) in _by_column(prog, middle).items():
+            ratio = float(np.std(values) / np.std(values + d))
+            label = _near(ratio) if np.isfinite(ratio) else None
+            if label is not None:
+                found.setdefault((label, ratio > 1), []).append((name, ratio))
+    out = []
+    for (label, more), cols in found.items():
+        names = ", ".join(n for n, _ in cols)
+        r = float(np.median([max(x, 1 / x) for _, x in cols]))
+        out.append(f"column{'s' if len(cols) > 1 else ''} {names}: the values spread {r:.3g} "
+                   f"times {'more' if more else 'less'} than the model predicts them at the "
+                   f"middle of the domains, about {label}: check the unit the table declares")
+    return out
+
+
+def _robust(prog: Program, start: np.ndarray) -> np.ndarray:
+    """A fit that gross rows do not pull: least squares with a soft L1 loss past one bound
+    (least squares spreads one gross row's error over every row, and most residuals would
+    be large for it alone)."""
+    from scipy.optimize import least_squares
+
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    with np.errstate(invalid="ignore", over="ignore"):
+        sol = least_squares(lambda p: residuals(prog, p)[0], np.clip(start, lo, hi),
+                            jac=lambda p: residuals(prog, p)[1], bounds=(lo, hi), method="trf",
+                            x_scale="jac", loss="soft_l1", f_scale=1.0,
+                            max_nfev=ROBUST_EVALUATIONS)
+    return np.asarray(sol.x) if np.all(np.isfinite(sol.x)) else start
+
+
+def _bounds(prog: Program, p: np.ndarray) -> list[str]:
+    found: dict[str, list[tuple[str, float]]] = {}
+    columns = _by_column(prog, p)
+    over = [np.abs(d) > half for _, d, half in columns.values()]
+    if not over or np.mean(np.concatenate(over)) < MOST:
+        return []  # most rows hold: a few gross ones, not a unit
+    for name, (_, d, half) in columns.items():
+        ok = half > 0
+        if not ok.any():
+            continue
+        ratio = float(np.quantile(np.abs(d[ok]) / half[ok], BOUND_QUANTILE))
+        label = _near(ratio) if ratio > 1 else None
+        if label is not None:
+            found.setdefault(label, []).append((name, ratio))
+    out = []
+    for label, cols in found.items():
+        r = float(np.median([x for _, x in cols]))
+        out.append(f"column{'s' if len(cols) > 1 else ''} {', '.join(n for n, _ in cols)}: "
+                   f"least squares leaves {BOUND_QUANTILE:.0%} of the residuals within {r:.3g} "
+                   f"times the error bound, about {label}: check that the bound is in the "
+                   "model's units (a -D value, a const)")
+    return out
+
+
+def _readings(model: Model, prog: Program) -> list[str]:
+    """Columns declared `in deg` that are not measured sides (joint readings) whose values
+    all lie within a 180/pi-th of a half turn: radians declared as degrees."""
+    s = prog.slots
+    measured = {s.col_keys[c] for _, c in (s.measured_sides or {}).values()} \
+        if s.col_keys is not None else set()
+    cols, top = [], 0.0
+    for t in model.tables:
+        for c in t.columns:
+            if c.unit != "deg" or c.name not in t.bounds or (t.name, c.name) in measured:
+                continue
+            lo, hi = t.bounds[c.name]
+            most = float(np.max(np.maximum(np.abs(lo), np.abs(hi)))) if len(lo) else 0.0
+            if 0 < most <= math.pi / (180 / math.pi):
+                cols.append(c.name)
+                top = max(top, most)
+    out = []
+    if cols:
+        out.append(f"column{'s' if len(cols) > 1 else ''} {', '.join(cols)}: declared `in deg`"
+                   f", but every value is within {math.degrees(top):.3g} in the file "
+                   f"({top:.3g} rad): are they radians?")
+    return out
