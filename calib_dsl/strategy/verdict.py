@@ -170,6 +170,9 @@ def _undecided(prog: Program, res: Solution, largest: float | None, tried: tuple
                far: Attempts) -> Verdict:
     fit = ("no fit" if largest is None else
            f"the Chebyshev fit's largest residual is {largest:.4g} error bounds")
+    if largest is not None and largest <= 1.0:
+        fit += (": within every bound in floating point, but the interval check at that "
+                "point failed")
     reason = (f"no parameter vector was proven to satisfy every constraint, nor the data "
               f"proven inconsistent ({fit}); the result below encloses every solution "
               "but may be empty")
@@ -200,11 +203,19 @@ def next_step(prog: Program, effort: Effort | None, far: Attempts,
               largest: float | None) -> str:
     """The command to run next: with rows far beyond their bound, --outliers K (one per such
     row, at most 3); else --min-error on the const of an error bound, where the model has
-    one."""
-    cmd = effort.command if effort is not None else "calibc solve MODEL"
+    one; without an effort (hc4), the tight strategy."""
+    if effort is None:  # (no effort: the quick look of --strategy hc4)
+        return ("calibc solve MODEL (with the same options but the tight strategy, the "
+                "default: it seeks a proof of inconsistency)")
+    cmd = effort.command
+    if largest is not None and largest <= 1.0 and not far:
+        return ("none that decides it: the data are likely consistent (a fit within every "
+                "bound), but its interval check failed (rounding at a bound, or rows that "
+                "compare two computed values, as orientations, which it proves only one per "
+                "configuration)")
     if far:
         return f"{cmd} --outliers {min(len(far), 3)}"
-    names = _bound_consts(effort.model) if effort is not None and effort.model else []
+    names = _bound_consts(effort.model) if effort.model else []
     if names:
         return f"{cmd} --min-error {names[0]}"
     return f"{cmd} --outliers 1"
