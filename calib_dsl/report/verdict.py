@@ -15,8 +15,8 @@ def render_verdict(v: Verdict) -> list[str]:
     lines = [v.headline()]
     if v.budget is not None:
         lines.append(f"  {'tried' if v.verdict == UNDECIDED else 'decided'} in {v.seconds:.2f} s "
-                     f"beyond the solve (at most {v.budget:.2f} s: the solve's time times "
-                     "settings.verdict_share)")
+                     f"beyond the solve (its budget {v.budget:.2f} s: the solve's time times "
+                     "settings.verdict_share; a step started within it runs to its end)")
     lines += [f"  - {t}" for t in v.tried]
     if v.next_step is not None:
         lines.append(f"  next: {v.next_step}")

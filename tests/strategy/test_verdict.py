@@ -108,7 +108,7 @@ def faulty_verdict(tmp: Path, robot: dict[str, float], seed: int, row: int, colu
     return data["verdict"]
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                   HealthCheck.function_scoped_fixture])
 @given(robot=robots, seed=st.integers(0, 10_000), row=st.integers(0, ROWS - 1),
        column=st.sampled_from(["x", "y"]),
