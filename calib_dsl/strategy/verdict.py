@@ -12,6 +12,7 @@ the solve's.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -223,5 +224,7 @@ def next_step(prog: Program, effort: Effort | None, far: Attempts,
 
 def _bound_consts(model: Model) -> list[str]:
     """The model's consts whose value is some column's error bound."""
-    tols = {c.tol for t in model.tables for c in t.columns if c.tol > 0}
-    return sorted(n for n, v in model.consts.items() if float(v) in tols)
+    tols = [c.tol for t in model.tables for c in t.columns if c.tol > 0]
+    # (a column's bound is the const's value rounded outward)
+    return sorted(n for n, v in model.consts.items()
+                  if any(math.isclose(float(v), tol, rel_tol=1e-9) for tol in tols))

@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 
 from calib_dsl import cli
 from calib_dsl.analysis.simulate import simulate
+from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.pipeline import min_error, solve_report
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -229,3 +230,15 @@ def test_the_ur10_tracker6d_verdict_is_not_silent(tmp_path):
     assert_said(code, out, text, err)
     if out["verdict"] != "consistent":
         assert out["decision"]["budget"] is not None and out["decision"]["tried"]
+
+
+def test_the_next_command_names_the_const_of_an_error_bound(tmp_path):
+    """Undecided without rows far beyond their bound: the next command brackets the const
+    whose value is the columns' error bound (given with -D, as the user gave it)."""
+    from calib_dsl.pipeline import load_model
+    from calib_dsl.strategy.verdict import Effort, next_step
+
+    model = arm(tmp_path, {"l1": 1.0, "l2": 0.5, "l3": 0.3, "o2": 0.0, "o3": 0.0}, 1)
+    elaborated, prog = load_model(model, inputs=Inputs(consts={"e": "9.4e-5"}))
+    assert next_step(prog, Effort(elaborated, None), [], 1.03).endswith("--min-error e")
+    assert next_step(prog, Effort(elaborated, None), [(0, 50.0)], 1.03).endswith("--outliers 1")
