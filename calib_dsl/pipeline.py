@@ -265,7 +265,7 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     extra = Extras()
     if res.status == "contracted" and inner is not False:
         extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
-    effort = (_effort(model, formulation, inputs, prog, elaborated, tol, max_sweeps)
+    effort = (effort_for(model, formulation, inputs, prog, elaborated, tol, max_sweeps)
               if strategy == "tight" else None)
     res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
                           _told(progress))
@@ -287,7 +287,7 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
                        solve_warnings(prog, res, elaborated), verdict=verdict)
 
 
-def _effort(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,
+def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,
             elaborated: Model | None, tol: float, max_sweeps: int) -> Effort:
     """What the verdict may spend (strategy/verdict.py): the program without some data rows,
     on this one's domains (a proof about other rows must hold on the same box)."""

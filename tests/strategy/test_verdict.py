@@ -242,3 +242,43 @@ def test_the_next_command_names_the_const_of_an_error_bound(tmp_path):
     elaborated, prog = load_model(model, inputs=Inputs(consts={"e": "9.4e-5"}))
     assert next_step(prog, Effort(elaborated, None), [], 1.03).endswith("--min-error e")
     assert next_step(prog, Effort(elaborated, None), [(0, 50.0)], 1.03).endswith("--outliers 1")
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                 HealthCheck.function_scoped_fixture])
+@given(robot=robots, seed=st.integers(0, 10_000))
+def test_the_proof_effort_never_refutes_the_truth(tmp_path, robot, seed, monkeypatch):
+    """Soundness of strategy/refute.py: on data the truth satisfies, with no point certified
+    (the check stubbed out) and every row a candidate outlier, every attempt runs and none
+    proves an inconsistency."""
+    from dataclasses import replace
+
+    from calib_dsl.pipeline import effort_for, load_model, solve
+    from calib_dsl.settings import DEFAULT
+    from calib_dsl.strategy import verdict
+
+    monkeypatch.setattr(verdict, "certified_point", lambda *a, **k: (False, None))
+    model = arm(tmp_path / f"s{seed}", robot, seed)
+    elaborated, prog = load_model(model)
+    res = solve(prog)
+    effort = replace(effort_for(model, "matrix", None, prog, elaborated, 1e-5, 1000),
+                     settings=replace(DEFAULT, verdict_outlier_bounds=0.0, verdict_share=10.0,
+                                      verdict_outlier_rows=2))
+    ended, said = verdict.decide(prog, res, False, effort)
+    assert said.verdict == "undecided" and ended.status == "contracted"
+    assert any("certain-outlier proof" in t for t in said.tried), said.tried
+    assert any(t.startswith("split") for t in said.tried), said.tried
+
+
+def test_solve_outliers_gives_the_verdict_of_all_rows_but_k(tmp_path):
+    """--outliers 1 on a file with one moved coordinate: the rest is certified, so the rows
+    but at most one are consistent (exit 0), while the plain solve proves the file
+    inconsistent (exit 1)."""
+    model = arm(tmp_path, {"l1": 1.0, "l2": 0.5, "l3": 0.3, "o2": 0.01, "o3": -0.02}, 7)
+    data = moved(model, 3, "x", 0.01)
+    code, out, text, err = verdict_of(model, "--data", str(data), "--outliers", "1")
+    assert_said(code, out, text, err)
+    assert out["verdict"] == "consistent" and out["outliers"]["certain"] == [4]
+    code, out, text, err = verdict_of(model, "--data", str(data))
+    assert_said(code, out, text, err)
+    assert out["verdict"] == "inconsistent"
