@@ -209,6 +209,9 @@ def next_step(prog: Program, effort: Effort | None, far: Attempts,
         return ("calibc solve MODEL (with the same options but the tight strategy, the "
                 "default: it seeks a proof of inconsistency)")
     cmd = effort.command
+    if effort.model is None or not effort.model.tables:
+        return ("none with other options: the model has no data rows to leave out or bound "
+                "to bracket; narrower search domains make the relaxations tighter")
     if largest is not None and largest <= 1.0 and not far:
         return ("none that decides it: the data are likely consistent (a fit within every "
                 "bound), but its interval check failed (rounding at a bound, or rows that "
