@@ -2,11 +2,11 @@
 
 Within a budget of seconds, in this order:
 
-1. *A certain outlier.* Each data row that the least-squares fit (`far_rows`) leaves more
+1. *A row at fault.* Each data row that the least-squares fit (`far_rows`) leaves more
    than `verdict_outlier_bounds` error bounds off, the worst first: the other
    rows are solved alone, on the same domains. Every solution of all rows is one of theirs,
    so it lies in their box; where propagation and rounds of LPs over all rows empty that
-   box, there is none (the row fails wherever the others hold: a certain outlier).
+   box, there is none (the row fails wherever the others hold).
 2. *Fine rounds by what they gain.* Rounds of LPs over the result, one of each kind the
    program admits (every product tied by McCormick's inequalities; the readings' errors as
    LP columns with them, where the readings have errors): a kind whose round gains less than
@@ -99,14 +99,14 @@ class Refuter:
         if self.progress is not None:
             self.progress(text)
 
-    # -- 1. certain outliers ------------------------------------------------------------------
+    # -- 1. a row at fault -------------------------------------------------------------------
     def _outliers(self) -> None:
         if self.load is None or self.model is None:
             return
         costs: list[float] = []
         for rid, residual in self.found.far:
             if not self.affords(float(np.mean(costs)) if costs else self.res.seconds):
-                self.found.tried.append(f"certain-outlier proof of {self._row(rid)}: not "
+                self.found.tried.append(f"proof against {self._row(rid)}: not "
                                         "tried (the budget was spent)")
                 continue
             t = time.perf_counter()
@@ -115,10 +115,10 @@ class Refuter:
             costs.append(time.perf_counter() - t)
             if proof is not None:
                 self.found.proof = proof
-                self.found.tried.append(f"certain-outlier proof of {self._row(rid)}: proven "
+                self.found.tried.append(f"proof against {self._row(rid)}: proven "
                                         f"({costs[-1]:.2f} s)")
                 return
-            self.found.tried.append(f"certain-outlier proof of {self._row(rid)} "
+            self.found.tried.append(f"proof against {self._row(rid)} "
                                     f"({residual:.3g} bounds off by least squares): not "
                                     f"proven ({costs[-1]:.2f} s)")
 
@@ -149,8 +149,8 @@ class Refuter:
 
     @staticmethod
     def _outlier_text(row: str, residual: float) -> str:
-        return (f"{row} ({residual:.3g} bounds off by least squares) is a certain outlier: "
-                "the solutions of the other rows lie in a box where it fails, so no "
+        return (f"{row} ({residual:.3g} bounds off by least squares) fails wherever the "
+                "other rows hold (their solutions lie in a box where it fails), so no "
                 "parameter vector satisfies every row")
 
     def _row(self, rid: int) -> str:

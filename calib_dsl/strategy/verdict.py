@@ -4,7 +4,7 @@
 inner bounds' points, else the Chebyshev fit). *inconsistent*: a proof that no vector does
 (the solve's, or one found here). *undecided*: neither. A solve whose point was not certified
 spends a bounded effort (`verdict_share` of its own time) on a proof of inconsistency before
-it says so (strategy/refute.py): the certain-outlier proof of the rows least squares leaves
+it says so (strategy/refute.py): a proof against each row least squares leaves
 far beyond their bound, the fine rounds of LPs by what each kind gains, and a split. Nothing
 here narrows a result it keeps: a proof ends the solve as inconsistent, else the result is
 the solve's.
