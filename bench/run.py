@@ -142,7 +142,7 @@ def run_process(cmd: list[str]) -> dict[str, float]:
         _, status, usage = os.wait4(proc.pid, 0)
         proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - start
-    if proc.returncode not in (0, 1):  # 1: infeasible, a result too
+    if proc.returncode not in (0, 1, 4):  # 1: inconsistent, 4: undecided, results too
         raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): {err.decode()[-2000:]}")
     return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime,
             "rss": usage.ru_maxrss / 1024.0}

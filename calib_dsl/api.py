@@ -200,6 +200,13 @@ class Result:
         raise KeyError(f"no declared unknown '{name}' (the unknowns: "
                        f"{', '.join(p.name for p in self.parameters)})")
 
+    @property
+    def verdict(self) -> str:
+        """"consistent" (a point is certified), "inconsistent" (proven) or "undecided"
+        (strategy/verdict.py; calibc solve exits 0, 1 or 4)."""
+        assert self._report.verdict is not None
+        return self._report.verdict.verdict
+
     def text(self, every: bool = False) -> str:
         """The report `calibc solve` prints (`every`: as with --all)."""
         return self._report.text(every)

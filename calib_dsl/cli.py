@@ -215,8 +215,8 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
                            max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
                            diagnose=diagnose, progress=progress, outliers=outliers,
                            shave=shave)
-    for w in run.warnings:
-        click.echo(f"calibc: warning: {w}", err=True)
+    for line in run.stderr_lines():  # the warnings, and a verdict left undecided
+        click.echo(line, err=True)
     if json_path != "-":
         click.echo(run.text(every))
     result = run.as_json()
@@ -226,8 +226,8 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     _json_out(json_path, result)
     outputs.plotted(result, plot_path)
     outputs.export_domains(result, export_domains)
-    if run.res.status == "infeasible":
-        sys.exit(1)
+    if run.exit_code:  # 1: proven inconsistent; 4: undecided (docs/decisions/verdicts.md)
+        sys.exit(run.exit_code)
 
 
 def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: str,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import gc
 import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -38,12 +39,14 @@ from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
 from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
+from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.outlier_proof import pinned, prove_outliers
 from calib_dsl.strategy.outliers import solve_outliers
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
+from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
 
 
 def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
@@ -173,9 +176,28 @@ class SolveReport:
     found: Conflict | None = None
     warnings: list[str] = field(default_factory=list)
     outliers: Outliers | None = None  # --outliers K: the rows at fault
+    verdict: Verdict | None = None  # consistent, inconsistent or undecided
+
+    def __post_init__(self) -> None:
+        if self.verdict is None:  # (no decision sought: the solve's own word)
+            self.verdict = decide(self.prog, self.res, None, None)[1]
+
+    @property
+    def exit_code(self) -> int:
+        assert self.verdict is not None
+        return self.verdict.exit_code
+
+    def stderr_lines(self) -> list[str]:
+        """What `calibc solve` prints on standard error: the warnings, and the verdict when
+        it is undecided."""
+        assert self.verdict is not None
+        loud = stderr_line(self.verdict)
+        return [f"calibc: warning: {w}" for w in self.warnings] + ([loud] if loud else [])
 
     def as_json(self) -> dict[str, Any]:
-        more: dict[str, Any] = {"warnings": self.warnings}
+        assert self.verdict is not None
+        more: dict[str, Any] = {"warnings": self.warnings, "verdict": self.verdict.verdict,
+                                "decision": self.verdict.as_json()}
         if self.found is not None:
             more["conflict"] = conflict_json(self.found)
         if self.outliers is not None:
@@ -184,7 +206,9 @@ class SolveReport:
 
     def text(self, every: bool = False) -> str:
         """The report `calibc solve` prints (`every`: as with --all)."""
-        out = [render_table(self.prog, self.res, self.extra, every), "",
+        assert self.verdict is not None
+        out = [*render_verdict(self.verdict),
+               render_table(self.prog, self.res, self.extra, every, self.verdict.verdict), "",
                render_summary(self.prog, self.res, self.strategy, self.extra)]
         if self.found is not None:
             out.append(render_conflict(self.found))
@@ -236,6 +260,7 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
         return loader(excluding(given, data_rows(elaborated, prog, rows), first))[1]
 
     more: list[Row] = []
+    kept: Program | None = prog  # all rows but at most k: the certain outliers out
     if left == 0:
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, progress=progress)
         certain, possible = [], []
@@ -246,6 +271,7 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
         found = solve_outliers(prog, left, without, tol=tol, max_sweeps=max_sweeps,
                                progress=progress)
         res, certain, possible = found.solution, found.certain, found.possible
+        kept = without(certain) if 0 < len(certain) <= left else prog
     extra = Extras()
     if res.status == "contracted" and identify:
         extra.identify(prog, res, use_lp=True)
@@ -253,7 +279,8 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
                               key=lambda r: (r.table, r.row)),
                     [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
                     proven=len(proven))
-    return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows)
+    return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows,
+                       of_outliers(res, kept, k))
 
 
 def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
@@ -269,9 +296,14 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     if None)."""
     res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
     extra = Extras()
+    if res.status == "contracted" and inner is not False:
+        extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
+    effort = (effort_for(model, formulation, inputs, prog, elaborated, tol, max_sweeps)
+              if strategy == "tight" else None)
+    res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
+                          _told(progress))
     if res.status == "contracted":
         if inner is not False:
-            extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
             if strategy == "tight" or shave:  # (hc4 is propagation alone, unless asked)
                 res = extra.shave(prog, res, shave, tol, max_sweeps)
         elif shave:
@@ -285,7 +317,33 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)
     return SolveReport(prog, res, extra, strategy, found,
-                       solve_warnings(prog, res, elaborated))
+                       solve_warnings(prog, res, elaborated), verdict=verdict)
+
+
+def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,
+            elaborated: Model | None, tol: float, max_sweeps: int) -> Effort:
+    """What the verdict may spend (strategy/verdict.py): the program without some data rows,
+    on this one's domains (a proof about other rows must hold on the same box)."""
+    given = inputs or Inputs()
+    load = None
+    if elaborated is not None and len(elaborated.tables) == 1:
+        loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
+        first = elaborated.tables[0].name
+
+        def load(ids: list[int]) -> Program:
+            assert elaborated is not None
+            return loader(excluding(given, data_rows(elaborated, prog, ids), first))[1]
+
+    return Effort(elaborated, load, DEFAULT, tol, max_sweeps,
+                  f"calibc solve {model} (with the same options)")
+
+
+def _told(progress: Progress | None) -> Any:
+    """The verdict's steps as progress stages (no width: they do not narrow the box)."""
+    if progress is None:
+        return None
+    start = time.perf_counter()
+    return lambda label: progress(label, None, time.perf_counter() - start)
 
 
 def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str = "matrix",

@@ -147,6 +147,17 @@ class Settings:
     shave_min_gap: float = 0.005
     shave_share: float = 0.3
 
+    # -- verdicts (strategy/verdict.py, strategy/refute.py) -----------------------------------
+    # A solve that certified no point spends at most this share of its own time on proving
+    # the data inconsistent before it says "undecided" (0: none): the user is owed a verdict,
+    # and a proof costs about a solve (a solve without one row, a round of LPs, a split).
+    verdict_share: float = 1.0
+    # A data row the least-squares fit leaves more than this many error bounds off is tried
+    # as a certain outlier (the other rows solved alone): data whose bounds are a few percent
+    # too tight leave every row near 1; one faulty coordinate leaves its row far beyond.
+    verdict_outlier_bounds: float = 2.0
+    verdict_outlier_rows: int = 3  # such rows tried at most, the worst first
+
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut
     # into split_pieces pieces, each refined by at most split_rounds rounds of its own, if

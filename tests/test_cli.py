@@ -24,7 +24,7 @@ PAPER_CSE = EXAMPLES / "paper_cse.cal"
 PAPER_PROP = EXAMPLES / "paper_propagation.cal"
 TOP_KEYS = {"model", "status", "stop", "sweeps", "lp_rounds", "reused_rounds", "seconds",
             "primitives", "formulation", "strategy", "parameters", "narrowed", "split",
-            "warnings"}
+            "warnings", "verdict", "decision"}
 OPTIONAL_TOP = {"emptied", "identifiability", "least_squares", "tightness", "history",
                 "residuals"}
 PARAM_KEYS = {"kind", "domain", "result", "true"}
@@ -193,12 +193,17 @@ def test_solve_json_file(tmp_path):
 
 def test_solve_says_when_no_parameter_was_narrowed(write_model, tmp_path):
     # y = x^2 over x in [-1, 1], y in [0, 1]: every x and every y has a partner
+    # (an equation between unknowns holds at no floating-point point that is not exact: no
+    # point is certified, and the verdict says so, with exit 4)
     model = write_model("param x in [-1, 1];\nvar y in [0, 1];\ny == x * x;\n")
     out = tmp_path / "r.json"
     res = run("solve", model, "--strategy", "hc4", "--json", out)
-    assert res.exit_code == 0
+    assert res.exit_code == 4
+    assert res.stdout.startswith("VERDICT: UNDECIDED")
+    assert "calibc: UNDECIDED" in res.stderr
     assert "note: no parameter was narrowed" in res.stdout
-    assert json.loads(out.read_text(encoding="utf-8"))["narrowed"] == []
+    data = json.loads(out.read_text(encoding="utf-8"))
+    assert data["narrowed"] == [] and data["verdict"] == "undecided"
 
 
 @pytest.mark.parametrize("strategy", ["hc4", "tight"])
@@ -467,4 +472,5 @@ def test_known_parameters_are_named_not_listed_unless_all():
                      re.M)
     for name in ("r0", "b3z", "r2", "r3"):  # narrowed, or not identifiable alone
         table_row(short.stdout, name)
-    assert short.stdout.startswith("# result: proven to hold every consistent value")
+    assert short.stdout.startswith("verdict: consistent: ")
+    assert "\n\n# result: proven to hold every consistent value" in short.stdout

@@ -11,15 +11,18 @@ from calib_dsl.ir.program import Program
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
+from calib_dsl.report.verdict import UNDECIDED_TABLE
 from calib_dsl.strategy.solution import Solution
 
 
 def render_table(prog: Program, res: Solution, extra: Extras | None = None,
-                 every: bool = False) -> str:
+                 every: bool = False, verdict: str | None = None) -> str:
     """One line per declared unknown (by default only those the data narrowed or cannot
     identify alone; `every`: all): search domain, result and certified inner interval as
     printed, each end rounded to DIGITS significant digits away from the inside of the
-    interval (inward for the inner one), so what is printed keeps what is proven."""
+    interval (inward for the inner one), so what is printed keeps what is proven. With the
+    `verdict` undecided, a stated true value inside reads `true in box`: no solution is
+    proven to exist."""
     extra = extra or Extras()
     rows = parameter_rows(prog, res)
     kept = [] if every else _kept(rows, extra)
@@ -38,8 +41,10 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None,
 
     centres = any(r["true"] is None and r.get("centre") is not None for r in rows)
     out = [_legend(extra, centres), line(head), "-" * len(line(head))]
+    if verdict == "undecided":
+        out.insert(1, UNDECIDED_TABLE)
     for r, cells in zip(rows, table, strict=True):
-        out.append(line(cells) + _marks(r, extra))
+        out.append(line(cells) + _marks(r, extra, verdict == "undecided"))
     if kept:
         shown = " ".join(kept[:12]) + (f" ... ({len(kept) - 12} more)" if len(kept) > 12 else "")
         out.append(f"({len(kept)} more kept their whole search domain, not shown: {shown}; "
@@ -93,11 +98,14 @@ def _row(r: dict[str, Any], extra: Extras) -> list[str]:
     return cells
 
 
-def _marks(r: dict[str, Any], extra: Extras) -> str:
+def _marks(r: dict[str, Any], extra: Extras, undecided: bool = False) -> str:
     if r["result"] is None:
         return ""
     unident = "  (not identifiable alone)" if r["name"] in extra.not_identifiable() else ""
-    return _truth_mark(r) + unident
+    mark = _truth_mark(r)
+    if undecided:
+        mark = mark.replace("true inside", "true in box")
+    return mark + unident
 
 
 _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no solution "

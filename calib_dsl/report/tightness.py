@@ -45,8 +45,9 @@ def tightness(prog: Program, res: Solution, extra: Extras) -> dict[str, Any] | N
 
 def render_tightness(t: dict[str, Any]) -> list[str]:
     if not t["consistent"]:
-        return ["inner bounds: none certified (no parameter vector was proven to satisfy every "
-                "constraint; the data may still be consistent)"]
+        return ["inner bounds: none certified (their search proved no parameter vector to "
+                "satisfy every constraint; the verdict, first in the report, says whether "
+                "another proof did)"]
     lines = ["the data are consistent: a parameter vector is proven to satisfy every "
              "constraint (interval evaluation at the point)"]
     if t["certified"]:

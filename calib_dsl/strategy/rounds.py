@@ -14,7 +14,10 @@ A round is four named steps:
    (`remainder_readings`) and the model reads measured values, the fine rounds keep the
    readings' errors as LP columns instead (relax/quadratic_readings.py). When McCormick's
    fine rounds stall while the rows' remainders still cost the bounds much (what their LPs'
-   multipliers pay for them: `readings_cost`), rounds with both follow.
+   multipliers pay for them: `readings_cost`), rounds with both follow. Where the readings'
+   rounds cannot help (no relaxation with them can be built, or their first round gains
+   less than `fine_min_gain`: exact readings, `: +- 0`, give columns fixed at 0),
+   McCormick's rounds follow, kept while they gain as much.
 2. `bounds`: certified bounds on every unknown, from the last LPs' multipliers on the new
    box (a matrix product) while that pays, else from LPs solved again.
 3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
@@ -79,6 +82,10 @@ class LPRounds:
     # program has them (else every product tied by McCormick's inequalities): a slice of a
     # solved box (strategy/shave.py) is already where first order has nothing left to give
     fine_start: bool = False
+    # with fine_start, which fine rounds begin: "readings" (the readings' errors as LP
+    # columns, McCormick's instead where the program has none), "mccormick" (every product
+    # tied by McCormick's inequalities), or "both"
+    fine_kind: str = "readings"
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
@@ -121,6 +128,8 @@ class _Rounds:
     fine: bool = False  # the fine second-order rounds have begun
     fine_readings: bool = False  # ... with the readings' errors as LP columns
     readings_mccormick: bool = False  # ... and McCormick's inequalities
+    kind_rounds: int = 0  # rounds of LPs of the present kind of fine rounds
+    both_tried: bool = False  # the readings' rounds with McCormick's inequalities began
     # the fine rounds' multipliers, kept apart: the shared `certs` keep the first-order
     # rounds' bases, which the pieces of a split (first-order rounds) start from
     fine_certs: Certificates = field(default_factory=Certificates)
@@ -139,8 +148,9 @@ class _Rounds:
         self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
         if spec.fine_start:
-            self.fine = self.fine_readings = True
-            self.reuse = False
+            self.fine, self.reuse = True, False
+            self.fine_readings = spec.fine_kind in ("readings", "both")
+            self.readings_mccormick = self.both_tried = spec.fine_kind == "both"
 
     def run(self) -> Outcome:
         while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
@@ -193,14 +203,13 @@ class _Rounds:
     def _fine_relaxation(self) -> tuple[LinearRelaxation, Expansion] | None:
         """The fine rounds' relaxation: with the readings' errors as LP columns where chosen,
         else every product tied by McCormick's inequalities. Where the readings' one cannot
-        be built, a solve's rounds end (it chose it for a remainder McCormick's cannot
-        meet), while a slice (fine_start) takes McCormick's instead."""
+        be built (no readings), McCormick's is taken instead."""
         prog, lo, hi = self.spec.prog, self.lo, self.hi
         if self.fine_readings:
             fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick)
-            if fine is not None or not self.spec.fine_start:
+            if fine is not None:
                 return fine
-            self.fine_readings = False
+            self.fine_readings = self.readings_mccormick = False
         return relax_quadratic(prog, lo, hi, prune=0.0, mccormick=True, rows=self.spec.rows)
 
     # -- 2. certified bounds -----------------------------------------------------------------
@@ -270,6 +279,7 @@ class _Rounds:
             self.reuse = best >= s.reuse_gain
             return True
         self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.fine))
+        self.kind_rounds += 1
         # the next round first tries this round's multipliers, unless its LPs are as cheap
         # as a relaxation (folded first-order rounds), or the second-order phase is over
         # (a round without a first-order relaxation: the second-order one's estimate of the
@@ -286,10 +296,26 @@ class _Rounds:
             self.skip = np.zeros_like(self.skip)
             if best >= (s.fine_min_gain if self.fine else s.wide_min_gain):
                 return True
-            # else neither order contracts this box, unless the readings' errors, folded
-            # into the rows' remainders, are what holds the fine rounds' bounds
-            return self.fine and self._readings_rounds(this)
+            # else neither order contracts this box, unless the other kind of fine rounds
+            # may: McCormick's where the readings' gained nothing from their first round,
+            # the readings' where their errors, folded into the rows' remainders, are what
+            # holds McCormick's bounds
+            return self.fine and (self._mccormick_rounds() or self._readings_rounds(this))
         return self._next_first_order(this, gains, best)
+
+    def _mccormick_rounds(self) -> bool:
+        """Whether McCormick's fine rounds follow the readings' (without McCormick's
+        inequalities): where the readings' first round gained less than fine_min_gain, their
+        columns cannot help (exact readings: fixed at 0) and the remainders are the
+        products', which McCormick's inequalities meet. Where the readings' rounds gained
+        first and then stalled, the box is where the relaxations leave it. (Rounds that were
+        told their kind, fine_start, keep it.)"""
+        if (self.spec.fine_start or not self.fine_readings or self.readings_mccormick
+                or self.kind_rounds > 1):
+            return False
+        self.fine_readings, self.kind_rounds = False, 0
+        self.skip = np.zeros_like(self.skip)
+        return True
 
     def _readings_rounds(self, this: _Round) -> bool:
         """The fine rounds (McCormick's) are over: whether fine rounds with the readings' errors
@@ -298,7 +324,8 @@ class _Rounds:
         last LPs' multipliers): on many rows with joint readings that cost is mostly the
         readings' errors, which columns meet where a remainder pays them in every row
         (docs/decisions/10). Not on a sample of rows (no such relaxation)."""
-        if self.fine_readings or self.spec.rows is not None or this.quad is None:
+        if (self.fine_readings or self.both_tried or self.spec.rows is not None
+                or this.quad is None):
             return False
         width = self.hi[self.ind] - self.lo[self.ind]
         cost = self.fine_certs.remainder_cost(this.quad[0], len(self.ind))
@@ -306,7 +333,8 @@ class _Rounds:
             share = np.where(width > 0, cost / np.where(width > 0, width, 1.0), 0.0)
         if share.max(initial=0.0) < self.spec.settings.readings_cost:
             return False
-        self.fine_readings = self.readings_mccormick = True
+        self.fine_readings = self.readings_mccormick = self.both_tried = True
+        self.kind_rounds = 0
         return True
 
     def _next_first_order(self, this: _Round, gains: np.ndarray, best: float) -> bool:
@@ -352,7 +380,7 @@ class _Rounds:
                 return False
             self.fine_readings = True
         self.fine, self.cells, self.reuse = True, False, False
-        self.skip = np.zeros_like(self.skip)
+        self.skip, self.kind_rounds = np.zeros_like(self.skip), 0
         return True
 
 

@@ -1,0 +1,281 @@
+"""Proofs of inconsistency sought after a solve that certified no point (strategy/verdict.py).
+
+Within a budget of seconds, in this order:
+
+1. *A row at fault.* Each data row that the least-squares fit (`far_rows`) leaves more
+   than `verdict_outlier_bounds` error bounds off, the worst first: the other
+   rows are solved alone, on the same domains. Every solution of all rows is one of theirs,
+   so it lies in their box; where propagation and rounds of LPs over all rows empty that
+   box, there is none (the row fails wherever the others hold).
+2. *Fine rounds by what they gain.* Rounds of LPs over the result, one of each kind the
+   program admits (every product tied by McCormick's inequalities; the readings' errors as
+   LP columns with them, where the readings have errors): a kind whose round gains less than
+   `fine_min_gain` sits out until another kind's narrows the box that much.
+3. *A split.* The box is cut in halves along the unknown widest within its domain, each
+   half contracted by propagation and rounds of LPs, and the halves left cut again: the
+   data are inconsistent once every piece is proven empty.
+
+A step starts only if, at the mean cost of the steps before it (the solve's time before
+any), it ends within the budget; the first always starts.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from calib_dsl.analysis.lsq import linearized
+from calib_dsl.analysis.outlier_rows import data_rows
+from calib_dsl.analysis.readings import Readings
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.model import Model
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.certify import Certificates
+from calib_dsl.propagate.diagnose import Emptied
+from calib_dsl.relax.layout import independents
+from calib_dsl.settings import Settings
+from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence
+from calib_dsl.strategy.rounds import LPRounds
+from calib_dsl.strategy.solution import Solution
+from calib_dsl.strategy.tight import solve_tight
+
+# The program without these data rows (ids of Slots.row_keys), on the solve's domains
+RowLoader = Callable[[list[int]], Program]
+Attempts = list[tuple[int, float]]  # data row ids and their residuals in bounds
+FAILURES = (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError, MemoryError)
+KIND_NAMES = {"mccormick": "McCormick's inequalities",
+              "both": "the readings' errors as LP columns, and McCormick's inequalities"}
+
+
+@dataclass(frozen=True)
+class Proof:
+    emptied: Emptied
+    text: str
+
+
+@dataclass
+class Found:
+    proof: Proof | None = None
+    tried: list[str] = field(default_factory=list)
+    far: Attempts = field(default_factory=list)  # the rows far beyond their bound
+
+
+@dataclass
+class Refuter:
+    prog: Program
+    res: Solution
+    model: Model | None
+    load: RowLoader | None
+    settings: Settings
+    tol: float
+    max_sweeps: int
+    budget: float
+    start: float  # the clock's reading when the effort began
+    progress: Callable[[str], None] | None = None
+    found: Found = field(default_factory=Found)
+    box: tuple[np.ndarray, np.ndarray] | None = None  # the result after the fine rounds
+
+    def run(self, far: Attempts) -> Found:
+        self.found.far = far
+        for attempt in (self._outliers, self._rounds, self._split):
+            if self.found.proof is not None:
+                break
+            try:
+                attempt()
+            except FAILURES as err:  # a failure proves nothing: the next attempt runs
+                self.found.tried.append(f"{attempt.__name__.strip('_')}: stopped "
+                                        f"({type(err).__name__}: {err})")
+        return self.found
+
+    # -- the budget ---------------------------------------------------------------------------
+    def affords(self, cost: float) -> bool:
+        spent = time.perf_counter() - self.start
+        return spent + cost <= self.budget or not self.found.tried
+
+    def _say(self, text: str) -> None:
+        if self.progress is not None:
+            self.progress(text)
+
+    # -- 1. a row at fault -------------------------------------------------------------------
+    def _outliers(self) -> None:
+        if self.load is None or self.model is None:
+            return
+        costs: list[float] = []
+        for rid, residual in self.found.far:
+            if not self.affords(float(np.mean(costs)) if costs else self.res.seconds):
+                self.found.tried.append(f"proof against {self._row(rid)}: not "
+                                        "tried (the budget was spent)")
+                continue
+            t = time.perf_counter()
+            self._say(f"verdict: without {self._row(rid)}")
+            proof = self._without(rid, residual)
+            costs.append(time.perf_counter() - t)
+            if proof is not None:
+                self.found.proof = proof
+                self.found.tried.append(f"proof against {self._row(rid)}: proven "
+                                        f"({costs[-1]:.2f} s)")
+                return
+            self.found.tried.append(f"proof against {self._row(rid)} "
+                                    f"({residual:.3g} bounds off by least squares): not "
+                                    f"proven ({costs[-1]:.2f} s)")
+
+    def _without(self, rid: int, residual: float) -> Proof | None:
+        assert self.load is not None
+        other = self.load([rid])
+        sol = solve_tight(other, tol=self.tol, max_sweeps=self.max_sweeps,
+                          settings=self.settings)
+        row = self._row(rid)
+        if sol.status == "infeasible":  # a part of the data is inconsistent: so is the whole
+            assert sol.emptied is not None
+            return Proof(sol.emptied, f"the data without {row} were proven inconsistent "
+                         "(and so are all the data)")
+        lo, hi = self.res.lo.copy(), self.res.hi.copy()
+        names = {other.slots.names[j]: j for j in other.slots.declared
+                 if other.slots.kinds[j] == "param"}
+        for i in self.prog.slots.declared:
+            j = names.get(self.prog.slots.names[i])
+            if j is not None and self.prog.slots.kinds[i] == "param":
+                lo[i], hi[i] = max(lo[i], sol.lo[j]), min(hi[i], sol.hi[j])
+        if np.any(lo > hi):
+            return Proof(Emptied(self.prog.slots.names[int(np.flatnonzero(lo > hi)[0])], None,
+                                 None), self._outlier_text(row, residual))
+        out = self._contract(lo, hi, first_order=True)
+        if out.emptied is None:
+            return None
+        return Proof(out.emptied, self._outlier_text(row, residual))
+
+    @staticmethod
+    def _outlier_text(row: str, residual: float) -> str:
+        return (f"{row} ({residual:.3g} bounds off by least squares) fails wherever the "
+                "other rows hold (their solutions lie in a box where it fails), so no "
+                "parameter vector satisfies every row")
+
+    def _row(self, rid: int) -> str:
+        assert self.model is not None
+        r = data_rows(self.model, self.prog, [rid])[0]
+        return f"{r.file}:{r.line} (data row {r.row})"
+
+    # -- 2. fine rounds by their gain -----------------------------------------------------------
+    def _rounds(self) -> None:
+        kinds = ["mccormick"]
+        readings = Readings(self.prog)
+        if len(readings.at) and np.any(readings.half > 1e-300):
+            kinds.append("both")
+        lo, hi = self.res.lo.copy(), self.res.hi.copy()
+        ind = independents(self.prog)
+        stalled: set[str] = set()
+        costs: list[float] = []
+        done: dict[str, list[float]] = {k: [] for k in kinds}
+        while len(stalled) < len(kinds):
+            kind = next(k for k in kinds if k not in stalled)
+            if not self.affords(float(np.mean(costs)) if costs else self.res.seconds):
+                break
+            t = time.perf_counter()
+            self._say(f"verdict: fine rounds ({KIND_NAMES[kind]})")
+            out = LPRounds(self.prog, self.settings, Certificates(), self.tol, self.max_sweeps,
+                           1, fine_start=True, fine_kind=kind).contract(lo, hi)
+            costs.append(time.perf_counter() - t)
+            if out.emptied is not None:
+                self.found.proof = Proof(out.emptied, "rounds of LPs over the result's box "
+                                         f"({KIND_NAMES[kind]}) proved that it holds no "
+                                         "solution")
+                self.found.tried.append(f"fine rounds ({KIND_NAMES[kind]}): proven "
+                                        f"({sum(costs):.2f} s)")
+                return
+            gain = float(_gains(hi[ind] - lo[ind], out.hi[ind] - out.lo[ind]).max(initial=0.0))
+            done[kind].append(gain)
+            lo, hi = out.lo, out.hi
+            stalled = {kind} | stalled if gain < self.settings.fine_min_gain else set()
+            if sum(map(len, done.values())) >= self.settings.max_rounds:
+                break
+        self.box = (lo, hi)
+        for kind, gains in done.items():
+            if gains:
+                self.found.tried.append(
+                    f"fine rounds ({KIND_NAMES[kind]}): {len(gains)}, the largest gain "
+                    f"{max(gains):.1%} of an unknown's width, no proof")
+        if not costs:
+            self.found.tried.append("fine rounds: not tried (the budget was spent)")
+
+    # -- 3. a split ---------------------------------------------------------------------------
+    def _split(self) -> None:
+        queue = [self.box or (self.res.lo, self.res.hi)]
+        costs: list[float] = []
+        last: Emptied | None = None
+        while queue:
+            a, b = queue[0]
+            k = self._widest(a, b)
+            if k is None or not self.affords(
+                    2 * (float(np.mean(costs)) if costs else 0.5 * self.res.seconds)):
+                break  # a point not proven empty, or the budget is spent
+            queue.pop(0)
+            for pa, pb in _halves(a, b, k):
+                t = time.perf_counter()
+                self._say(f"verdict: split piece {len(costs) + 1}")
+                out = self._contract(pa, pb, first_order=False)
+                costs.append(time.perf_counter() - t)
+                if out.emptied is None:
+                    queue.append((out.lo, out.hi))
+                else:
+                    last = out.emptied
+        if not queue and last is not None:
+            self.found.proof = Proof(last, f"a split of the result's box into {len(costs)} "
+                                     "pieces proved each of them empty")
+            self.found.tried.append(f"split: every piece proven empty ({sum(costs):.2f} s)")
+        elif costs:
+            self.found.tried.append(f"split: {len(costs)} pieces contracted, {len(queue)} "
+                                    f"not proven empty ({sum(costs):.2f} s)")
+        else:
+            self.found.tried.append("split: not tried (the budget was spent)")
+
+    def _widest(self, a: np.ndarray, b: np.ndarray) -> int | None:
+        """The slot of the unknown widest within its domain (None: the box is a point)."""
+        ind = independents(self.prog)
+        dom = self.prog.slots.hi[ind] - self.prog.slots.lo[ind]
+        with np.errstate(all="ignore"):
+            rel = np.where(dom > 0, (b[ind] - a[ind]) / dom, 0.0)
+        rel = np.where(np.isfinite(rel), rel, 0.0)
+        return int(ind[int(np.argmax(rel))]) if rel.max(initial=0.0) > 0 else None
+
+    def _contract(self, lo: np.ndarray, hi: np.ndarray, first_order: bool) -> Outcome:
+        """Propagation and rounds of LPs over all rows on the box [lo, hi]."""
+        s = self.settings
+        steps = Sequence((Propagation(self.prog, self.tol, self.max_sweeps),
+                          LPRounds(self.prog, s, Certificates(), self.tol, self.max_sweeps,
+                                   s.split_rounds, second_order=not first_order)),
+                         max_sweeps=self.max_sweeps)
+        return steps.contract(lo, hi)
+
+
+def far_rows(prog: Program, values: np.ndarray, s: Settings) -> Attempts:
+    """The data rows that the parameter vector `values` (a least-squares fit) leaves more
+    than verdict_outlier_bounds off, worst first (at most verdict_outlier_rows)."""
+    try:
+        with np.errstate(all="ignore"):
+            lin = linearized(prog, values)
+            r = np.abs(lin.d) / np.maximum(lin.half, 1e-300)
+    except FAILURES:
+        return []
+    worst: dict[int, float] = {}
+    for row, x in zip(lin.data_row.tolist(), r.tolist(), strict=True):
+        if row >= 0 and np.isfinite(x):
+            worst[row] = max(worst.get(row, 0.0), x)
+    far = sorted(((k, v) for k, v in worst.items() if v > s.verdict_outlier_bounds),
+                 key=lambda kv: -kv[1])
+    return far[:s.verdict_outlier_rows]
+
+
+def _halves(a: np.ndarray, b: np.ndarray, k: int
+            ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    mid = 0.5 * (a[k] + b[k])
+    lower, upper = b.copy(), a.copy()
+    lower[k] = upper[k] = mid
+    return (a.copy(), lower), (upper, b.copy())
+
+
+def _gains(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(before > 0, (before - after) / np.where(before > 0, before, 1), 0.0)
