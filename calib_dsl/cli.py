@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import sys
@@ -95,13 +94,6 @@ def _load(model: str, formulation: str, inputs: Any = None):
     return load(model, formulation, inputs=inputs)
 
 
-def _write(path: str, text: str) -> None:
-    try:
-        Path(path).write_text(text, encoding="utf-8")
-    except OSError as err:
-        raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
-
-
 @click.group()
 @click.version_option(package_name="calibc")
 def main() -> None:
@@ -123,12 +115,13 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
             defines: tuple[str, ...], unroll: bool) -> None:
     """Compile MODEL into its primitive-constraint listing."""
-    from calib_dsl.compile.listing import listing_json, render_listing
+    from calib_dsl.compile.listing import render_listing
+    from calib_dsl.report.strict_json import dumps
 
     prog = _load(model, formulation, _inputs(data, rows, exclude, defines, unroll))
-    text = listing_json(prog) + "\n" if as_json else render_listing(prog)
+    text = dumps(prog.counts(), indent=2) + "\n" if as_json else render_listing(prog)
     if output:
-        _write(output, text)
+        outputs.write(output, text)
     else:
         click.echo(text, nl=False)
 
@@ -223,7 +216,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if (residuals or plot_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
                                                 quiet=json_path == "-")
-    _json_out(json_path, result)
+    outputs.json_out(json_path, result)
     outputs.plotted(result, plot_path)
     outputs.export_domains(result, export_domains)
     if run.res.status == "infeasible":
@@ -255,9 +248,10 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
     """Which parameters of MODEL the measurements can determine, which move with which, and
     a well-conditioned subset to calibrate (judged against the data's error bounds)."""
     from calib_dsl.analysis.advice import advice_json, advise, render
+    from calib_dsl.report.strict_json import dumps
 
     info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
-    click.echo(json.dumps(advice_json(info), indent=2) if as_json else render(info))
+    click.echo(dumps(advice_json(info), indent=2) if as_json else render(info))
 
 
 def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -317,15 +311,7 @@ def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
 def _out(json_path: str | None, text: str, data: dict) -> None:
     if json_path != "-":
         click.echo(text)
-    _json_out(json_path, data)
-
-
-def _json_out(json_path: str | None, data: dict) -> None:
-    """`data` as JSON to the file json_path, '-' for stdout (None: nowhere)."""
-    if json_path == "-":
-        click.echo(json.dumps(data, indent=2))
-    elif json_path:
-        _write(json_path, json.dumps(data, indent=2) + "\n")
+    outputs.json_out(json_path, data)
 
 
 @main.command()
@@ -349,7 +335,7 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
                        _inputs(data, rows, exclude, defines, unroll), quiet)
     if csv_path:
-        _write(csv_path, prediction_csv(found))
+        outputs.write(csv_path, prediction_csv(found))
     _out(json_path, render_prediction(found), {"model": model, **prediction_json(found)})
 
 

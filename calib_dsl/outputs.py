@@ -79,6 +79,17 @@ def export_domains(result: dict[str, Any], path: str | None) -> None:
     write(path, domains_cal(result))
 
 
+def json_out(json_path: str | None, data: dict) -> None:
+    """`data` as strict JSON (docs/json.md) to the file json_path, '-' for stdout (None:
+    nowhere)."""
+    from calib_dsl.report.strict_json import dumps
+
+    if json_path == "-":
+        click.echo(dumps(data, indent=2))
+    elif json_path:
+        write(json_path, dumps(data, indent=2) + "\n")
+
+
 def write(path: str, text: str) -> None:
     try:
         Path(path).write_text(text, encoding="utf-8")

@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import gc
-import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,7 @@ from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
+from calib_dsl.report.strict_json import dumps
 from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
@@ -288,8 +288,7 @@ def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
         raise CalError(f"the result's parameters are malformed ({err!r})") from None
     tables, units = robot_tables(source, box)
     if fmt == "json":
-        return json.dumps(export_json(data, tables, units, units_of(tables, units)),
-                          indent=2) + "\n"
+        return dumps(export_json(data, tables, units, units_of(tables, units)), indent=2) + "\n"
     if not tables:
         raise CalError(f"{source} has no robot: a {fmt} export needs one (--format json "
                        "writes its parameters)")

@@ -115,6 +115,8 @@ def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need:
     e = need * (1 + 1e-6) + 1e-12
     for _ in range(4):
         _, prog = load(_with(inputs, name, e))
+        ind = independents(prog)  # an LP's point may sit a rounding outside a domain
+        point = np.clip(point, prog.slots.lo[ind], prog.slots.hi[ind])
         check = check_point(prog, point,
                             None if readings is None else Readings(prog).from_cells(readings))
         if check.holds:

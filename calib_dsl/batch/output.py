@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.report.strict_json import dumps
 
 UNFINISHED = ("error", "failed")  # statuses --retry-errors runs again
 
@@ -55,7 +56,7 @@ class Results:
             raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
 
     def add(self, line: dict[str, Any]) -> None:
-        self.file.write(json.dumps(line) + "\n")
+        self.file.write(dumps(line) + "\n")
         self.file.flush()  # in the file now: a kill after this keeps it
 
     def close(self) -> None:
