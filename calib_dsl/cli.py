@@ -372,7 +372,8 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
               help="Seed of the random draws (a non-negative integer): the same seed gives "
                    "the same file.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True,
-              help="The CSV file to write (in the dialect of the model's table).")
+              help="The CSV file to write (in the dialect of the model's table); '-' for "
+                   "standard output.")
 @QUIET
 @FORMULATION
 @user_errors
@@ -385,7 +386,7 @@ def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
     with progress_line("simulating", quiet) as progress:
         run(model, configs, seed, formulation=formulation, out_csv=Path(output),
             progress=progress)
-    click.echo(f"wrote {configs} configurations to {output}")
+    click.echo(f"wrote {configs} configurations to {output}", err=output == "-")
 
 
 @main.command()
