@@ -66,7 +66,8 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     @wraps(fn)
     def run(*args: Any, **kwargs: Any) -> Any:
         try:
-            return fn(*args, **kwargs)
+            with outputs.quiet_numerics():
+                return fn(*args, **kwargs)
         except CalError as err:
             click.echo(err.render(), err=True)
             sys.exit(2)
@@ -78,6 +79,9 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
         except BrokenPipeError:  # `calibc solve ... | head`: the reader left, nothing is wrong
             sys.stderr.close()
             sys.exit(0)
+        except OSError as err:  # the system's, not ours: a full disk, a lost file system
+            click.echo(f"error: {outputs.os_error(err)}", err=True)
+            sys.exit(2)
         except Exception as exc:  # a bug of ours: say so plainly
             if os.environ.get("CALIBC_DEBUG"):
                 traceback.print_exc()

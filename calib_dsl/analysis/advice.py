@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.analysis.identify import finite_jacobian
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -58,10 +59,13 @@ def advise(prog: Program) -> Advice:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point, where = _point(prog, ind)
-    _, jac = residuals(prog, point)
-    half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
-    half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
-    js = jac * half
+    with np.errstate(all="ignore"):
+        r, jac = residuals(prog, point)
+        half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
+        half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
+        # a NaN residual is a row whose value overflowed both ways (an inequality's is
+        # infinite one way only): its zero row would read as "not seen"
+        js = finite_jacobian(np.where(np.isnan(r)[:, None], np.nan, jac * half), where)
     s = np.linalg.svd(js, compute_uv=False) if js.size else np.zeros(0)
     rank = int(np.sum(s >= SEEN))
     keep = _subset(js, rank)

@@ -39,10 +39,11 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point = _nominal(prog, ind, names, design)
-    J = constraint_jacobian(prog, point)
-    scale = prog.slots.hi[ind] - prog.slots.lo[ind]
-    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-    Js = J * scale
+    with np.errstate(all="ignore"):
+        J = constraint_jacobian(prog, point)
+        scale = prog.slots.hi[ind] - prog.slots.lo[ind]
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        Js = finite_jacobian(J * scale, "the nominal values")
     # only V is needed (n x n either way); a full U would be rows x rows
     _, s, vt = np.linalg.svd(Js, full_matrices=Js.shape[0] < Js.shape[1])
     s_full = np.zeros(len(names))
@@ -56,6 +57,16 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > DEFAULT.rank_tol * top][:3]
     weakest = [(float(s_full[k]), _direction(names, vt[k], scale)) for k in nonzero]
     return Identifiability(names, rank, s_full, ident, groups, weakest)
+
+
+def finite_jacobian(js: np.ndarray, where: str) -> np.ndarray:
+    """`js`, or a user error when it is not finite: its SVD would not converge (numbers
+    near 1e154, whose squares overflow the floats), and no rank can be read from it."""
+    if not np.all(np.isfinite(js)):
+        raise CalError(f"identifiability: the Jacobian at {where} is not finite in floating "
+                       "point (the model's numbers overflow, e.g. coordinates near 1e154 "
+                       "squared): express the model in units that keep its numbers smaller")
+    return js
 
 
 def analyse_design(prog: Program) -> Identifiability | None:

@@ -197,9 +197,20 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
         number = cell.replace(",", ".")
     else:
         number = cell
-    if not _NUMBER.fullmatch(number):
+    match = _NUMBER.fullmatch(number)
+    if not match:
         raise CalError(f"{where}: '{cell}' is not a number", loc)
-    value = float(number)
+    value = float(number)  # correctly rounded, however many digits
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
+    exponent = match.group(3)
+    if len(number) > MAX_EXACT_CHARS or (exponent and abs(int(exponent[1:])) > MAX_EXACT_CHARS):
+        # exactly, it would cost a huge integer; the floats on each side of the correctly
+        # rounded value hold the exact one
+        return value, float(np.nextafter(value, -np.inf)), float(np.nextafter(value, np.inf))
     return (value, *enclose_decimal(number))
+
+
+# a cell longer than this is enclosed by its float's neighbours instead of exactly (an
+# exponent past it would make an exact Fraction of 10**exponent): far past a float's 17 digits
+MAX_EXACT_CHARS = 400
