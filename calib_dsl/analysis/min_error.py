@@ -188,6 +188,12 @@ def row_owners(prog: Program) -> list[tuple[str, int] | None]:
     p = 0.5 * (s.lo[ind] + s.hi[ind])
     lo, hi = s.lo.copy(), s.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = evaluation(prog, lo, hi, ind, p, point=True).run()
+    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=True)
+    rows = ev.run()
+    if not rows:
+        return []
     owner = np.concatenate([r[3] for r in rows])
+    # a row without a measured side of its own (a circle's points on one unknown radius)
+    # belongs to the one data row whose cells it reads (-2: several, -1: none)
+    owner = np.where(owner >= 0, owner, ev.data_rows())
     return [s.row_keys[o] if 0 <= o < len(s.row_keys) else None for o in owner.tolist()]

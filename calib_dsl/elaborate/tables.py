@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from calib_dsl.arith.exact import add_rounded, enclose_decimal
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection, select
 from calib_dsl.frontend.diagnostics import CalError, Loc
-from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, capped_lines
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, NotUtf8, TooLarge, capped_lines
 
 FloatArray = NDArray[np.float64]
 
@@ -140,9 +140,10 @@ def _lines(name: str, decl_loc: Loc | None) -> Iterator[str]:
         raise CalError(f"data file '{name}' not found", decl_loc) from None
     except IsADirectoryError:
         raise CalError(f"data file '{name}' is a directory", decl_loc) from None
-    except UnicodeDecodeError as err:
-        raise CalError(f"data file '{name}' is not UTF-8 text ({err.reason})",
-                       decl_loc) from None
+    except NotUtf8 as err:
+        raise CalError(f"data file '{name}' is not UTF-8 text ({err.reason}: byte "
+                       f"{err.object[err.start]:#04x}; save it as UTF-8)",
+                       Loc(name, err.line, err.col)) from None
     except OSError as err:
         raise CalError(f"cannot read data file '{name}': {err.strerror}", decl_loc) from None
 
