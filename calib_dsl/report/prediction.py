@@ -28,7 +28,9 @@ def comparable(p: Prediction) -> None:
         raise CalError(f"the model has no measured column for the held-out rows of {p.file}: "
                        "there is nothing to validate (a table column stated `+- bound` "
                        "that a constraint compares with is one)")
-    if p.rows and np.all(np.isnan(p.measured)):
+    if not p.rows:
+        raise CalError(f"no held-out rows of {p.file} are left to validate on")
+    if np.all(np.isnan(p.measured)):
         raise CalError(f"{p.file} holds no measured value ({', '.join(p.columns)}) in its "
                        "held-out rows: there is nothing to compare the predictions with")
 
