@@ -34,7 +34,7 @@ from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
-from calib_dsl.report.strict_json import dumps
+from calib_dsl.report.strict_json import dumps, plain
 from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.warnings import solve_warnings
@@ -142,12 +142,14 @@ class SolveReport:
     outliers: Outliers | None = None  # --outliers K: the rows at fault
 
     def as_json(self) -> dict[str, Any]:
+        """The `--json` document as plain data, in the strict JSON's convention (an infinite
+        number "+oo"/"-oo", a NaN None: docs/json.md), so that any JSON writer writes it."""
         more: dict[str, Any] = {"warnings": self.warnings}
         if self.found is not None:
             more["conflict"] = conflict_json(self.found)
         if self.outliers is not None:
             more["outliers"] = self.outliers.as_json()
-        return {**result_json(self.prog, self.res, self.strategy, self.extra), **more}
+        return plain({**result_json(self.prog, self.res, self.strategy, self.extra), **more})
 
     def text(self, every: bool = False) -> str:
         """The report `calibc solve` prints (`every`: as with --all)."""

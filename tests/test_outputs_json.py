@@ -120,3 +120,12 @@ def test_batch_lines_are_strict(tmp_path):
     assert res.exit_code == 0, res.output
     lines = (tmp_path / "out.jsonl").read_text(encoding="utf-8").splitlines()
     assert [strict(x)["result"]["tightness"]["median_ratio"] for x in lines] == ["+oo"]
+
+
+def test_the_python_api_document_is_strict_too():
+    """`calib_dsl.solve(...).as_json()` is the --json document: any writer writes it strictly."""
+    import calib_dsl
+
+    doc = calib_dsl.solve(calib_dsl.load(EXAMPLES / "paper_propagation.cal")).as_json()
+    assert doc["tightness"]["median_ratio"] == "+oo"
+    strict(json.dumps(doc, allow_nan=False))
