@@ -142,6 +142,17 @@ def test_coordinates_near_1e154(calibc, tmp_path):
         assert "Warning" not in res.stderr and "Traceback" not in res.stderr, res.stderr
 
 
+@pytest.mark.parametrize("model", ["unbounded", "language_tour"])
+def test_identify_over_unbounded_domains_still_answers(tmp_path, model):
+    """Rows infinite at the middle of an unbounded domain are no overflow: no error."""
+    path = ROOT / "models" / "examples" / "language_tour.cal"
+    if model == "unbounded":
+        path = tmp_path / "u.cal"
+        path.write_text("param a in [-oo, oo];\nparam b in [0, 1];\na >= b;\n", encoding="utf-8")
+    res = run("identify", path)
+    assert res.exit_code == 0 and res.stdout.startswith("identifiability at "), res.output
+
+
 def test_a_1e308_cell_leaks_no_numpy_warning(calibc, tmp_path):
     (tmp_path / "d.csv").write_text("x,y\n1e308,1e308\n1,5\n-2,3\n", encoding="utf-8")
     res = shell(calibc, "solve", CIRCLE, "--data", tmp_path / "d.csv", "-q", "--lsq")

@@ -71,6 +71,7 @@ SEEDS = [  # the repros of issue 40, as arguments
     ["solve", "line.cal", "--min-error", "e", "-q"],
     ["solve", "line.cal", "--residuals", "-q"],
     ["export", "out.json", "--format", "json"],
+    ["identify", "unbounded.cal"],
 ]
 
 

@@ -63,9 +63,11 @@ def advise(prog: Program) -> Advice:
         r, jac = residuals(prog, point)
         half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
         half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
-        # a NaN residual is a row whose value overflowed both ways (an inequality's is
-        # infinite one way only): its zero row would read as "not seen"
-        js = finite_jacobian(np.where(np.isnan(r)[:, None], np.nan, jac * half), where)
+        # over finite domains, a NaN residual is a row whose value overflowed (its zero row
+        # would read as "not seen"); an unbounded domain makes such rows of its own
+        bounded = bool(np.all(np.isfinite(prog.slots.lo[ind]) & np.isfinite(prog.slots.hi[ind])))
+        overflow = np.isnan(r) & bounded
+        js = finite_jacobian(np.where(overflow[:, None], np.nan, jac * half), where)
     s = np.linalg.svd(js, compute_uv=False) if js.size else np.zeros(0)
     rank = int(np.sum(s >= SEEN))
     keep = _subset(js, rank)
