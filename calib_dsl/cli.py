@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import sys
@@ -67,7 +66,8 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     @wraps(fn)
     def run(*args: Any, **kwargs: Any) -> Any:
         try:
-            return fn(*args, **kwargs)
+            with outputs.quiet_numerics():
+                return fn(*args, **kwargs)
         except CalError as err:
             click.echo(err.render(), err=True)
             sys.exit(2)
@@ -79,6 +79,9 @@ def user_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
         except BrokenPipeError:  # `calibc solve ... | head`: the reader left, nothing is wrong
             sys.stderr.close()
             sys.exit(0)
+        except OSError as err:  # the system's, not ours: a full disk, a lost file system
+            click.echo(f"error: {outputs.os_error(err)}", err=True)
+            sys.exit(2)
         except Exception as exc:  # a bug of ours: say so plainly
             if os.environ.get("CALIBC_DEBUG"):
                 traceback.print_exc()
@@ -93,13 +96,6 @@ def _load(model: str, formulation: str, inputs: Any = None):
     from calib_dsl.pipeline import load
 
     return load(model, formulation, inputs=inputs)
-
-
-def _write(path: str, text: str) -> None:
-    try:
-        Path(path).write_text(text, encoding="utf-8")
-    except OSError as err:
-        raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
 
 
 @click.group()
@@ -123,12 +119,13 @@ def compile(model: str, output: str | None, as_json: bool, formulation: str,
             data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
             defines: tuple[str, ...], unroll: bool) -> None:
     """Compile MODEL into its primitive-constraint listing."""
-    from calib_dsl.compile.listing import listing_json, render_listing
+    from calib_dsl.compile.listing import render_listing
+    from calib_dsl.report.strict_json import dumps
 
     prog = _load(model, formulation, _inputs(data, rows, exclude, defines, unroll))
-    text = listing_json(prog) + "\n" if as_json else render_listing(prog)
+    text = dumps(prog.counts(), indent=2) + "\n" if as_json else render_listing(prog)
     if output:
-        _write(output, text)
+        outputs.write(output, text)
     else:
         click.echo(text, nl=False)
 
@@ -223,7 +220,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if (residuals or plot_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
                                                 quiet=json_path == "-")
-    _json_out(json_path, result)
+    outputs.json_out(json_path, result)
     outputs.plotted(result, plot_path)
     outputs.export_domains(result, export_domains)
     if run.exit_code:  # 1: proven inconsistent; 4: undecided (docs/decisions/verdicts.md)
@@ -255,9 +252,10 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
     """Which parameters of MODEL the measurements can determine, which move with which, and
     a well-conditioned subset to calibrate (judged against the data's error bounds)."""
     from calib_dsl.analysis.advice import advice_json, advise, render
+    from calib_dsl.report.strict_json import dumps
 
     info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
-    click.echo(json.dumps(advice_json(info), indent=2) if as_json else render(info))
+    click.echo(dumps(advice_json(info), indent=2) if as_json else render(info))
 
 
 def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -317,15 +315,7 @@ def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
 def _out(json_path: str | None, text: str, data: dict) -> None:
     if json_path != "-":
         click.echo(text)
-    _json_out(json_path, data)
-
-
-def _json_out(json_path: str | None, data: dict) -> None:
-    """`data` as JSON to the file json_path, '-' for stdout (None: nowhere)."""
-    if json_path == "-":
-        click.echo(json.dumps(data, indent=2))
-    elif json_path:
-        _write(json_path, json.dumps(data, indent=2) + "\n")
+    outputs.json_out(json_path, data)
 
 
 @main.command()
@@ -349,7 +339,7 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
                        _inputs(data, rows, exclude, defines, unroll), quiet)
     if csv_path:
-        _write(csv_path, prediction_csv(found))
+        outputs.write(csv_path, prediction_csv(found))
     _out(json_path, render_prediction(found), {"model": model, **prediction_json(found)})
 
 
@@ -386,7 +376,8 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
               help="Seed of the random draws (a non-negative integer): the same seed gives "
                    "the same file.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True,
-              help="The CSV file to write (in the dialect of the model's table).")
+              help="The CSV file to write (in the dialect of the model's table); '-' for "
+                   "standard output.")
 @QUIET
 @FORMULATION
 @user_errors
@@ -399,7 +390,7 @@ def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
     with progress_line("simulating", quiet) as progress:
         run(model, configs, seed, formulation=formulation, out_csv=Path(output),
             progress=progress)
-    click.echo(f"wrote {configs} configurations to {output}")
+    click.echo(f"wrote {configs} configurations to {output}", err=output == "-")
 
 
 @main.command()

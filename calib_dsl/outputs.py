@@ -5,7 +5,9 @@ module stays one a reader can hold."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +79,37 @@ def export_domains(result: dict[str, Any], path: str | None) -> None:
                    err=True)
         return
     write(path, domains_cal(result))
+
+
+def json_out(json_path: str | None, data: dict) -> None:
+    """`data` as strict JSON (docs/json.md) to the file json_path, '-' for stdout (None:
+    nowhere)."""
+    from calib_dsl.report.strict_json import dumps
+
+    if json_path == "-":
+        click.echo(dumps(data, indent=2))
+    elif json_path:
+        write(json_path, dumps(data, indent=2) + "\n")
+
+
+@contextmanager
+def quiet_numerics() -> Iterator[None]:
+    """numpy's floating-point warnings (an overflow to inf, an inf - inf) kept off standard
+    error: the code handles the inf and NaN they make (every bound stays sound), and a user
+    can do nothing with "RuntimeWarning: overflow encountered in matmul"."""
+    import numpy as np
+
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
+
+
+def os_error(err: OSError) -> str:
+    """An OSError in one line: what failed, and on which file when it names one (an
+    output that fails on close names none: "No space left on device" on standard output)."""
+    what = err.strerror or str(err) or type(err).__name__
+    where = err.filename if err.filename is not None else None
+    return f"{where}: {what}" if where else f"cannot write the output: {what}"
 
 
 def write(path: str, text: str) -> None:

@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import gc
-import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -37,6 +36,7 @@ from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
+from calib_dsl.report.strict_json import dumps, plain
 from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.urdf import urdf
 from calib_dsl.report.verdict import render_verdict, stderr_line
@@ -195,6 +195,8 @@ class SolveReport:
         return [f"calibc: warning: {w}" for w in self.warnings] + ([loud] if loud else [])
 
     def as_json(self) -> dict[str, Any]:
+        """The `--json` document as plain data, in the strict JSON's convention (an infinite
+        number "+oo"/"-oo", a NaN None: docs/json.md), so that any JSON writer writes it."""
         assert self.verdict is not None
         more: dict[str, Any] = {"warnings": self.warnings, "verdict": self.verdict.verdict,
                                 "decision": self.verdict.as_json()}
@@ -202,7 +204,7 @@ class SolveReport:
             more["conflict"] = conflict_json(self.found)
         if self.outliers is not None:
             more["outliers"] = self.outliers.as_json()
-        return {**result_json(self.prog, self.res, self.strategy, self.extra), **more}
+        return plain({**result_json(self.prog, self.res, self.strategy, self.extra), **more})
 
     def text(self, every: bool = False) -> str:
         """The report `calibc solve` prints (`every`: as with --all)."""
@@ -379,8 +381,7 @@ def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
         raise CalError(f"the result's parameters are malformed ({err!r})") from None
     tables, units = robot_tables(source, box)
     if fmt == "json":
-        return json.dumps(export_json(data, tables, units, units_of(tables, units)),
-                          indent=2) + "\n"
+        return dumps(export_json(data, tables, units, units_of(tables, units)), indent=2) + "\n"
     if not tables:
         raise CalError(f"{source} has no robot: a {fmt} export needs one (--format json "
                        "writes its parameters)")

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.analysis.identify import finite_jacobian
 from calib_dsl.analysis.lsq import estimate, residuals
-from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
@@ -59,15 +59,15 @@ def advise(prog: Program) -> Advice:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point, where = _point(prog, ind)
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        _, jac = residuals(prog, point)
-    if not np.all(np.isfinite(jac)):
-        raise CalError(f"identify: the model's rows cannot be differentiated at {where} (a "
-                       "value or derivative is not finite there, as sqrt(x) at x <= 0): "
-                       "narrow the search domains to where the model is defined")
-    half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
-    half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
-    js = jac * half
+    with np.errstate(all="ignore"):
+        r, jac = residuals(prog, point)
+        half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
+        half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
+        # over finite domains, a NaN residual is a row whose value overflowed (its zero row
+        # would read as "not seen"); an unbounded domain makes such rows of its own
+        bounded = bool(np.all(np.isfinite(prog.slots.lo[ind]) & np.isfinite(prog.slots.hi[ind])))
+        overflow = np.isnan(r) & bounded
+        js = finite_jacobian(np.where(overflow[:, None], np.nan, jac * half), where)
     s = np.linalg.svd(js, compute_uv=False) if js.size else np.zeros(0)
     rank = int(np.sum(s >= SEEN))
     keep = _subset(js, rank)

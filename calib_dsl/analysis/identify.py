@@ -39,14 +39,11 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point = _nominal(prog, ind, names, design)
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+    with np.errstate(all="ignore"):
         J = constraint_jacobian(prog, point)
-    if not np.all(np.isfinite(J)):  # (the SVD would not converge)
-        raise CalError("the model's rows cannot be differentiated at the nominal values (a "
-                       "derivative is not finite there, as sqrt(x) at x <= 0)")
-    scale = prog.slots.hi[ind] - prog.slots.lo[ind]
-    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-    Js = J * scale
+        scale = prog.slots.hi[ind] - prog.slots.lo[ind]
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        Js = finite_jacobian(J * scale, "the nominal values")
     # only V is needed (n x n either way); a full U would be rows x rows
     _, s, vt = np.linalg.svd(Js, full_matrices=Js.shape[0] < Js.shape[1])
     s_full = np.zeros(len(names))
@@ -60,6 +57,20 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > DEFAULT.rank_tol * top][:3]
     weakest = [(float(s_full[k]), _direction(names, vt[k], scale)) for k in nonzero]
     return Identifiability(names, rank, s_full, ident, groups, weakest)
+
+
+def finite_jacobian(js: np.ndarray, where: str) -> np.ndarray:
+    """`js`, or a user error when it is not finite: its SVD would not converge (a row
+    undefined there, or numbers near 1e154, whose squares overflow the floats), and no rank
+    can be read from it."""
+    if not np.all(np.isfinite(js)):
+        raise CalError(f"identifiability: the Jacobian at {where} is not finite: the model's "
+                       "rows cannot be differentiated there (a value or derivative is "
+                       "undefined, as sqrt(x) at x <= 0: narrow the search domains to where "
+                       "the model is defined; or its numbers overflow the floats, as "
+                       "coordinates near 1e154 squared: express the model in units that keep "
+                       "its numbers smaller)")
+    return js
 
 
 def analyse_design(prog: Program) -> Identifiability | None:

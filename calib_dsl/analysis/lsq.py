@@ -88,9 +88,10 @@ def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
               ) -> tuple[np.ndarray, np.ndarray]:
     """Normalized residuals of every constraint row at p (of the loop's rows `rows` only,
     if given), and their Jacobian."""
-    lin = linearized(prog, p, owners=False, rows=rows)
-    scale = np.maximum(lin.half, 1e-12)
-    return lin.d / scale, lin.jac / scale[:, None]
+    with np.errstate(all="ignore"):  # an overflow is a non-finite residual: the caller's
+        lin = linearized(prog, p, owners=False, rows=rows)
+        scale = np.maximum(lin.half, 1e-12)
+        return lin.d / scale, lin.jac / scale[:, None]
 
 
 def estimate(prog: Program, start: np.ndarray | None = None,
@@ -156,15 +157,30 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
         return cache[key]
 
     # Trust-region reflective keeps the estimate inside the search domain; the problem is
-    # nearly linear near its solution, so a few Jacobian evaluations suffice.
+    # nearly linear near its solution, so a few Jacobian evaluations suffice. A parameter
+    # whose domain is a point (-D bound=0) is fixed there: scipy wants lower < upper.
     bounds = (np.where(np.isfinite(lo), lo, -np.inf), np.where(np.isfinite(hi), hi, np.inf))
     start = np.clip(start, bounds[0], bounds[1])
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+    free = bounds[0] < bounds[1]
+
+    def full(q: np.ndarray) -> np.ndarray:
+        p = start.copy()
+        p[free] = q
+        return p
+
+    x, success = start, True
+    with np.errstate(all="ignore"):
         r0, j0 = both(start)
-    if not (np.all(np.isfinite(r0)) and np.all(np.isfinite(j0))):  # (no fit starts there)
+    if not (np.all(np.isfinite(r0)) and np.all(np.isfinite(j0))):
+        # scipy refuses such a start: no estimate (numbers that overflow the floats)
         return Estimate(names, start, float("inf"), float("inf"), False)
-    sol = least_squares(lambda p: both(p)[0], start, jac=lambda p: both(p)[1], bounds=bounds,
-                        method="trf", x_scale="jac", max_nfev=max_evaluations)
-    r = both(sol.x)[0]
-    return Estimate(names, sol.x, float(np.sqrt(np.mean(r**2))) if len(r) else 0.0,
-                    float(np.max(np.abs(r))) if len(r) else 0.0, bool(sol.success))
+    if np.any(free):
+        with np.errstate(all="ignore"):  # a trial step may overflow: scipy steps back
+            sol = least_squares(lambda q: both(full(q))[0], start[free],
+                                jac=lambda q: both(full(q))[1][:, free],
+                                bounds=(bounds[0][free], bounds[1][free]), method="trf",
+                                x_scale="jac", max_nfev=max_evaluations)
+        x, success = full(sol.x), bool(sol.success)
+    r = both(x)[0]
+    return Estimate(names, x, float(np.sqrt(np.mean(r**2))) if len(r) else 0.0,
+                    float(np.max(np.abs(r))) if len(r) else 0.0, success)

@@ -119,7 +119,8 @@ def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need:
     computed = False
     for _ in range(CERTIFY_TRIES):
         _, prog = load(_with(inputs, name, e))
-        ind = independents(prog)  # (domains centred on least squares move with the data)
+        ind = independents(prog)  # an LP's point may sit a rounding outside a domain (and
+        # domains centred on least squares move with the data)
         point = np.clip(point, prog.slots.lo[ind], prog.slots.hi[ind])
         check = check_point(prog, point,
                             None if readings is None else Readings(prog).from_cells(readings))
@@ -195,6 +196,12 @@ def row_owners(prog: Program) -> list[tuple[str, int] | None]:
     p = 0.5 * (s.lo[ind] + s.hi[ind])
     lo, hi = s.lo.copy(), s.hi.copy()
     lo[ind], hi[ind] = p, p
-    rows = evaluation(prog, lo, hi, ind, p, point=True).run()
+    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=True)
+    rows = ev.run()
+    if not rows:
+        return []
     owner = np.concatenate([r[3] for r in rows])
+    # a row without a measured side of its own (a circle's points on one unknown radius)
+    # belongs to the one data row whose cells it reads (-2: several, -1: none)
+    owner = np.where(owner >= 0, owner, ev.data_rows())
     return [s.row_keys[o] if 0 <= o < len(s.row_keys) else None for o in owner.tolist()]

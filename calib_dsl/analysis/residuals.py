@@ -67,13 +67,19 @@ def residual_ranges(prog: Program, box: dict[str, tuple[float, float]]) -> Range
 def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
                 side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Enclosures of f - m over the box for the rows whose target is one of `side` (the
-    first row of each: a cell capped twice keeps its first constraint's)."""
+    first row of each: a cell capped twice keeps its first constraint's). A side no row
+    targets (its constraint became a merge of slots, as y == q where x = 0) gets the whole
+    line: sound, and no claim."""
     ranges = row_enclosures(prog, lo, hi, ind)
     first: dict[int, int] = {}
     for i, t in enumerate(ranges.ev.targets().tolist()):
         first.setdefault(t, i)
-    pick = np.array([first[int(k)] for k in side], dtype=np.int64)
-    return ranges.lo[pick], ranges.hi[pick]
+    pick = np.array([first.get(int(k), -1) for k in side], dtype=np.int64)
+    none = pick < 0
+    f_lo, f_hi = ranges.lo[np.maximum(pick, 0)], ranges.hi[np.maximum(pick, 0)]
+    if len(ranges.lo) == 0:
+        f_lo, f_hi = np.zeros(len(side)), np.zeros(len(side))
+    return np.where(none, -np.inf, f_lo), np.where(none, np.inf, f_hi)
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ column by column (declaration order), then the noise in the same order.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -96,6 +97,10 @@ def write_csv(path: Path, table: Table, data: Array) -> None:
         if table.decimal == ",":
             cells = [c.replace(".", ",") for c in cells]
         lines.append(sep.join(cells))
+    if str(path) == "-":  # standard output, as `--json -`
+        sys.stdout.write("\n".join(lines) + "\n")
+        sys.stdout.flush()
+        return
     try:
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     except OSError as err:

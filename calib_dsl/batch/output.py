@@ -5,12 +5,17 @@ job runs again."""
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
 
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.report.strict_json import dumps
 
 UNFINISHED = ("error", "failed")  # statuses --retry-errors runs again
 
@@ -26,7 +31,8 @@ def previous(path: str, retry_errors: bool) -> dict[str, dict[str, Any]]:
     except (OSError, UnicodeDecodeError) as err:
         raise CalError(f"cannot read the results file '{path}': "
                        f"{getattr(err, 'strerror', None) or err}") from None
-    kept, found = [], {}
+    kept: dict[str, str] = {}  # by id, the last line of each (a job run twice: one line)
+    found = {}
     for line in text.splitlines():
         try:
             item = json.loads(line)
@@ -36,12 +42,37 @@ def previous(path: str, retry_errors: bool) -> dict[str, dict[str, Any]]:
             continue
         if retry_errors and item.get("status") in UNFINISHED:
             continue
-        kept.append(line)
+        kept.pop(item["id"], None)  # the later line takes its place at the end
+        kept[item["id"]] = line
         found[item["id"]] = item
-    fresh = "".join(line + "\n" for line in kept)
+    fresh = "".join(line + "\n" for line in kept.values())
     if fresh != text:
         _replace(path, fresh)
     return found
+
+
+@contextmanager
+def locked(path: str) -> Iterator[None]:
+    """An exclusive lock on the results file `path` (on `path`.lock beside it, which a
+    rewrite of the results does not replace) for the whole batch: a second batch on the
+    same file fails at once, rather than running every job again and adding its lines."""
+    lock = f"{path}.lock"
+    try:
+        handle = open(lock, "a", encoding="utf-8")  # noqa: SIM115
+    except OSError as err:
+        raise CalError(f"cannot lock the results file '{path}': cannot open '{lock}': "
+                       f"{err.strerror or err}") from None
+    with handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise CalError(f"the results file '{path}' is in use by another calibc batch "
+                           f"(it holds the lock '{lock}'): wait for it to finish, or give "
+                           "another -o") from None
+        except OSError as err:  # a file system without locks: go on, as without fcntl
+            if err.errno not in (errno.ENOLCK, errno.EOPNOTSUPP):
+                raise
+        yield  # (closing the file releases the lock, also when the process is killed)
 
 
 class Results:
@@ -55,7 +86,7 @@ class Results:
             raise CalError(f"cannot write '{path}': {err.strerror or err}") from None
 
     def add(self, line: dict[str, Any]) -> None:
-        self.file.write(json.dumps(line) + "\n")
+        self.file.write(dumps(line) + "\n")
         self.file.flush()  # in the file now: a kill after this keeps it
 
     def close(self) -> None:

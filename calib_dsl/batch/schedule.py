@@ -11,17 +11,18 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
 from calib_dsl.batch.jobs import Job
-from calib_dsl.batch.output import Results, previous
+from calib_dsl.batch.output import Results, locked, previous
 from calib_dsl.batch.run import run_job
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.strategy.cluster import pieces_on_cluster
 
-CONNECT_TIMEOUT = "20s"  # --scheduler: a wrong address fails after this, not never
+CONNECT_SECONDS = 20.0  # --scheduler: a wrong address fails after this, not never
 
 
 def run_batch(jobs: list[Job], output: str, *, scheduler: str | None, workers: int,
@@ -29,6 +30,14 @@ def run_batch(jobs: list[Job], output: str, *, scheduler: str | None, workers: i
     """Run the jobs not yet in `output` (all with `force`), adding a line for each as it
     finishes; `say` gets the progress. The lines of all the jobs, in the jobs' order."""
     distributed = dask()
+    with locked(output):
+        return _run(distributed, jobs, output, scheduler=scheduler, workers=workers,
+                    force=force, retry_errors=retry_errors, say=say)
+
+
+def _run(distributed: Any, jobs: list[Job], output: str, *, scheduler: str | None,
+         workers: int, force: bool, retry_errors: bool, say: Callable[[str], None]
+         ) -> list[dict]:
     done = {} if force else previous(output, retry_errors)
     todo = [job for job in jobs if job.id not in done]
     if len(todo) < len(jobs):
@@ -77,13 +86,42 @@ def _client(distributed: Any, scheduler: str | None,
                 distributed.Client(cluster) as client:
             yield client, f"a local cluster of {workers} worker process(es)"
         return
-    try:
-        client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
-    except (OSError, TimeoutError, ValueError, TypeError) as err:
-        raise CalError(f"--scheduler {scheduler}: no Dask scheduler answered there "
-                       f"({type(err).__name__}: {err})") from None
+    client = connect(distributed, scheduler, CONNECT_SECONDS)
     with client:
         yield client, f"the Dask scheduler at {scheduler}"
+
+
+def connect(distributed: Any, scheduler: str, seconds: float) -> Any:
+    """A client of the scheduler at `scheduler`, or a user error within about `seconds`.
+    Dask bounds the TCP connect but not the handshake after it: a service that accepts and
+    never answers would hold the batch for ever, one that answers other bytes makes Dask
+    read a length from them (an allocation of exbibytes). So the client is made in a thread
+    waited on for at most `seconds`, and whatever it raises is said in one line."""
+    box: dict[str, Any] = {}
+
+    def make() -> None:
+        try:
+            box["client"] = distributed.Client(scheduler, timeout=f"{seconds}s")
+        except BaseException as exc:  # noqa: BLE001 (said to the user below, in one line)
+            box["error"] = exc
+
+    thread = threading.Thread(target=make, name="calibc-connect", daemon=True)
+    thread.start()
+    thread.join(seconds + HANDSHAKE_GRACE)
+    if "client" in box:
+        return box["client"]
+    err = box.get("error")
+    if err is None:
+        raise CalError(f"--scheduler {scheduler}: no Dask scheduler answered within "
+                       f"{seconds:g} s (something accepted the connection, but said nothing)")
+    if isinstance(err, OSError | TimeoutError):
+        raise CalError(f"--scheduler {scheduler}: no Dask scheduler answered there "
+                       f"({type(err).__name__}: {err})")
+    raise CalError(f"--scheduler {scheduler}: what answered there is not a Dask scheduler "
+                   f"({type(err).__name__}: {err})")
+
+
+HANDSHAKE_GRACE = 1.0  # seconds past Dask's own connect timeout (its message is the clearer)
 
 
 def _completed(distributed: Any, client: Any, todo: list[Job],

@@ -134,7 +134,7 @@ def _row_variables(prog: Program) -> list[str]:
 
 
 def listing_json(prog: Program) -> str:
-    return json.dumps(prog.counts(), indent=2)
+    return json.dumps(prog.counts(), indent=2, allow_nan=False)
 
 
 def _b(x: float) -> str:

@@ -112,6 +112,9 @@ class Statements(Context):
     def _include(self, s: ast.Include, scope: Scope, top: bool) -> None:
         self._top_only("include", s.loc, top)
         shown = os.path.normpath(os.path.join(os.path.dirname(s.loc.file), s.path))
+        if Path(shown).is_dir():
+            raise CalError(f"include file '{s.path}' is a directory ('{shown}'): include "
+                           "names a .cal file", s.loc)
         if not Path(shown).is_file():
             raise CalError(f"include file '{s.path}' not found (looked for '{shown}')", s.loc)
         resolved = Path(shown).resolve()

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from calib_dsl.arith.exact import add_rounded, enclose_decimal
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection, select
 from calib_dsl.frontend.diagnostics import CalError, Loc
-from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, capped_lines
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, NotUtf8, TooLarge, capped_lines
 
 FloatArray = NDArray[np.float64]
 
@@ -140,9 +140,10 @@ def _lines(name: str, decl_loc: Loc | None) -> Iterator[str]:
         raise CalError(f"data file '{name}' not found", decl_loc) from None
     except IsADirectoryError:
         raise CalError(f"data file '{name}' is a directory", decl_loc) from None
-    except UnicodeDecodeError as err:
-        raise CalError(f"data file '{name}' is not UTF-8 text ({err.reason})",
-                       decl_loc) from None
+    except NotUtf8 as err:
+        raise CalError(f"data file '{name}' is not UTF-8 text ({err.reason}: byte "
+                       f"{err.object[err.start]:#04x}; save it as UTF-8)",
+                       Loc(name, err.line, err.col)) from None
     except OSError as err:
         raise CalError(f"cannot read data file '{name}': {err.strerror}", decl_loc) from None
 
@@ -197,9 +198,20 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
         number = cell.replace(",", ".")
     else:
         number = cell
-    if not _NUMBER.fullmatch(number):
+    match = _NUMBER.fullmatch(number)
+    if not match:
         raise CalError(f"{where}: '{cell}' is not a number", loc)
-    value = float(number)
+    value = float(number)  # correctly rounded, however many digits
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
+    exponent = match.group(3)
+    if len(number) > MAX_EXACT_CHARS or (exponent and abs(int(exponent[1:])) > MAX_EXACT_CHARS):
+        # exactly, it would cost a huge integer; the floats on each side of the correctly
+        # rounded value hold the exact one
+        return value, float(np.nextafter(value, -np.inf)), float(np.nextafter(value, np.inf))
     return (value, *enclose_decimal(number))
+
+
+# a cell longer than this is enclosed by its float's neighbours instead of exactly (an
+# exponent past it would make an exact Fraction of 10**exponent): far past a float's 17 digits
+MAX_EXACT_CHARS = 400

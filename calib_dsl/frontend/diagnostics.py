@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from dataclasses import field as _attribute
 from pathlib import Path
@@ -33,14 +34,23 @@ class CalError(Exception):
     def render(self) -> str:
         """`file:line:col: error: message`, then the offending line and a caret under the column."""
         if self.loc is None:
-            return f"error: {self.message}"
-        head = f"{self.loc}: error: {self.message}"
+            return f"error: {visible(self.message)}"
+        head = f"{self.loc}: error: {visible(self.message)}"
         line = _source_line(self.loc.file, self.loc.line)
         if line is None:
             return head
         col = _field_start(line, self.loc.col, self.loc.sep) if self.loc.field else self.loc.col
-        caret = " " * (max(col, 1) - 1) + "^"
-        return f"{head}\n    {line}\n    {caret}"
+        caret = " " * len(visible(line[:max(col, 1) - 1])) + "^"
+        return f"{head}\n    {visible(line)}\n    {caret}"
+
+
+def visible(text: str) -> str:
+    """`text` with its control characters (a NUL, an escape sequence) written as escapes
+    (\\x00), so that a message never sends them raw to the terminal; line breaks stay."""
+    return _CONTROL.sub(lambda m: repr(m.group())[1:-1], text)
+
+
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f]")
 
 
 def _source_line(file: str, line: int) -> str | None:

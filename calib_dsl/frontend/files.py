@@ -15,11 +15,26 @@ class TooLarge(Exception):
     """The file holds more than the cap."""
 
 
+class NotUtf8(UnicodeDecodeError):
+    """A UnicodeDecodeError that knows where in the file: `line` and `col` (1-based; the
+    column counts bytes, as the decoder saw them)."""
+
+    def __init__(self, err: UnicodeDecodeError, line: int, col: int) -> None:
+        super().__init__(err.encoding, err.object, err.start, err.end, err.reason)
+        self.line, self.col = line, col
+
+    @classmethod
+    def at(cls, err: UnicodeDecodeError, lines_before: int = 0) -> NotUtf8:
+        """`err` located in its bytes, after `lines_before` lines that decoded."""
+        head = bytes(err.object[:err.start])
+        return cls(err, lines_before + head.count(b"\n") + 1, err.start - head.rfind(b"\n"))
+
+
 def capped_lines(path: str | Path, limit: int) -> Iterator[str]:
     """The file's lines (UTF-8, a leading byte-order mark dropped), read one at a time:
-    TooLarge past `limit` bytes, UnicodeDecodeError on a line that is not UTF-8; a line never
-    holds more than the cap (a file without a newline, as /dev/zero, is said so)."""
-    size, first = 0, True
+    TooLarge past `limit` bytes, NotUtf8 on a line that is not UTF-8; a line never holds
+    more than the cap (a file without a newline, as /dev/zero, is said so)."""
+    size, first, lines = 0, True, 0
     with open(path, "rb") as f:
         while size <= limit:
             raw = f.readline(limit + 1 - size)
@@ -28,8 +43,12 @@ def capped_lines(path: str | Path, limit: int) -> Iterator[str]:
             size += len(raw)
             if size > limit:
                 break
-            text = raw.decode("utf-8-sig" if first else "utf-8")
+            try:
+                text = raw.decode("utf-8-sig" if first else "utf-8")
+            except UnicodeDecodeError as err:
+                raise NotUtf8.at(err, lines) from None
             first = False
+            lines += 1
             yield from text.splitlines()  # (also splits a lone \r, as old files end lines)
     raise TooLarge(f"over {limit // 2**20} MiB")
 
@@ -46,4 +65,8 @@ def read_capped(path: str | Path, limit: int, encoding: str = "utf-8") -> str:
             size += len(chunk)
     if size > limit:
         raise TooLarge(f"over {limit // 2**20} MiB")
-    return b"".join(chunks).decode(encoding)
+    data = b"".join(chunks)
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as err:
+        raise NotUtf8.at(err) from None

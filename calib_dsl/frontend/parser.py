@@ -12,7 +12,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError, Loc
-from calib_dsl.frontend.files import MAX_MODEL_BYTES, TooLarge, read_capped
+from calib_dsl.frontend.files import MAX_MODEL_BYTES, NotUtf8, TooLarge, read_capped
 from calib_dsl.frontend.grammar import cal_parser
 
 MAX_EXPONENT = 400  # of a decimal literal: floats span about 1e-324 .. 1e308
@@ -45,8 +45,10 @@ def parse_file(path: str | Path) -> tuple[ast.Stmt, ...]:
                        ) from None
     except FileNotFoundError:
         raise CalError(f"model file '{name}' not found") from None
-    except UnicodeDecodeError as err:
-        raise CalError(f"model file '{name}' is not UTF-8 text ({err.reason})") from None
+    except NotUtf8 as err:
+        raise CalError(f"model file '{name}' is not UTF-8 text ({err.reason}: byte "
+                       f"{err.object[err.start]:#04x}; save it as UTF-8)",
+                       Loc(name, err.line, err.col)) from None
     except OSError as err:
         raise CalError(f"cannot read model file '{name}': {err.strerror}") from None
     return parse(text, name)

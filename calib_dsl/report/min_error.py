@@ -57,7 +57,10 @@ def render_conflict(c: Conflict) -> str:
     if not c.consistent:
         return "\n".join(units + [
             f"the worst rows by least squares: {rows}; without them the rest was not "
-            "proven consistent (more rows may be at fault, or the model does not fit)"])
+            "proven consistent (more rows may be at fault, or the model does not fit; "
+            "or its rows compare computed values with no error bound of their own, as "
+            "a circle's points with one radius, which a fitted point cannot be proven "
+            "to satisfy exactly: solve again with --exclude and the first of them)"])
     one = len(c.rows) == 1
     lines = units + [
         f"without {'this row' if one else 'these rows'} the rest of the data is proven "

@@ -7,12 +7,32 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.analysis.predict import Prediction
+from calib_dsl.frontend.diagnostics import CalError
 
 
-def widths(p: Prediction) -> dict[str, float]:
+def widths(p: Prediction) -> dict[str, float | None]:
+    """The boxes' widths: None (JSON null) when there is no box."""
     w = (p.hi - p.lo).ravel()
     return {"median": float(np.median(w)), "max": float(np.max(w))} if w.size else \
-        {"median": float("nan"), "max": float("nan")}
+        {"median": None, "max": None}
+
+
+def _shown(x: float | None) -> str:
+    return "none" if x is None else f"{x:.4g}"
+
+
+def comparable(p: Prediction) -> None:
+    """A validation needs a measured value to compare with: coverage of nothing is no
+    claim, so it is a user error, never a coverage of 1."""
+    if not p.columns:
+        raise CalError(f"the model has no measured column for the held-out rows of {p.file}: "
+                       "there is nothing to validate (a table column stated `+- bound` "
+                       "that a constraint compares with is one)")
+    if not p.rows:
+        raise CalError(f"no held-out rows of {p.file} are left to validate on")
+    if np.all(np.isnan(p.measured)):
+        raise CalError(f"{p.file} holds no measured value ({', '.join(p.columns)}) in its "
+                       "held-out rows: there is nothing to compare the predictions with")
 
 
 def render_prediction(p: Prediction) -> str:
@@ -24,7 +44,8 @@ def render_prediction(p: Prediction) -> str:
         cells = "  ".join(f"{p.lo[k, j]:14.6f} {p.hi[k, j]:14.6f}" for j in range(len(p.columns)))
         lines.append(f"{row:>6} {line:>6}  {cells}")
     w = widths(p)
-    lines.append(f"widths: median {w['median']:.4g}, max {w['max']:.4g} (the model's units)")
+    lines.append(f"widths: median {_shown(w['median'])}, max {_shown(w['max'])} "
+                 "(the model's units)")
     return "\n".join(lines)
 
 
@@ -32,7 +53,7 @@ def prediction_csv(p: Prediction) -> str:
     cols = ",".join(f"{c}_lo,{c}_hi" for c in p.columns)
     out = [f"row,line,{cols}"]
     for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True)):
-        out.append(f"{row},{line}," + ",".join(f"{p.lo[k, j]!r},{p.hi[k, j]!r}"
+        out.append(f"{row},{line}," + ",".join(f"{float(p.lo[k, j])!r},{float(p.hi[k, j])!r}"
                                                for j in range(len(p.columns))))
     return "\n".join(out) + "\n"
 
@@ -46,6 +67,7 @@ def prediction_json(p: Prediction) -> dict[str, Any]:
 
 
 def validation_json(p: Prediction) -> dict[str, Any]:
+    comparable(p)
     covered = p.covered()
     return {"at": p.file, "rows": len(covered), "coverage": float(covered.mean()),
             "width": widths(p),
@@ -78,7 +100,8 @@ def render_validation(p: Prediction) -> str:
     lines = [f"validation on {v['rows']} held-out rows of {p.file}:",
              f"  coverage {v['coverage']:.4f}: rows whose every measurement lies in its "
              "predicted box widened by its error bound",
-             f"  box widths: median {v['width']['median']:.4g}, max {v['width']['max']:.4g} "
+             f"  box widths: median {_shown(v['width']['median'])}, "
+             f"max {_shown(v['width']['max'])} "
              "(the model's units)"]
     for r in v["not_covered"][:20]:
         lines.append(f"  not covered: {p.file}:{r['line']} (data row {r['row']})")
