@@ -137,7 +137,7 @@ def test_coordinates_near_1e154(calibc, tmp_path):
     assert ident.stderr.startswith("error: identifiability: the Jacobian") and \
         "not finite" in ident.stderr
     solved = shell(calibc, "solve", model, "--data", data, "-q", "--lsq")
-    assert solved.returncode in (0, 1), solved.stderr
+    assert solved.returncode in (0, 1, 4), solved.stderr  # a verdict, whichever
     for res in (ident, solved):
         assert "Warning" not in res.stderr and "Traceback" not in res.stderr, res.stderr
 
