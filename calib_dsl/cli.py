@@ -390,15 +390,16 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 @QUIET
 @FORMULATION
 @user_errors
+@outputs.campaign_options
 def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
-             formulation: str) -> None:
+             formulation: str, campaign: Any) -> None:
     """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
     from calib_dsl.analysis.simulate import simulate as run
     from calib_dsl.report.progress_line import progress_line
 
     with progress_line("simulating", quiet) as progress:
         run(model, configs, seed, formulation=formulation, out_csv=Path(output),
-            progress=progress)
+            progress=progress, campaign=campaign)
     click.echo(f"wrote {configs} configurations to {output}")
 
 
