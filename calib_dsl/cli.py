@@ -173,8 +173,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
               help="List every unknown, also those that kept their whole search domain.")
 @click.option("--inner/--no-inner", default=None,
               help="Certify values each unknown provably takes at solutions (how much of "
-                   f"the result is real). Default: on with tight, up to "
-                   f"{DEFAULT.inner_max_primitives:,} primitives.")
+                   "the result is real). Default: on with tight, at every size.")
 @click.option("--shave", type=click.IntRange(min=0), metavar="N",
               help="Contract the ends of the N loosest unknowns towards their inner bounds. "
                    f"Default: those {DEFAULT.shave_above}x looser, for up to "

@@ -124,10 +124,6 @@ class Settings:
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
 
     # -- certified inner bounds (analysis/inner.py) ---------------------------------------------
-    # Each certified point is checked on every row, and each end is an LP over every row
-    # (0.2-0.3 s a check on 11,910 UR10 rows: a minute for 23 unknowns' ends; 14 s on 1,000
-    # RX90 rows): above this many primitives `solve` computes them only when asked (--inner).
-    inner_max_primitives: int = 1_000_000
     # The joint readings are the inner bounds' LP columns up to this many (beyond, they stay
     # at their middles): each one's freedom is tiny, but the ends of a thin solution set sit
     # where many rows meet, and on all 1495 UR10 rows (8970 readings) the readings at their
