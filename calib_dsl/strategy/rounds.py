@@ -79,6 +79,8 @@ class LPRounds:
     # program has them (else every product tied by McCormick's inequalities): a slice of a
     # solved box (strategy/shave.py) is already where first order has nothing left to give
     fine_start: bool = False
+    # where the fine rounds keep their multipliers and optima (their own if None)
+    fine_certs: Certificates | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
@@ -138,6 +140,8 @@ class _Rounds:
         self.moved = np.zeros(len(self.ind), dtype=bool)
         self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
+        if spec.fine_certs is not None:
+            self.fine_certs = spec.fine_certs
         if spec.fine_start:
             self.fine = self.fine_readings = True
             self.reuse = False
@@ -197,7 +201,8 @@ class _Rounds:
         meet), while a slice (fine_start) takes McCormick's instead."""
         prog, lo, hi = self.spec.prog, self.lo, self.hi
         if self.fine_readings:
-            fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick)
+            fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick,
+                                            rows=self.spec.rows)
             if fine is not None or not self.spec.fine_start:
                 return fine
             self.fine_readings = False
@@ -256,7 +261,7 @@ class _Rounds:
         kind = {SECOND_ORDER: "second order", READINGS_FAMILY: "second order, readings as LP "
                 "columns"}.get(this.target.family, "first order")
         if self.spec.rows is not None:
-            kind += f", {len(self.spec.rows)} sampled rows"
+            kind += f", {len(self.spec.rows)} working rows"
         history.record(f"LP round {n} ({kind}{'' if this.fresh else ', reused'})",
                        self.lo, self.hi)
 
@@ -297,8 +302,8 @@ class _Rounds:
         remainders cost some unknown's bounds `readings_cost` of its width (measured from the
         last LPs' multipliers): on all 1495 UR10 rows a third of d4's width, nearly all of
         it the joint readings' errors (1e-5 rad each), which columns meet where a
-        remainder pays them in every row. Not on a sample of rows (no such relaxation)."""
-        if self.fine_readings or self.spec.rows is not None or this.quad is None:
+        remainder pays them in every row (of the working rows, on a subset)."""
+        if self.fine_readings or this.quad is None:
             return False
         width = self.hi[self.ind] - self.lo[self.ind]
         cost = self.fine_certs.remainder_cost(this.quad[0], len(self.ind))
@@ -341,15 +346,12 @@ class _Rounds:
     def _fine_rounds(self, this: _Round) -> bool:
         """The first-order rounds are over: whether fine second-order rounds follow (their
         remainder still above `remainder_wide` of the rows' widths; above
-        `remainder_readings`, with the readings' errors as LP columns, where the rows are
-        not a sample)."""
+        `remainder_readings`, with the readings' errors as LP columns)."""
         assert this.first is not None
         s, share = self.spec.settings, this.first.remainder_share
         if not self.spec.second_order or self.fine or share < s.remainder_readings:
             return False
         if share < s.remainder_wide:
-            if self.spec.rows is not None:
-                return False
             self.fine_readings = True
         self.fine, self.cells, self.reuse = True, False, False
         self.skip = np.zeros_like(self.skip)
