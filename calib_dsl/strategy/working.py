@@ -49,6 +49,8 @@ class WorkingRows:
     progress: Meter | None = None
     history: History | None = None
     name: str = "rounds of LPs"
+    max_rounds: int | None = None  # per pass (settings.max_rounds if None)
+    fine_start: bool = False  # LPRounds.fine_start: a slice of a solved box (shave.py)
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         s, work = self.settings, Work()
@@ -58,9 +60,10 @@ class WorkingRows:
             every = rows is None or len(rows) >= loop_rows(self.prog)
             certs, fine = self.certs if every else Certificates(), Certificates()
             rounds = LPRounds(self.prog, s, certs, self.tol, self.max_sweeps - work.sweeps,
-                              s.max_rounds, self.second_order, unsolved=self.unsolved,
-                              progress=self.progress, history=self.history,
-                              rows=None if every else rows, fine_certs=fine)
+                              self.max_rounds or s.max_rounds, self.second_order,
+                              unsolved=self.unsolved, progress=self.progress,
+                              history=self.history, rows=None if every else rows,
+                              fine_start=self.fine_start, fine_certs=fine)
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
             if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
