@@ -70,8 +70,8 @@ class LPRounds:
     threads: int | None = None  # LP threads (settings.lp_workers unless given)
     unsolved: np.ndarray | None = None
     history: History | None = None
-    # the loop's rows whose constraints the relaxations take (all if None): a sample of
-    # many rows relaxes fast, and every relaxation of some rows is valid
+    # the loop's rows whose constraints the relaxations take (all if None): a working set
+    # of many rows relaxes fast (working.py), and every relaxation of some rows is valid
     rows: np.ndarray | None = None
     name: str = "rounds of LPs"
     progress: Meter | None = None  # told the box after each round
