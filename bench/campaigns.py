@@ -96,10 +96,10 @@ def inputs_of(data: Path, rows: str | None, e: float):
 def case(name: str, runs: int, tmp: Path, data: Path) -> str:
     size, _, shape = name.partition(":")
     if size == "B":
-        if not data.exists():
-            return f"| Series B every {shape} | skipped: no data at {data} |"
-        rows, table = f"1..1495:{shape}", data
         label = "Series B, " + ("all rows" if shape == "1" else f"every {shape}nd row")
+        if not data.exists():
+            return f"| {label} | skipped: no data at {data} (UR10_DATA, --data) | | | | | | |"
+        rows, table = f"1..1495:{shape}", data
         truth_of: dict[str, float] = {}
     else:
         rows, table = None, tmp / f"{size}_{shape}.csv"
