@@ -122,14 +122,6 @@ class Settings:
     leads: float = 0.5  # share of the largest component that leads a weak direction
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
 
-    # -- certified inner bounds (analysis/inner.py) ---------------------------------------------
-    # The joint readings are the inner bounds' LP columns up to this many (beyond, they stay
-    # at their middles): each one's freedom is tiny, but the ends of a thin solution set sit
-    # where many rows meet, and on all 1495 UR10 rows (8970 readings) the readings at their
-    # middles left the inner intervals a median 1.52 times narrower than the result, 1.22
-    # with them free (5.3 s against 6.6 s).
-    inner_reading_columns: int = 20_000
-
     # -- shaving (strategy/shave.py) ---------------------------------------------------------
     # After the inner bounds, the unknowns whose result is wider than shave_above times their
     # inner interval (at most shave_unknowns, the loosest first) have each end's gap
