@@ -33,7 +33,9 @@ lint: install
 # bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
 # note where the data set is absent), then the certified inner bounds, then thousands of
 # configurations (RX90 and a Series-A-sized UR10 table) beside calibc as of $(BASELINE), the
-# last commit before rows were compiled once.
+# last commit before rows were compiled once; then simulated UR10 campaigns of 500-12,000 rows
+# (random, grid and repeated poses) and Series B, against the yardstick and their own
+# certified outer/inner.
 BASELINE ?= 404e2ec
 # The venv's python once `make install` made it; else $(PY) when calibc already runs there
 # (no install needed); else install first.
@@ -48,6 +50,7 @@ bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/ur10.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/inner.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/scale.py --baseline $(BASELINE)
+	$(or $(BENCH_PY),$(BIN)/python) bench/campaigns.py
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.

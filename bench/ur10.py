@@ -28,6 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 from run import calibc_command, machine, run_process  # noqa: E402
+from yardstick import yardstick as linearized_yardstick  # noqa: E402
 
 MODEL = ROOT / "models" / "ur10_tracker.cal"
 DATA = ROOT.parent / "shared" / "data" / "ur10" / "measurements_joint_configurations.csv"
@@ -45,25 +46,15 @@ CASES = [("1..1495:15", "1.0", "<= 1.2x the yardstick, <= 10 s"),
 
 
 def yardstick(rows: str, e: str, data: Path) -> dict[str, tuple[float, float, float]]:
-    """name: (domain width, yardstick width, least-squares value)."""
-    from calib_dsl.analysis.reference import yardstick as hull_at_estimate
+    """name: (domain width, yardstick width, least-squares value) on these rows at e."""
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
-    from calib_dsl.pipeline import load
-    from calib_dsl.relax.layout import independents
 
     rows, _, without = rows.partition(" without ")
     excluded = tuple(int(r) for r in without.split(",")) if without else ()
     inputs = Inputs(data={"m": data}, rows={"m": Selection(parse_ranges(rows), excluded)},
                     consts={"e": e})
-    prog = load(MODEL, inputs=inputs)
-    hull = hull_at_estimate(prog)
-    out = {}
-    for k in independents(prog):
-        n = prog.slots.names[k]
-        out[n] = (float(prog.slots.hi[k] - prog.slots.lo[k]), hull[n][1] - hull[n][0],
-                  float(prog.true_values[n] or 0.0))
-    return out
+    return linearized_yardstick(MODEL, inputs)
 
 
 def solve(rows: str, e: str, data: Path, runs: int, tmp: Path, diagnose: bool,

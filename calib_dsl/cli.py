@@ -170,8 +170,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
               help="List every unknown, also those that kept their whole search domain.")
 @click.option("--inner/--no-inner", default=None,
               help="Certify values each unknown provably takes at solutions (how much of "
-                   f"the result is real). Default: on with tight, up to "
-                   f"{DEFAULT.inner_max_primitives:,} primitives.")
+                   "the result is real). Default: on with tight, at every size.")
 @click.option("--shave", type=click.IntRange(min=0), metavar="N",
               help="Contract the ends of the N loosest unknowns towards their inner bounds. "
                    f"Default: those {DEFAULT.shave_above}x looser, for up to "
@@ -381,15 +380,16 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 @QUIET
 @FORMULATION
 @user_errors
+@outputs.campaign_options
 def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
-             formulation: str) -> None:
+             formulation: str, campaign: Any) -> None:
     """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
     from calib_dsl.analysis.simulate import simulate as run
     from calib_dsl.report.progress_line import progress_line
 
     with progress_line("simulating", quiet) as progress:
         run(model, configs, seed, formulation=formulation, out_csv=Path(output),
-            progress=progress)
+            progress=progress, campaign=campaign)
     click.echo(f"wrote {configs} configurations to {output}", err=output == "-")
 
 

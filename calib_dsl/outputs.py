@@ -1,5 +1,6 @@
 """What the command line writes beside a result's report: figures (`calibc plot`, `--plot`),
-residual ranges (`solve --residuals`), exports (`calibc export`, `solve --export-domains`).
+residual ranges (`solve --residuals`), exports (`calibc export`, `solve --export-domains`);
+and the shape of the campaign `calibc simulate` writes (`campaign_options`).
 cli.py registers the two commands and calls the rest; kept apart so that the command line's
 module stays one a reader can hold."""
 
@@ -36,6 +37,37 @@ def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     for option in reversed(options):
         fn = option(fn)
     return fn
+
+
+def campaign_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """simulate's --poses, --repeats, --systematic, --noise, handed to `fn` as one
+    `campaign` (analysis/campaign.py)."""
+    from functools import wraps
+
+    from calib_dsl.analysis.campaign import POSES, Campaign
+
+    @wraps(fn)
+    def run(*args: Any, poses: str, repeats: int, systematic: float, noise: bool,
+            **kwargs: Any) -> Any:
+        return fn(*args, campaign=Campaign(poses, repeats, systematic, noise), **kwargs)
+
+    options = [
+        click.option("--poses", type=click.Choice(POSES), default=POSES[0], show_default=True,
+                     help="The poses (input columns): drawn uniformly, on a grid over their "
+                          "ranges, or a few random poses each measured --repeats times."),
+        click.option("--repeats", type=click.IntRange(min=1), default=5, show_default=True,
+                     help="With --poses repeated: how many times each pose is measured."),
+        click.option("--systematic", type=click.FloatRange(min=0.0), default=0.0,
+                     show_default=True, metavar="A",
+                     help="Add to each measured column a smooth error of the poses (a sum of "
+                          "sinusoids of the inputs, drawn from the seed), at most A in size."),
+        click.option("--noise/--no-noise", default=True, show_default=True,
+                     help="Independent uniform noise within their tolerance on the measured "
+                          "columns (the inputs always get theirs)."),
+    ]
+    for option in reversed(options):
+        run = option(run)
+    return run
 
 
 def plot_ready(plot_path: str | None) -> None:

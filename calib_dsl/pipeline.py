@@ -293,7 +293,7 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
               shave: int | None = None) -> SolveReport:
     """`solve_report` on a program already loaded from `model` (with these inputs; the
     elaborated model, when given, names the data rows of the warnings). `inner`: True or
-    False, or None for the default (up to settings.inner_max_primitives). `shave`: how many
+    False, or None for the default (on after tight, at every size). `shave`: how many
     of the loosest unknowns are shaved towards their inner bounds (settings.shave_unknowns
     if None)."""
     res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)

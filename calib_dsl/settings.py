@@ -82,17 +82,16 @@ class Settings:
     # the rows.
     chunk_slots: int = 150_000
 
-    # A loop over more than twice this many table rows (a laser tracker's campaign of
-    # thousands) is relaxed first on this many of its rows, evenly spread, to the sample's
-    # fixed point (second order included), then on all of them in first order: the data
-    # repeat themselves, and a relaxation of all rows costs a sample's times rows / sample.
-    sample_rows: int = 1000
-    # After the sample's rounds, a round of LPs on all rows; when it narrows some unknown by
-    # sample_gain of its width, the rows it binds on join the sample and its rounds run
-    # again. At most sample_passes rounds on all rows: a second one gains little for a round
-    # on every row (docs/decisions/11).
-    sample_gain: float = 0.05
-    sample_passes: int = 1
+    # The rounds of LPs over a loop of table rows start on this many of its rows, evenly
+    # spread (strategy/working.py), and rows join while the LPs' optima violate them: a
+    # cost choice, not a strength one (every phase of the rounds runs on the working set,
+    # and the check sees every row). It measures what an LP of the rounds can hold and
+    # stay fast: a second-order LP has 3 rows per configuration and a few hundred dense
+    # columns; a working set of all rows is the plain rounds, without a check.
+    working_rows: int = 1000
+    # At most this many checks of the optima on every row (each a fine second-order round
+    # on the working set and a point check per bound on every row).
+    working_passes: int = 2
 
     # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------
     # A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its
@@ -121,17 +120,6 @@ class Settings:
     subset_cond: float = 1e3  # the suggested subset's condition number at most
     leads: float = 0.5  # share of the largest component that leads a weak direction
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
-
-    # -- certified inner bounds (analysis/inner.py) ---------------------------------------------
-    # Each certified point is checked on every row, and each end is an LP over every row, so
-    # their cost grows with the rows times the unknowns' ends and no chunking helps: above
-    # this many primitives `solve` computes them only when asked (--inner; docs/decisions/11).
-    inner_max_primitives: int = 1_000_000
-    # The joint readings are the inner bounds' LP columns up to this many (beyond, they stay
-    # at their middles): each one's freedom is tiny, but the ends of a thin solution set sit
-    # where many rows meet, and each row's reading freedom moves them: with the readings at
-    # their middles the inner intervals are far narrower than the hull (docs/decisions/10).
-    inner_reading_columns: int = 20_000
 
     # -- shaving (strategy/shave.py) ---------------------------------------------------------
     # After the inner bounds, the unknowns whose result is wider than shave_above times their

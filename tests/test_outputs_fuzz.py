@@ -1,7 +1,8 @@
 """The command line under bad inputs: whatever the subcommand, the model, the data and the
 options, calibc exits 0, 1, 2 or 4 (a verdict: consistent, inconsistent, undecided; or a user
-error) and never prints a traceback (exit 3 is an internal error: a bug). The inputs of issue 40 are among the examples; hypothesis draws the rest from the
-same parts (a bounded number of cases: the test runs in seconds)."""
+error) and never prints a traceback (exit 3 is an internal error: a bug). The inputs of
+issue 40 are among the examples; hypothesis draws the rest from the same parts (a bounded
+number of cases: the test runs in seconds)."""
 
 from __future__ import annotations
 

@@ -214,3 +214,29 @@ def test_rows_533_and_855_each_fit_the_rest_at_0_9(left_out):
     inputs = Inputs(data={"m": UR10}, rows={"m": Selection((), (left_out, 856))},
                     consts={"e": "0.9"})
     assert proven_consistent(load(TRACKER, inputs=inputs))
+
+
+def test_thousands_of_rows_get_the_second_order_rounds(tmp_path):
+    """A campaign of 2100 rows (over the 2 x 1000 that once took a sample's second-order
+    rounds and one first-order round on all rows), its error systematic: the fine
+    second-order rounds run (on the working set), the check sees every row, and the truth
+    lies inside."""
+    from calib_dsl.analysis.campaign import Campaign
+    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.pipeline import load
+    from calib_dsl.strategy.tight import solve_tight
+
+    table = tmp_path / "sim.csv"
+    simulate(_noisy_simulation_model(tmp_path, 0.1), 2100, 3, out_csv=table,
+             campaign=Campaign("grid", systematic=0.6))
+    prog = load(TRACKER, inputs=Inputs(data={"m": table}, consts={"e": "0.75"}))
+    res = solve_tight(prog)
+    assert res.status == "contracted"
+    for name, t in truth().items():
+        i = prog.slots.names.index(name)
+        assert res.lo[i] <= t <= res.hi[i], (name, res.lo[i], t, res.hi[i])
+    labels = [step.label for step in res.history.steps]
+    assert res.work.fine_rounds > 0
+    assert any("second order" in label and "working rows" in label for label in labels)
+    assert any("row check on all 2100 rows" in label for label in labels), labels

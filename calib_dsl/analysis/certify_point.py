@@ -83,10 +83,12 @@ CHECK_CELLS = 4_000_000
 
 
 def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None = None,
-                 owners: bool = False) -> list[PointCheck]:
+                 owners: bool = False,
+                 box: tuple[np.ndarray, np.ndarray] | None = None) -> list[PointCheck]:
     """check_point for each row of `points` (with the same row of `readings`): one pass over
     the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
-    pass over the primitives, not the points in it)."""
+    pass over the primitives, not the points in it). `box`: the slots' domains and measured
+    intervals (the program's own if None: a chunk's program is given its rows')."""
     if not len(points):
         return []
     at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))
@@ -94,11 +96,12 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
         return [c for k in range(0, len(points), at_once)
                 for c in check_points(prog, points[k:k + at_once],
                                       None if readings is None else readings[k:k + at_once],
-                                      owners)]
+                                      owners, box)]
     ind = independents(prog)
     lay = definitions(prog)
     k = len(points)
-    lo, hi = prog.slots.lo, prog.slots.hi
+    base_lo, base_hi = box if box is not None else (prog.slots.lo, prog.slots.hi)
+    lo, hi = base_lo, base_hi
     if np.any(points < lo[ind]) or np.any(points > hi[ind]):
         raise ValueError("the point lies outside the search domains")
     # the domains too are rounded outward: a point on a float bound may lie outside the
@@ -123,7 +126,7 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     lo[ind], hi[ind] = col(points.T), col(points.T)
     lo[lay.temp], hi[lay.temp] = -np.inf, np.inf
     lo[at[some]] = hi[at[some]] = col(values[:, some].T)
-    caps = lay.temp & (np.isfinite(prog.slots.lo) | np.isfinite(prog.slots.hi))
+    caps = lay.temp & (np.isfinite(base_lo) | np.isfinite(base_hi))
     own = np.full(len(lo), NONE, dtype=np.int64)  # the configuration whose readings it uses
     if owners and len(at) and prog.slots.cell_row is not None:
         own[at] = prog.slots.cell_row[at]
@@ -148,7 +151,7 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     chi.append(hi[capped])
     owners_of.append(own[capped])
     s = np.concatenate(slots)
-    tlo, thi = exact_inside(prog.slots.lo[s], prog.slots.hi[s])
+    tlo, thi = exact_inside(base_lo[s], base_hi[s])
     computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
     found = np.concatenate(owners_of) if owners else None
     a, b = (np.concatenate(c).reshape(len(s), k) for c in (clo, chi))

@@ -55,16 +55,16 @@ class LinearModel:
         if not self.finite:
             return
         self.readings = Readings(prog)
-        # the readings as LP columns (each may take its own value within its interval), up
-        # to inner_reading_columns; beyond, they stay at their middles (a narrower inner
-        # interval, as certain: the LP would be tens of thousands of columns wide)
-        free_readings = len(self.readings.mid) <= DEFAULT.inner_reading_columns
-        rows, cols, vals = self.readings.entries(lin) if free_readings else \
-            (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
-        self.width = len(self.readings.mid) if free_readings else 0
+        # the readings as LP columns, at every size (each may take its own value within its
+        # interval): at their middles the ends of a thin solution set, where many rows meet,
+        # fall short (on all 1495 UR10 rows a median outer/inner of 1.52 against 1.22). A
+        # tall LP holds only the rows its row generation added, so a reading of a row left
+        # out is an empty column
+        rows, cols, vals = self.readings.entries(lin)
+        self.width = len(self.readings.mid)
         A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
         ylo, yhi = (lo[free] - centre[free]) / self.scale, (hi[free] - centre[free]) / self.scale
-        zlo, zhi = self.readings.bounds() if free_readings else (np.zeros(0), np.zeros(0))
+        zlo, zhi = self.readings.bounds()
         b_lo, b = self.bounds(np.zeros(self.rows))
         self.rel = LinearRelaxation(A, b, np.r_[ylo, zlo], np.r_[yhi, zhi], b_lo=b_lo)
         # what its columns are, for the solve's bases: the unknowns' slots, the readings' cells

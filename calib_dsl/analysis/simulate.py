@@ -5,9 +5,13 @@ variable of the DAG. A column with `sim = (lo, hi)` is an INPUT, drawn uniformly
 every other column is an OUTPUT, computed from its defining constraint (`cell == expr` or
 `expr == cell`) with every parameter at its true value. Then every column, inputs too, gets
 uniform noise in [-tol, +tol]: the recorded q is q + e_q, as an encoder reading would be.
+A `Campaign` (campaign.py) chooses the poses' shape (random, a grid, repeated poses), adds a
+smooth pose-dependent error of a given amplitude to the measured columns, and can leave out
+their independent noise.
 
 Random draws, in this order so a seed always gives the same file: the inputs, table by table,
-column by column (declaration order), then the noise in the same order.
+column by column (declaration order), then the noise in the same order; the systematic
+error's terms from a stream of their own.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calib_dsl.analysis.campaign import PLAIN, Campaign, poses, systematic
 from calib_dsl.analysis.evaluate import Array, Evaluator
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.frontend.diagnostics import CalError
@@ -33,7 +38,8 @@ CHECK_ATOL = 1e-9
 
 
 def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "matrix",
-             out_csv: Path | None = None, progress: Progress | None = None) -> None:
+             out_csv: Path | None = None, progress: Progress | None = None,
+             campaign: Campaign = PLAIN) -> None:
     """Elaborate MODEL for `rows` configurations, simulate its tables, write the CSV.
 
     `out_csv` receives the model's table; without it each table goes to its own path.
@@ -52,7 +58,7 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
         raise CalError(f"the model has {len(model.tables)} tables; simulate writes one CSV "
                        "per table, so give no output path", model.tables[-1].loc)
     done(f"elaborated for {rows:,} configurations")
-    tables = simulate_model(model, seed)
+    tables = simulate_model(model, seed, campaign)
     done("measurements computed")
     for table in model.tables:
         write_csv(Path(out_csv) if out_csv is not None else Path(table.path), table,
@@ -60,28 +66,43 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
     done("written")
 
 
-def simulate_model(model: Model, seed: int) -> dict[str, Array]:
+def simulate_model(model: Model, seed: int,
+                   campaign: Campaign = PLAIN) -> dict[str, Array]:
     """The noisy measurements of every table: {table name: (rows, columns) array}."""
     dag = model.dag
     rng = np.random.default_rng(seed)
     values = _true_parameters(dag)
     cells = {t.name: _cell_nodes(dag, t) for t in model.tables}
+    drawn: dict[str, Array] = {}
     for t in model.tables:  # draw the inputs
-        for col, nodes in zip(t.columns, cells[t.name], strict=True):
-            if col.sim is not None:
-                lo, hi = col.sim
-                for node, x in zip(nodes, rng.uniform(lo, hi, size=t.rows), strict=True):
-                    if node is not None:
-                        values[node] = float(x)
+        ins = [(col, nodes) for col, nodes in zip(t.columns, cells[t.name], strict=True)
+               if col.sim is not None]
+        drawn[t.name] = poses(campaign, [col.sim for col, _ in ins if col.sim is not None],
+                              t.rows, rng)
+        for (_, nodes), xs in zip(ins, drawn[t.name].T, strict=True):
+            for node, x in zip(nodes, xs, strict=True):
+                if node is not None:
+                    values[node] = float(x)
     evaluator = Evaluator(dag)
     value = _solve_outputs(model, cells, values, evaluator)
     _check_constraints(dag, value)
     out: dict[str, Array] = {}
+    errors = np.random.default_rng([seed, 1])  # the systematic error's own stream
     for t in model.tables:  # record, with noise
         table = np.empty((t.rows, len(t.columns)))
         for j, (col, nodes) in enumerate(zip(t.columns, cells[t.name], strict=True)):
             exact = np.array([np.nan if n is None else value[n] for n in nodes])
-            table[:, j] = exact + rng.uniform(-col.tol, col.tol, size=t.rows)
+            noise = rng.uniform(-col.tol, col.tol, size=t.rows)
+            if col.sim is None:  # a measured column: the campaign's errors
+                if campaign.systematic > 0:
+                    if drawn[t.name].shape[1] == 0:
+                        raise CalError(f"table '{t.name}' has no input column (`simulate "
+                                       "in`) for a systematic error to depend on", t.loc)
+                    err = systematic(campaign.systematic, drawn[t.name].shape[1], errors)
+                    exact = exact + err(drawn[t.name])
+                if not campaign.noise:
+                    noise = np.zeros(t.rows)
+            table[:, j] = exact + noise
         out[t.name] = table
     return out
 

@@ -118,6 +118,15 @@ def spread_rows(prog: Program, size: int) -> np.ndarray | None:
     return np.unique(np.linspace(0, n - 1, size).astype(np.int64))
 
 
+def start_rows(prog: Program, size: int) -> np.ndarray | None:
+    """`size` rows of the program's loop compiled once, evenly spread (loop row indices; all
+    of them when it has no more), or None without such a loop."""
+    n = loop_rows(prog)
+    if n == 0:
+        return None
+    return np.unique(np.linspace(0, n - 1, min(size, n)).astype(np.int64))
+
+
 def prefix(prog: Program, rows: int) -> Program:
     """The program of the first `rows` rows of the loop (made once per program and size)."""
     return derived(prog, f"rows prefix {rows}", lambda: _prefix(prog, rows))

@@ -75,9 +75,9 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
                                                                     points, own_bases),
                                     shares))
     for share in results:
-        for i, sign, bound, y, basis in share:
+        for i, sign, bound, y, basis, point in share:
             if certificates is not None:
-                certificates.record(rel, i, sign, y, basis)
+                certificates.record(rel, i, sign, y, basis, point)
             if y is not None:  # (None: the box bound stands, and only a basis is kept)
                 tighten(lower, upper, i, sign, bound)
     return lower, upper
@@ -122,7 +122,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
         at = _reaching(c, points, rel)
         if at is not None:  # an LP point already lies on the box's bound: the box bound stays
             if keep_basis:  # next time, this objective starts from that point's basis
-                out.append((i, sign, np.inf, None, points[at][1]))
+                out.append((i, sign, np.inf, None, points[at][1], points[at][0]))
             continue
         h.changeColsCost(n, cols, (-c).astype(float))  # maximize c.p as: minimize -c.p
         start = certificates.start(rel, i, sign) if keep_basis and certificates else None
@@ -158,12 +158,14 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
         basis = current_basis(h) if keep_basis else None
+        point = None
         if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
-            points.append((np.asarray(sol.col_value), basis))
+            point = np.asarray(sol.col_value)
+            points.append((point, basis))
         if sol.dual_valid:
             y = np.zeros(m)
             y[rows] = -np.asarray(sol.row_dual)
-            out.append((i, sign, certified_max(rel, c, y), y, basis))
+            out.append((i, sign, certified_max(rel, c, y), y, basis, point))
     return out
 
 

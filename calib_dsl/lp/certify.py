@@ -118,21 +118,28 @@ class Certificates:
     # lp/starts.py), where the relaxation said
     basis: dict[tuple[int, float], tuple] = field(default_factory=dict)
     meaning: dict[tuple[int, float], tuple] = field(default_factory=dict)
+    # each objective's LP optimum, in the unknowns (unknowns_at), where the LP found one:
+    # where the optima stand, not a bound (a row generation checks them on rows left out)
+    points: dict[tuple[int, float], np.ndarray] = field(default_factory=dict)
 
     def copy(self) -> Certificates:
         return Certificates(self.family, self.key_space, dict(self.y), dict(self.basis),
-                            dict(self.meaning))
+                            dict(self.meaning), dict(self.points))
 
     def usable(self, rel: LinearRelaxation) -> bool:
         return bool(self.y) and rel.keys is not None and rel.family == self.family
 
     def record(self, rel: LinearRelaxation, i: int, sign: float, y: np.ndarray | None,
-               basis: tuple | None = None) -> None:
+               basis: tuple | None = None, point: np.ndarray | None = None) -> None:
         if rel.keys is None:
             return
         if rel.family != self.family:
             self.family, self.y, self.basis, self.meaning = rel.family, {}, {}, {}
-            self.key_space = rel.key_space
+            self.key_space, self.points = rel.key_space, {}
+        if point is not None:
+            at = unknowns_at(rel, point)
+            if at is not None:
+                self.points[(i, sign)] = at
         if y is not None:  # (None: no LP solved, the box bound stood; its old y stays valid)
             self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
         if basis is not None and rel.col_keys is not None:
@@ -188,6 +195,18 @@ class Certificates:
         row_keys, rows, col_keys, cols = self.basis[(i, sign)]
         return (mapped(row_keys, rows, rel.keys, BASIC),
                 mapped(col_keys, cols, rel.col_keys, LOWER))
+
+
+def unknowns_at(rel: LinearRelaxation, x: np.ndarray) -> np.ndarray | None:
+    """The unknowns at an LP point x of rel (its main columns, mapped back by p = center +
+    scale t where they are scaled), or None where the mapping is not known. Floating point:
+    a point to look at, never a bound."""
+    t = np.asarray(x[: rel.main], dtype=float)
+    if rel.scale is None:
+        return t
+    if rel.center is None:
+        return None
+    return rel.center + rel.scale * np.clip(t, -1.0, 1.0)
 
 
 def mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,

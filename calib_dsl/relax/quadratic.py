@@ -75,7 +75,7 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float 
         # a McCormick row is known by its product and its place among the product's 4 rows
         keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
     rel = LinearRelaxation(matrix, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
-                           scale=ex.half, family=FAMILY, key_space=KEY_SPACE,
+                           scale=ex.half, family=FAMILY, key_space=KEY_SPACE, center=ex.center,
                            col_keys=np.concatenate([np.arange(n), n + keep]),
                            curvature=_curvature(m), slack=padded(slack, len(b_up)))
     return rel, ex

@@ -46,12 +46,14 @@ FAMILY = "second order, readings as columns"  # LinearRelaxation.family of these
 
 
 def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
-                             mccormick: bool = False, prune: float = 0.0
+                             mccormick: bool = False, prune: float = 0.0,
+                             rows: np.ndarray | None = None
                              ) -> tuple[LinearRelaxation, Expansion] | None:
     """Valid inequalities over the box in the columns (t, y, dq), or None (see above);
-    `prune` as in quadratic.relax_quadratic. A large program whose rows were compiled once
-    is relaxed a chunk of rows at a time (compile/chunks.py): both passes run on a chunk's
-    program, and its rows join the others' with slots and configurations renumbered."""
+    `prune` as in quadratic.relax_quadratic; of the loop's rows `rows` only, if given (fewer
+    rows: still valid). A large program whose rows were compiled once is relaxed a chunk of
+    rows at a time (compile/chunks.py): both passes run on a chunk's program, and its rows
+    join the others' with slots and configurations renumbered."""
     ind = independents(prog)
     if len(ind) == 0:
         return None
@@ -61,7 +63,7 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
     if reading is None or not np.any(reading & (hi > lo)):
         return None
     centre = 0.5 * lo[ind] + 0.5 * hi[ind]
-    chunks = chunked(prog, CHUNK_SLOTS, None)
+    chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         parts = [_part(prog, reading, lo, hi, ind, centre, None)]
     else:
@@ -173,7 +175,7 @@ def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray
     chi = np.concatenate([np.ones(n + len(keep)), xhi])
     cell_keys = n + len(pairs.i) + cells[:, 0] * q.shape[1] + cells[:, 1]
     rel = LinearRelaxation(
-        matrix, b_up, clo, chi, main=n, b_lo=b_lo, scale=ex.half, family=FAMILY,
+        matrix, b_up, clo, chi, main=n, b_lo=b_lo, scale=ex.half, center=ex.center, family=FAMILY,
         key_space=KEY_SPACE, slack=padded(slack, len(b_up)),
         keys=np.concatenate([keys, mkeys]),
         col_keys=np.concatenate([np.arange(n), n + keep, cell_keys]))

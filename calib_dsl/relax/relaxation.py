@@ -98,6 +98,7 @@ class LinearRelaxation:
     keys: np.ndarray | None = None
     scale: np.ndarray | None = None
     family: str = ""
+    center: np.ndarray | None = None  # (with scale: p = center + scale t; None: p itself)
     col_keys: np.ndarray | None = None  # which quantity each column is (increasing), likewise
     # How the keys number the rows: relaxations of two families with the same key_space
     # (not "") mean the same constraint by the same key (one's LPs' binding rows are where

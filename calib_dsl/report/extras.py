@@ -57,17 +57,12 @@ class Extras:
         self.seconds += time.perf_counter() - start
 
     def inner_bounds(self, prog: Program, res: Solution, asked: bool = False) -> None:
-        """Certified inner bounds; unless `asked`, not after the hc4 strategy (a quick look,
-        whose loose enclosure takes the candidate points many corrections each: the inner
-        bounds cost 10-15x its solve) nor on a program over inner_max_primitives (each
-        certified point is checked on every row)."""
+        """Certified inner bounds, at every size; unless `asked`, not after the hc4 strategy
+        (a quick look, whose loose enclosure takes the candidate points many corrections
+        each: the inner bounds cost 10-15x its solve)."""
         if not asked and res.strategy == "hc4":
             self.skipped.append("inner bounds: not computed by default after --strategy hc4 "
                                 "(--inner computes them)")
-            return
-        if not asked and len(prog.primitives) > DEFAULT.inner_max_primitives:
-            self.skipped.append(f"inner bounds: not computed by default for a program of "
-                                f"{len(prog.primitives)} primitives (--inner computes them)")
             return
         # the inner bounds only add to a result proven already: a numerical failure of
         # theirs is reported as such, and never costs the user the result

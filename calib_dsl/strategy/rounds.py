@@ -73,8 +73,8 @@ class LPRounds:
     threads: int | None = None  # LP threads (settings.lp_workers unless given)
     unsolved: np.ndarray | None = None
     history: History | None = None
-    # the loop's rows whose constraints the relaxations take (all if None): a sample of
-    # many rows relaxes fast, and every relaxation of some rows is valid
+    # the loop's rows whose constraints the relaxations take (all if None): a working set
+    # of many rows relaxes fast (working.py), and every relaxation of some rows is valid
     rows: np.ndarray | None = None
     name: str = "rounds of LPs"
     progress: Meter | None = None  # told the box after each round
@@ -86,6 +86,8 @@ class LPRounds:
     # columns, McCormick's instead where the program has none), "mccormick" (every product
     # tied by McCormick's inequalities), or "both"
     fine_kind: str = "readings"
+    # where the fine rounds keep their multipliers and optima (their own if None)
+    fine_certs: Certificates | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
@@ -147,6 +149,8 @@ class _Rounds:
         self.moved = np.zeros(len(self.ind), dtype=bool)
         self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
+        if spec.fine_certs is not None:
+            self.fine_certs = spec.fine_certs
         if spec.fine_start:
             self.fine, self.reuse = True, False
             self.fine_readings = spec.fine_kind in ("readings", "both")
@@ -206,7 +210,8 @@ class _Rounds:
         be built (no readings), McCormick's is taken instead."""
         prog, lo, hi = self.spec.prog, self.lo, self.hi
         if self.fine_readings:
-            fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick)
+            fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick,
+                                            rows=self.spec.rows)
             if fine is not None:
                 return fine
             self.fine_readings = self.readings_mccormick = False
@@ -265,7 +270,7 @@ class _Rounds:
         kind = {SECOND_ORDER: "second order", READINGS_FAMILY: "second order, readings as LP "
                 "columns"}.get(this.target.family, "first order")
         if self.spec.rows is not None:
-            kind += f", {len(self.spec.rows)} sampled rows"
+            kind += f", {len(self.spec.rows)} working rows"
         history.record(f"LP round {n} ({kind}{'' if this.fresh else ', reused'})",
                        self.lo, self.hi)
 
@@ -322,10 +327,9 @@ class _Rounds:
         as LP columns (and McCormick's inequalities) follow. They do where the rows'
         remainders cost some unknown's bounds `readings_cost` of its width (measured from the
         last LPs' multipliers): on many rows with joint readings that cost is mostly the
-        readings' errors, which columns meet where a remainder pays them in every row
-        (docs/decisions/10). Not on a sample of rows (no such relaxation)."""
-        if (self.fine_readings or self.both_tried or self.spec.rows is not None
-                or this.quad is None):
+        readings' errors, which columns meet where a remainder pays them in every row (of the
+        working rows, on a subset; docs/decisions/10)."""
+        if self.fine_readings or self.both_tried or this.quad is None:
             return False
         width = self.hi[self.ind] - self.lo[self.ind]
         cost = self.fine_certs.remainder_cost(this.quad[0], len(self.ind))
@@ -369,15 +373,12 @@ class _Rounds:
     def _fine_rounds(self, this: _Round) -> bool:
         """The first-order rounds are over: whether fine second-order rounds follow (their
         remainder still above `remainder_wide` of the rows' widths; above
-        `remainder_readings`, with the readings' errors as LP columns, where the rows are
-        not a sample)."""
+        `remainder_readings`, with the readings' errors as LP columns)."""
         assert this.first is not None
         s, share = self.spec.settings, this.first.remainder_share
         if not self.spec.second_order or self.fine or share < s.remainder_readings:
             return False
         if share < s.remainder_wide:
-            if self.spec.rows is not None:
-                return False
             self.fine_readings = True
         self.fine, self.cells, self.reuse = True, False, False
         self.skip, self.kind_rounds = np.zeros_like(self.skip), 0

@@ -33,8 +33,8 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.taylor import CHUNK_SLOTS
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
-from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.solution import Solution
+from calib_dsl.strategy.working import WorkingRows
 
 
 @dataclass(frozen=True)
@@ -132,7 +132,8 @@ def _gap(lo: np.ndarray, hi: np.ndarray, slot: int, side: int, value: float) -> 
 def _slice(prog: Program, lo: np.ndarray, hi: np.ndarray, slot: int, side: int, value: float,
            s: Settings, tol: float, max_sweeps: int) -> Outcome:
     """The slice of [lo, hi] beyond `value` on one side of `slot` (side 0: [lo, value]),
-    contracted: propagation, then fine rounds of LPs over the slice alone."""
+    contracted: propagation, then fine rounds of LPs over the slice alone (on a working set
+    of the rows, grown by the rows their optima violate: working.py)."""
     plo, phi = lo.copy(), hi.copy()
     if side == 0:
         phi[slot] = value
@@ -140,7 +141,8 @@ def _slice(prog: Program, lo: np.ndarray, hi: np.ndarray, slot: int, side: int, 
         plo[slot] = value
     steps = Sequence((
         Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
-        LPRounds(prog, s, Certificates(), tol, max_sweeps, s.shave_rounds, fine_start=True),
+        WorkingRows(prog, s, Certificates(), tol, max_sweeps, max_rounds=s.shave_rounds,
+                    fine_start=True),
     ), max_sweeps=max_sweeps)
     return steps.contract(plo, phi)
 

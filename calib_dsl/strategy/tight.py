@@ -16,7 +16,6 @@ import time
 
 import numpy as np
 
-from calib_dsl.compile.chunks import spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.lp.starts import from_certificates
@@ -26,10 +25,9 @@ from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.reparametrize import along_combinations, back, pivots
-from calib_dsl.strategy.rounds import LPRounds
-from calib_dsl.strategy.sampled import SampledRounds
 from calib_dsl.strategy.solution import Solution, solution
 from calib_dsl.strategy.split import Split
+from calib_dsl.strategy.working import WorkingRows
 
 STRATEGIES = ("tight", "hc4")  # the first is the default
 
@@ -90,13 +88,9 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
     there."""
     certs = certs if certs is not None else Certificates()
     steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
-    sample = spread_rows(prog, s.sample_rows)
-    if sample is None:
-        steps.append(LPRounds(prog, s, certs, tol, max_sweeps, s.max_rounds, second_order,
-                              unsolved=uncut, progress=progress, history=history))
-    else:  # thousands of rows: on a sample, checked on all (strategy/sampled.py)
-        steps.append(SampledRounds(prog, s, tol, max_sweeps, sample, second_order,
-                                   unsolved=uncut, progress=progress, history=history))
+    # (on a working set of the rows, grown by the rows the optima violate: working.py)
+    steps.append(WorkingRows(prog, s, certs, tol, max_sweeps, second_order, unsolved=uncut,
+                             progress=progress, history=history))
     steps.append(Propagation(prog, tol, max_sweeps))
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))

@@ -107,7 +107,7 @@ def certified_point(prog: Program, res: Solution | None, start: np.ndarray | Non
                     return True, need
     except FAILURES:
         pass
-    if res is None or not search or len(prog.primitives) > DEFAULT.inner_max_primitives:
+    if res is None or not search:
         return False, need
     try:
         return inner_bounds(prog, res.lo, res.hi, res.starts).consistent, need

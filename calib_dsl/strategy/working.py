@@ -1,0 +1,119 @@
+"""Rounds of LPs on a working set of a table's rows, grown by the rows their optima violate.
+
+An LP's bound rests on few rows (an optimum of 23 unknowns binds on at most 23), and a
+campaign's configurations repeat one another: the rounds (every phase: first order, the
+fine second-order rounds, the readings' rounds) run on a working set of the loop's rows,
+evenly spread, to their fixed point. Then the check: each bound's optimum in the last
+round's LPs (the fine rounds' where they ran), as a parameter vector, is evaluated on every
+row of the campaign (a point check, with the readings at their midpoints). The rows it
+violates are where the working set's LPs let through parameters the whole campaign
+excludes: the worst of them join the set and the rounds run again, until no optimum
+violates a row (or `working_passes` checks). A working set of every row is the plain rounds
+on all rows, with no check.
+
+Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
+every bound is certified from its own LP's multipliers, and propagation runs on every row:
+the working set only chooses which rows the LPs see.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib_dsl.analysis.certify_point import CHECK_CELLS, check_points
+from calib_dsl.compile.chunks import chunked, loop_rows, start_rows
+from calib_dsl.ir.program import Program
+from calib_dsl.lp.certify import Certificates
+from calib_dsl.progress import Meter
+from calib_dsl.relax.layout import independents
+from calib_dsl.settings import Settings
+from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.strategy.history import History
+from calib_dsl.strategy.rounds import LPRounds
+
+
+@dataclass(frozen=True)
+class WorkingRows:
+    """The rounds on a working set of rows, grown by the check (a contractor). `certs`: the
+    solve's certificates, given to the rounds when the set holds every row."""
+
+    prog: Program
+    settings: Settings
+    certs: Certificates
+    tol: float
+    max_sweeps: int
+    second_order: bool = True
+    unsolved: np.ndarray | None = None
+    progress: Meter | None = None
+    history: History | None = None
+    name: str = "rounds of LPs"
+    max_rounds: int | None = None  # per pass (settings.max_rounds if None)
+    fine_start: bool = False  # LPRounds.fine_start: a slice of a solved box (shave.py)
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        s, work = self.settings, Work()
+        rows = start_rows(self.prog, s.working_rows)
+        out = Outcome(lo, hi, "")
+        for passes in range(s.working_passes + 1):
+            every = rows is None or len(rows) >= loop_rows(self.prog)
+            certs, fine = self.certs if every else Certificates(), Certificates()
+            rounds = LPRounds(self.prog, s, certs, self.tol, self.max_sweeps - work.sweeps,
+                              self.max_rounds or s.max_rounds, self.second_order,
+                              unsolved=self.unsolved, progress=self.progress,
+                              history=self.history, rows=None if every else rows,
+                              fine_start=self.fine_start, fine_certs=fine)
+            out = rounds.contract(out.lo, out.hi)
+            work = work + out.work
+            if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
+                    or passes == s.working_passes):
+                break
+            # the last LPs' optima: the fine rounds' where they ran, else the first order's
+            points = fine.points if fine.points else certs.points
+            violated = self.violated(out.lo, out.hi, np.array(list(points.values())), rows)
+            if self.history is not None:
+                self.history.record(f"row check on all {loop_rows(self.prog)} rows: "
+                                    f"{len(violated)} rows violated by the optima of LPs on "
+                                    f"{len(rows)} working rows", out.lo, out.hi)
+            if len(violated) == 0:
+                break
+            rows = np.union1d(rows, violated)
+        return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
+
+    def violated(self, lo: np.ndarray, hi: np.ndarray, points: np.ndarray,
+                 rows: np.ndarray) -> np.ndarray:
+        """The loop rows outside `rows` that some point (inside the box) violates: the
+        `rows_added` worst of all, shared among the points. The rows are checked a chunk
+        at a time, every point in one pass over a chunk (CHECK_CELLS slots x points)."""
+        prog, lay = self.prog, self.prog.rows
+        none = np.zeros(0, dtype=np.int64)
+        outside = np.setdiff1d(np.arange(loop_rows(prog)), rows)
+        if lay is None or len(points) == 0 or len(outside) == 0:
+            return none
+        ind = independents(prog)
+        points = np.clip(points, lo[ind], hi[ind])
+        base = prog.slots.lo, prog.slots.hi
+        found: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in points]
+        for ch in chunked(prog, max(1, CHECK_CELLS // len(points)), outside) or []:
+            try:
+                checks = check_points(ch.prog, points, box=(ch.box(base[0]), ch.box(base[1])))
+            except ValueError:  # (a point outside the domains: none to check)
+                return none
+            for k, c in enumerate(checks):
+                bad = (c.excess > 0) & ch.kept(c.slots) & (c.slots >= lay.shared)
+                row = (ch.slots(c.slots[bad]) - lay.shared) // max(lay.width, 1)
+                found[k].append((row, c.excess[bad]))
+        per = max(1, self.settings.rows_added // len(points))
+        picked = []
+        for parts in found:
+            if parts:
+                row, excess = (np.concatenate(x) for x in zip(*parts, strict=True))
+                picked.append(_first_distinct(row[np.argsort(-excess)], per))
+        return np.unique(np.concatenate(picked)) if picked else none
+
+
+def _first_distinct(rows: np.ndarray, count: int) -> np.ndarray:
+    """The first `count` distinct values of `rows`, in their order."""
+    _, first = np.unique(rows, return_index=True)
+    return rows[np.sort(first)][:count]

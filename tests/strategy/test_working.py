@@ -1,0 +1,105 @@
+"""Rounds on a working set of the rows, grown by the rows the LPs' optima violate
+(strategy/working.py): on random robots with simulated data (known truth) the box holds the
+truth, every phase runs on the working set, the check sees every row and its violated rows
+join; and a UR10 campaign of thousands of rows gets the second-order rounds."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from calib_dsl.compile.chunks import start_rows
+from calib_dsl.relax.layout import independents
+from calib_dsl.settings import DEFAULT
+from calib_dsl.strategy.tight import solve_tight
+from tests.relax.test_linearize import random_robot, robot_draws
+
+SMALL = replace(DEFAULT, working_rows=6)  # a working set of 6 rows, grown by the checks
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**robot_draws(st.integers(14, 30)))
+def test_a_working_set_solve_holds_the_truth(tmp_path_factory, seed, joints, rows,
+                                             formulation):
+    sim = random_robot(tmp_path_factory.mktemp("working"), seed, joints, rows, formulation)
+    prog = sim.prog
+    if prog.rows is None:
+        return
+    # (in the original unknowns: a program rewritten along combinations has its rows
+    # unrolled, and has no working set)
+    sol = solve_tight(prog, settings=SMALL, combinations=False)
+    assert sol.status != "infeasible"
+    for k, truth in zip(independents(prog), sim.p_true, strict=True):
+        assert sol.lo[k] <= truth <= sol.hi[k], prog.slots.names[k]
+    labels = [step.label for step in sol.history.steps]
+    assert any("6 working rows" in label for label in labels), labels
+
+
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**robot_draws(st.integers(20, 30)))
+def test_the_working_set_reaches_the_all_rows_fixed_point(tmp_path_factory, seed, joints,
+                                                          rows, formulation):
+    """Grown by the rows its optima violate, a working set of 6 rows ends about where the
+    rounds on all rows end (not looser by more than a few percent of any width), and the
+    truth stays inside both."""
+    sim = random_robot(tmp_path_factory.mktemp("fixed"), seed, joints, rows, formulation)
+    prog = sim.prog
+    if prog.rows is None:
+        return
+    grown = solve_tight(prog, settings=replace(SMALL, working_passes=6), combinations=False,
+                        split=False)
+    whole = solve_tight(prog, combinations=False, split=False)
+    if grown.status == "infeasible" or whole.status == "infeasible":
+        return
+    ind = independents(prog)
+    for sol in (grown, whole):
+        for k, truth in zip(ind, sim.p_true, strict=True):
+            assert sol.lo[k] <= truth <= sol.hi[k], prog.slots.names[k]
+    wide = whole.hi[ind] - whole.lo[ind]
+    moved = wide > 0
+    ratio = (grown.hi[ind] - grown.lo[ind])[moved] / wide[moved]
+    assert np.median(ratio) <= 1.05, ratio
+
+
+def test_the_working_set_starts_spread_over_the_rows(tmp_path):
+    prog = random_robot(tmp_path, 3, 2, 25, "matrix").prog  # (seed 3: a spatial robot)
+    every = start_rows(prog, 30)
+    assert every is not None and np.array_equal(every, np.arange(25))  # fewer: all of them
+    start = start_rows(prog, 10)
+    assert start is not None and len(start) == 10
+    assert start[0] == 0 and start[-1] == 24 and np.all(np.diff(start) > 0)
+
+
+@settings(max_examples=4, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(rows=st.sampled_from([40, 80, 120]), amplitude=st.floats(0.3, 1.0),
+       shape=st.sampled_from(["random", "grid", "repeated"]), seed=st.integers(0, 500))
+def test_ur10_campaigns_of_several_sizes_hold_the_truth(tmp_path_factory, rows, amplitude,
+                                                        shape, seed):
+    """The UR10 tracker model on simulated campaigns with a systematic error, a working set
+    of 10 rows at the start (so the check and the rows it adds carry the result): the truth
+    lies inside at a bound of the error's size."""
+    from calib_dsl.analysis.campaign import Campaign
+    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.pipeline import load
+    from tests.test_ur10 import TRACKER, _noisy_simulation_model, truth
+
+    tmp = tmp_path_factory.mktemp("ur10")
+    table = tmp / "sim.csv"
+    simulate(_noisy_simulation_model(tmp, 0.05), rows, seed, out_csv=table,
+             campaign=Campaign(shape, 4, systematic=amplitude))
+    prog = load(TRACKER, inputs=Inputs(data={"m": table},
+                                       consts={"e": repr(amplitude + 0.05)}))
+    sol = solve_tight(prog, settings=replace(DEFAULT, working_rows=10))
+    assert sol.status == "contracted"
+    for name, t in truth().items():
+        i = prog.slots.names.index(name)
+        assert sol.lo[i] <= t <= sol.hi[i], (name, sol.lo[i], t, sol.hi[i])
+    labels = [step.label for step in sol.history.steps]
+    assert any(f"row check on all {rows} rows" in label for label in labels), labels
