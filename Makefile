@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test test-fast test-random lint bench clean fetch-ur10
+.PHONY: install test test-slow test-all test-random lint bench clean fetch-ur10
 
 install: $(VENV)/.installed
 
@@ -13,15 +13,20 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/pip install -q -e ".[dev]"
 	touch $@
 
-# test: every test, the same pseudo-random property cases on every run (reproducible, as CI
-# runs it), on every core (pytest-xdist, `-n auto` in pyproject.toml); test-fast: all but the
-# tests marked slow (whole-CLI runs on real data, heavy property tests), the loop to run
-# while editing; test-random: fresh cases each run, to look for failures the fixed ones miss.
+# test: every test but those marked slow, on every core (pytest-xdist, `-n auto` in
+# pyproject.toml), the same pseudo-random property cases on every run (reproducible, as CI runs
+# it): the loop to run while editing, within a few minutes on two cores; test-slow: the tests
+# marked slow (whole-CLI runs on real data, heavy property tests), which CI runs after
+# `make test`; test-all: both; test-random: fresh cases each run, to look for failures the
+# fixed ones miss.
 test: install
-	$(BIN)/pytest
-
-test-fast: install
 	$(BIN)/pytest -m "not slow"
+
+test-slow: install
+	$(BIN)/pytest -m slow
+
+test-all: install
+	$(BIN)/pytest
 
 test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest

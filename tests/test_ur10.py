@@ -216,6 +216,7 @@ def test_rows_533_and_855_each_fit_the_rest_at_0_9(left_out):
     assert proven_consistent(load(TRACKER, inputs=inputs))
 
 
+@pytest.mark.slow
 def test_thousands_of_rows_get_the_second_order_rounds(tmp_path):
     """A campaign of 2100 rows (over the 2 x 1000 that once took a sample's second-order
     rounds and one first-order round on all rows), its error systematic: the fine
