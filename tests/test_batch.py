@@ -15,9 +15,8 @@ from pathlib import Path
 
 import pytest
 from batch_project import EXAMPLES, STATUS, direct, intervals, write_project
-from click.testing import CliRunner
+from cli_run import run as invoke
 
-from calib_dsl import cli
 from calib_dsl.batch import run as run_module
 from calib_dsl.batch import schedule
 from calib_dsl.batch.jobs import Job, batch_jobs, read_job_file
@@ -26,15 +25,6 @@ from calib_dsl.batch.run import run_job
 # the runs need Dask; reading job files and running one job do not
 needs_dask = pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
                                 reason="calibc batch runs on Dask: pip install -e .[dev]")
-
-
-def invoke(*args: object, cwd: Path | None = None):
-    old = Path.cwd()
-    os.chdir(cwd or old)
-    try:
-        return CliRunner().invoke(cli.main, [str(a) for a in args], catch_exceptions=False)
-    finally:
-        os.chdir(old)
 
 
 def read_lines(path: Path) -> dict[str, dict]:

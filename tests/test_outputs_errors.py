@@ -5,7 +5,6 @@ squares overflow the floats; and numpy's warnings stay off standard error."""
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 import time
@@ -13,11 +12,10 @@ from fractions import Fraction
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
+from cli_run import run
 from hypothesis import given
 from hypothesis import strategies as st
 
-from calib_dsl import cli
 from calib_dsl.elaborate.tables import Dialect, _cell, read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,15 +29,6 @@ table m = "d.csv" { x : +- 0; y : +- 0.01; }
 for i in 1..rows(m) { m.y[i] == a * m.x[i] + b; }
 """
 LINE_DATA = "x,y\n0,1\n1,2\n2,3.005\n"
-
-
-def run(*args: object, cwd: Path | None = None):
-    old = Path.cwd()
-    os.chdir(cwd or old)
-    try:
-        return CliRunner().invoke(cli.main, [str(a) for a in args], catch_exceptions=False)
-    finally:
-        os.chdir(old)
 
 
 def shell(calibc: list[str], *args: object, **kw) -> subprocess.CompletedProcess:

@@ -3,25 +3,14 @@ character to the terminal."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
-from click.testing import CliRunner
+from cli_run import run
 
-from calib_dsl import cli
 from calib_dsl.frontend.diagnostics import visible
 
 ROOT = Path(__file__).resolve().parents[1]
 CIRCLE = ROOT / "models" / "examples" / "circle_fit.cal"
-
-
-def run(*args: object, cwd: Path | None = None):
-    old = Path.cwd()
-    os.chdir(cwd or old)
-    try:
-        return CliRunner().invoke(cli.main, [str(a) for a in args], catch_exceptions=False)
-    finally:
-        os.chdir(old)
 
 
 def test_include_of_a_directory_says_so(tmp_path):
