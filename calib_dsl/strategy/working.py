@@ -31,6 +31,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
+from calib_dsl.strategy.relaxed_check import violated_rows
 from calib_dsl.strategy.rounds import LPRounds
 
 
@@ -71,7 +72,9 @@ class WorkingRows:
                 break
             # the last LPs' optima: the fine rounds' where they ran, else the first order's
             points = fine.points if fine.points else certs.points
-            violated = self.violated(out.lo, out.hi, np.array(list(points.values())), rows)
+            violated = np.union1d(
+                self.violated(out.lo, out.hi, np.array(list(points.values())), rows),
+                self.relaxed_violated(fine, rows))
             if self.history is not None:
                 self.history.record(f"row check on all {loop_rows(self.prog)} rows: "
                                     f"{len(violated)} rows violated by the optima of LPs on "
@@ -80,6 +83,18 @@ class WorkingRows:
                 break
             rows = np.union1d(rows, violated)
         return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
+
+    def relaxed_violated(self, fine: Certificates, rows: np.ndarray) -> np.ndarray:
+        """The loop rows outside `rows` whose second-order relaxation (the fine rounds' last,
+        on their box) cuts off one of their LPs' optima: the `rows_added` worst, shared among
+        the optima (relaxed_check.py)."""
+        outside = np.setdiff1d(np.arange(loop_rows(self.prog)), rows)
+        found = violated_rows(self.prog, fine, outside)
+        if not found:
+            return np.zeros(0, dtype=np.int64)
+        per = max(1, self.settings.rows_added // len(found))
+        picked = [_first_distinct(row[np.argsort(-excess)], per) for row, excess in found]
+        return np.unique(np.concatenate(picked)).astype(np.int64)
 
     def violated(self, lo: np.ndarray, hi: np.ndarray, points: np.ndarray,
                  rows: np.ndarray) -> np.ndarray:
