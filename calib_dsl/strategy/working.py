@@ -57,6 +57,11 @@ class WorkingRows:
         s, work = self.settings, Work()
         rows = start_rows(self.prog, s.working_rows)
         out = Outcome(lo, hi, "")
+        # a pass after a check resumes the fine rounds where the last ended (their box is
+        # near its end: the first-order and wide rounds' gains are below their thresholds,
+        # and would stop the rounds before the fine ones ran on the rows that joined)
+        # (readings' columns and McCormick's inequalities both: the strongest fine rounds)
+        resume, kind = False, "both"
         for passes in range(s.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
             certs, fine = self.certs if every else Certificates(), Certificates()
@@ -64,7 +69,9 @@ class WorkingRows:
                               self.max_rounds or s.max_rounds, self.second_order,
                               unsolved=self.unsolved, progress=self.progress,
                               history=self.history, rows=None if every else rows,
-                              fine_start=self.fine_start, fine_certs=fine)
+                              fine_start=self.fine_start or resume,
+                              fine_kind=kind if resume else "readings",
+                              fine_certs=fine)
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
             if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
@@ -82,6 +89,7 @@ class WorkingRows:
             if len(violated) == 0:
                 break
             rows = np.union1d(rows, violated)
+            resume = bool(fine.points)
         return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
 
     def relaxed_violated(self, fine: Certificates, rows: np.ndarray) -> np.ndarray:
