@@ -5,11 +5,12 @@ campaign's configurations repeat one another: the rounds (every phase: first ord
 fine second-order rounds, the readings' rounds) run on a working set of the loop's rows,
 evenly spread, to their fixed point. Then the check: each bound's optimum in the last
 round's LPs (the fine rounds' where they ran), as a parameter vector, is evaluated on every
-row of the campaign (a point check, with the readings at their midpoints). The rows it
+row of the campaign (a point check, with the readings at their midpoints), and so are
+the fine rounds' own relaxation rows (relaxed_check.py). The rows it
 violates are where the working set's LPs let through parameters the whole campaign
 excludes: the worst of them join the set and the rounds run again, until no optimum
-violates a row (or `working_passes` checks). A working set of every row is the plain rounds
-on all rows, with no check.
+violates a row (or `working_passes` checks); a pass after a check resumes the fine
+rounds. A working set of every row is the plain rounds on all rows, with no check.
 
 Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
 every bound is certified from its own LP's multipliers, and propagation runs on every row:
