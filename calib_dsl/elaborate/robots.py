@@ -61,6 +61,8 @@ class Robots(Context):
                            e.point.loc)
         where = e.point.loc
         xyz = (self.node(point[0], where), self.node(point[1], where), self.node(point[2], where))
+        for n in xyz:
+            self._note_unit(n, "length")
         key = (robot.name, args, xyz)
         found = self._robot_calls.get(key)
         if found is None:
@@ -80,6 +82,18 @@ class Robots(Context):
             found = chains.forward_axes(self.dag, self._frames(robot, args), self.formulation)
             self._robot_calls[key] = found
         return found
+
+    def _note_unit(self, node: int, dimension: str) -> None:
+        """The unknowns a frame entry (or a tool point's coordinate) adds or subtracts take
+        the model's unit of its dimension: `theta2 + q2` makes theta2 an angle. A factor
+        (`s * 100`) says nothing of its own dimension, so only sums are followed."""
+        nodes, stack = self.dag.nodes, [node]
+        while stack:
+            n = nodes[stack.pop()]
+            if n.op in ("add", "sub", "neg"):
+                stack.extend(n.args)
+            elif n.op == "var" and n.data in self.dag.variables:
+                self.dag.variables[n.data].unit = self.units[dimension]
 
     def _joint_values(self, e: ast.RobotAt | ast.RobotAxes, scope: Scope,
                       what: str) -> tuple[Scalar, ...]:
@@ -117,6 +131,7 @@ class Robots(Context):
         for entry in decl.entries if decl is not None else ():
             v = self.scalar(self.value(entry.value, scope), entry.value.loc, "a frame entry")
             values[entry.name.id] = self.node(v, entry.value.loc)
+            self._note_unit(values[entry.name.id], DIMENSION[entry.name.id])
         zero = self.dag.const(0.0)
 
         def get(name: str) -> int:
@@ -131,6 +146,9 @@ class Robots(Context):
 
 MDH_BASE = ("theta", "r")  # a modified-DH base frame (alpha = d = 0)
 SIX_DOF = ("x", "y", "z", "rx", "ry", "rz")  # translation, then X-Y-Z Euler angles
+# the dimension of each frame entry: what its unknowns' unit is
+DIMENSION = {**dict.fromkeys(("alpha", "theta", "rx", "ry", "rz"), "angle"),
+             **dict.fromkeys(("d", "r", "a", "x", "y", "z"), "length")}
 JOINT_ENTRIES = {"mdh": ("alpha", "d", "theta", "r"), "dh": ("theta", "d", "a", "alpha")}
 
 
