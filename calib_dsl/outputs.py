@@ -6,6 +6,7 @@ module stays one a reader can hold."""
 
 from __future__ import annotations
 
+import sys
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -23,8 +24,19 @@ PLOT = click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
                          "needs matplotlib: pip install calibc[plot]).")
 
 
+class Calibc(click.Group):
+    """The command group, keeping the arguments it was run with (a result's provenance
+    names the command that made it, also when run in-process, as tests and scripts do)."""
+
+    argv: list[str] = []
+
+    def main(self, args: Any = None, *rest: Any, **kwargs: Any) -> Any:
+        self.argv = list(sys.argv[1:] if args is None else args)
+        return super().main(args, *rest, **kwargs)
+
+
 def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """solve's --residuals, --plot, --export-domains."""
+    """solve's --residuals, --plot, --export-domains, --report."""
     options = [
         click.option("--residuals", is_flag=True,
                      help="Also enclose measured minus predicted over the result, per data "
@@ -33,6 +45,9 @@ def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--export-domains", "export_domains", type=click.Path(dir_okay=False),
                      help="Also write the result as `param` declarations: the next run's "
                           "search domains."),
+        click.option("--report", "report_path", type=click.Path(dir_okay=False),
+                     help="Also write the handover report (HTML, self-contained: "
+                          "`calibc report`)."),
     ]
     for option in reversed(options):
         fn = option(fn)

@@ -30,7 +30,8 @@ def compile_model(model: Model) -> Program:
     tables = {t.name: (t.path, len(t.numbers) or t.rows) for t in model.tables}
     if model.batch is None:
         return Program(model.path, model.formulation, slots, prims, groups_of(arrays), truth,
-                       domains, priors, true_stated=stated, units=units, tables=tables)
+                       domains, priors, true_stated=stated, units=units, tables=tables,
+                       sources=model.sources)
     try:
         slots, tiled, template, layout = replicate(model, slots, prims, arrays)
     except NotBatchable:
@@ -38,7 +39,7 @@ def compile_model(model: Model) -> Program:
     return Program(model.path, model.formulation, slots, tiled,
                    tile_groups(groups_of(template), layout), truth, domains, priors,
                    true_stated=stated, rows=layout, units=units,
-                   tables=tables)
+                   tables=tables, sources=model.sources)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:

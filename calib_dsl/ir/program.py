@@ -53,6 +53,7 @@ class Program:
     units: dict[str, str] = field(default_factory=dict)
     # the data it was compiled from: per table, the file read and the rows used (provenance)
     tables: dict[str, tuple[str, int]] = field(default_factory=dict)
+    sources: tuple[str, ...] = ()  # the model's files: the model, then what it includes
     # What the solvers derive from the program whatever the box (propagation kernels,
     # layouts, plans), by kind, with the groups it was made from (see `derived`).
     derived_cache: dict[str, tuple[list[Group], Any]] = field(
