@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.plot.values import number, width
+from calib_dsl.plot.values import log_limits, number, width
 
 OUTSIDE = 1.5  # a true value outside the result is drawn here, in red
 
@@ -50,12 +50,14 @@ def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
                       ncols=3, frameon=False)
         if has_true:
             _truth(axes[k, 1], {n: params[n] for n in names}, np.arange(len(names)))
+            axes[k, 1].set_visible(any(params[n]["true"] is not None for n in names))
     return list(axes.ravel())
 
 
 def _widths(ax: Any, params: dict[str, Any], unit: str) -> None:
     names = list(params)
     y = np.arange(len(names))
+    drawn = []
     for key, height, color, label in (("domain", 0.8, "0.8", "search domain"),
                                       ("result", 0.45, "C0", "guaranteed result"),
                                       ("inner", 0.15, "C1", "certified inner")):
@@ -63,7 +65,11 @@ def _widths(ax: Any, params: dict[str, Any], unit: str) -> None:
         shown = np.isfinite(w) & (w > 0)
         if np.any(shown):
             ax.barh(y[shown], w[shown], height=height, color=color, label=label)
+            drawn += list(w[shown])
     ax.set_xscale("log")
+    limits = log_limits(drawn)
+    if limits is not None:
+        ax.set_xlim(*limits)
     ax.set_yticks(y, names, fontsize="small")
     ax.set_ylim(len(names) - 0.5, -0.5)
     ax.set_xlabel(f"width ({unit or 'the model says no unit'}, log scale)")

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.plot.values import number
+from calib_dsl.plot.values import log_limits, number
 
 GREY = "0.75"  # the parameters not narrowed
 NAMES_PER_COLUMN = 12  # the legend's columns: beside the panel, never over a line
@@ -63,6 +63,9 @@ def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
             else:
                 ax.plot(seconds, w, color=GREY, linewidth=0.8)
         ax.set_yscale("log")
+        limits = log_limits(widths[:, cols])
+        if limits is not None:
+            ax.set_ylim(*limits)
         ax.set_ylabel(f"width ({unit})" if unit else "width")
         if shown:
             ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0),
