@@ -105,6 +105,13 @@ class Robots(Context):
                            f", got {len(e.args)}", e.loc)
         return tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
 
+    def tool_points(self, robot: str) -> list[tuple[int, int, int]]:
+        """The tool points `robot(...) at p` has been asked for, as DAG nodes (x, y, z), each
+        once: what `calibc export` writes as the robot's tool frame."""
+        found = [key[2] for key in self._robot_calls if key[0] == robot and
+                 isinstance(key[2], tuple)]
+        return list(dict.fromkeys(found))
+
     def frames_of(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The robot's frames (base, joints, tool: chains.Frame or Transform of DAG nodes)
         for these joint values: what `calibc export` writes as a DH table."""

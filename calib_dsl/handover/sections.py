@@ -1,6 +1,7 @@
 """What the report says, section by section, as plain data for the template: each number
-printed at the precision its guarantee supports (numbers.py), with the JSON value it came from
-kept beside it (the template writes it as a `data-json` attribute: a test compares them)."""
+printed at the precision its guarantee supports (report/decimals.py), with the JSON value it
+came from kept beside it (the template writes it as a `data-json` attribute: a test compares
+them)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,8 @@ import math
 from collections import Counter
 from typing import Any
 
-from calib_dsl.handover import numbers as nb
 from calib_dsl.handover.documents import Documents
+from calib_dsl.report import decimals as nb
 
 VERDICTS = {
     "consistent": "The data are consistent with the model: a parameter vector is proven to "

@@ -10,7 +10,7 @@ from decimal import Decimal
 from hypothesis import given
 from hypothesis import strategies as st
 
-from calib_dsl.handover.numbers import QUANTUM_SHARE, inward, outward, places, plus_minus
+from calib_dsl.report.decimals import QUANTUM_SHARE, inward, outward, places, plus_minus
 
 finite = st.floats(min_value=-1e9, max_value=1e9, allow_nan=False, allow_infinity=False)
 widths = st.floats(min_value=1e-9, max_value=1e6)

@@ -107,3 +107,28 @@ def plain(x: Any, digits: int = 4) -> str:
     if math.isinf(v):
         return "+oo" if v > 0 else "-oo"
     return f"{v:.{digits}g}"
+
+
+def representative(lo: float, hi: float, v: float) -> float:
+    """v rounded at the printing place of [lo, hi] (half even), kept inside it when v is:
+    the short decimal an export writes for it. A point interval keeps v."""
+    d = places(lo, hi)
+    if d is None or not math.isfinite(v):
+        return v
+    quantum = Decimal(1).scaleb(-d)
+    x = float(Decimal(v).quantize(quantum, rounding=ROUND_HALF_EVEN))
+    if not lo <= v <= hi:
+        return x
+    if x < lo:
+        x = float(Decimal(lo).quantize(quantum, rounding=ROUND_CEILING))
+    if x > hi:
+        x = float(Decimal(hi).quantize(quantum, rounding=ROUND_FLOOR))
+    return x if lo <= x <= hi else v
+
+
+def clean(x: float, digits: int = 15) -> str:
+    """A computed value as a short decimal: `digits` significant digits, so that what float
+    arithmetic leaves in the last places (127.30000000000001) is not printed."""
+    if not math.isfinite(x):
+        return "+oo" if x > 0 else ("-oo" if x < 0 else "nan")
+    return repr(float(f"{x:.{digits}g}") + 0.0)  # (no "-0.0")
