@@ -26,14 +26,18 @@ def write_report(docs: Documents, output: str) -> None:
               help="The JSON of `calibc validate --json`: the accuracy on held-out poses.")
 @click.option("--identify", "identify", type=click.Path(dir_okay=False),
               help="The JSON of `calibc identify --json`: what the data cannot separate.")
+@click.option("--min-error", "min_error", type=click.Path(dir_okay=False),
+              help="The JSON of `calibc solve MODEL --min-error NAME --json`: the bracket of "
+                   "the smallest consistent error bound.")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="The HTML file to write (one self-contained file: figures and style "
                    "inline, nothing fetched).")
-def report(result: str, validation: str | None, identify: str | None, output: str) -> None:
+def report(result: str, validation: str | None, identify: str | None,
+           min_error: str | None, output: str) -> None:
     """A handover report of RESULT (the JSON of `calibc solve --json`) as one HTML file:
     the verdict, the accuracy, the parameters, the data and where the result came from;
     printable to PDF from a browser."""
-    write_report(read(result, validation, identify), output)
+    write_report(read(result, validation, identify, min_error), output)
     click.echo(f"wrote the report to {output}")
 
 

@@ -18,15 +18,18 @@ class Documents:
     validation: dict[str, Any] | None = None  # `calibc validate --json`
     identify: dict[str, Any] | None = None  # `calibc identify --json`
     names: tuple[str, ...] = ()  # the files read, for the report's provenance
+    min_error: dict[str, Any] | None = None  # `calibc solve --min-error NAME --json`
 
 
-def read(result: str, validation: str | None = None, identify: str | None = None
-         ) -> Documents:
+def read(result: str, validation: str | None = None, identify: str | None = None,
+         min_error: str | None = None) -> Documents:
     found = _read(result, "a solve's result", ("parameters", "verdict"))
     val = None if validation is None else _read(validation, "a validation", ("coverage",))
     ident = None if identify is None else _read(identify, "an identification", ("rank",))
-    names = tuple(p for p in (result, validation, identify) if p is not None)
-    return Documents(found, val, ident, names)
+    bracket = None if min_error is None else _read(min_error, "a --min-error bracket",
+                                                   ("min_error",))["min_error"]
+    names = tuple(p for p in (result, validation, identify, min_error) if p is not None)
+    return Documents(found, val, ident, names, bracket)
 
 
 def _read(path: str, what: str, keys: tuple[str, ...]) -> dict[str, Any]:

@@ -92,8 +92,9 @@ def unidentified(docs: Documents) -> list[dict[str, Any]]:
     info = docs.result.get("identifiability") or {}
     combos = {c["combination"]: c["result"] for c in info.get("combinations", [])}
     out = [{"parameters": g["parameters"], "by": None, "seen": [
-        {"combination": c, "result": nb.outward(*map(nb.number, combos[c]))
-         if c in combos else None} for c in g.get("identifiable_combinations", [])]}
+        {"combination": c, "json": combos.get(c),
+         "result": nb.outward(*map(nb.number, combos[c])) if c in combos else None}
+        for c in g.get("identifiable_combinations", [])]}
         for g in info.get("not_identifiable", [])]
     for g in (docs.identify or {}).get("absorbed", []):
         out.append({"parameters": g["parameters"], "by": g.get("move_with"), "seen": []})
@@ -159,8 +160,16 @@ def data(docs: Documents) -> dict[str, Any]:
              for d in prov.get("data", [])]
     res = (docs.result.get("residuals") or {}).get("rows", [])
     outlying = Counter(x["outlier"] for x in res)
+    bracket = None
+    if docs.min_error is not None:
+        lo, hi = (nb.number(v) for v in docs.min_error["bracket"])
+        shown = nb.outward(0.0 if math.isnan(lo) else lo, math.inf if math.isnan(hi) else hi)
+        bracket = {"name": docs.min_error.get("name"), "json": docs.min_error["bracket"],
+                   # (null: no value below was proven inconsistent, or none above consistent)
+                   "shown": ("0" if math.isnan(lo) else shown[0],
+                             "+oo" if math.isnan(hi) else shown[1])}
     return {"files": files, "outliers_of_result": outlying.get(True, 0),
-            "rows_checked": len(res)}
+            "rows_checked": len(res), "bracket": bracket}
 
 
 def provenance(docs: Documents) -> dict[str, Any]:

@@ -152,3 +152,20 @@ def test_the_solve_s_accuracy_statement_comes_first(solved, tmp_path):
         assert float(shown[v]) == pytest.approx(v, rel=1e-3)
     assert "before calibration (nominal)" in html and "the certified point" not in html
     assert "guaranteed, every consistent parameter vector" in html
+
+
+def test_the_min_error_bracket_and_the_combinations_are_the_json_s(solved, tmp_path):
+    result, _ = solved
+    (tmp_path / "r.json").write_text(json.dumps(result))
+    res = run("solve", ARM, "--min-error", "e", "--json", tmp_path / "m.json")
+    assert res.exit_code == 0, res.output
+    bracket = json.loads((tmp_path / "m.json").read_text())["min_error"]["bracket"]
+    res = run("report", tmp_path / "r.json", "--min-error", tmp_path / "m.json",
+              "-o", tmp_path / "r.html")
+    assert res.exit_code == 0, res.output
+    (shown,) = [c for c in read((tmp_path / "r.html").read_text()).values
+                if c.key == "bracket"]
+    assert shown.json == bracket
+    lo, hi = shown.text.strip("[]").split(", ")
+    assert bracket[0] is None and lo == "0"  # (exact data: nothing below proven inconsistent)
+    assert Decimal(hi) >= number(bracket[1])
