@@ -2,7 +2,7 @@
 ur_description kinematics by PyYAML, the DH table (standard DH, converted from the model's
 modified DH) by a parser here; each one's forward kinematics equals the model's at the
 exported point to 1e-9 of the model's units, at random joint angles, for the shipped UR10
-model and the shipped UR5 robot. The model's kinematics are composed here by hand from its
+model and the shipped UR5 model. The model's kinematics are composed here by hand from its
 own constants and the exported point (analysis/kinematics.py, modified DH), not from the
 export's code."""
 
@@ -20,7 +20,6 @@ from calib_dsl.analysis.kinematics import chain, dh_matrix
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.report.export_point import export_point
 from tests.cli_run import run
-from tests.simulated_ur5 import header
 
 ROOT = Path(__file__).resolve().parents[2]
 TOL_MM = 1e-9
@@ -44,20 +43,11 @@ def result_of(model: Path, tmp: Path) -> Path:
     return path
 
 
-def ur_model(tmp: Path) -> Path:
-    path = tmp / "ur5.cal"
-    path.write_text(header(1.0) + 'table m = "m.csv" {\n  q1, q2, q3, q4, q5, q6 : +- 0 '
-                    'simulate in [-pi, pi];\n  x, y, z : +- e;\n}\nfor k in 1..rows(m) {\n'
-                    "  ur5(m.q1[k], m.q2[k], m.q3[k], m.q4[k], m.q5[k], m.q6[k]) at "
-                    "(tx, ty, tz) == (m.x[k], m.y[k], m.z[k]);\n}\n")
-    return path
-
-
 @pytest.fixture(scope="module", params=["ur10", "ur5"])
 def exported(request, tmp_path_factory) -> tuple[str, dict[str, float], Path]:
     """(robot, the model's values at the exported point, the result JSON)."""
     tmp = tmp_path_factory.mktemp(request.param)
-    model = ROOT / "models" / "ur10_tracker.cal" if request.param == "ur10" else ur_model(tmp)
+    model = ROOT / "models" / f"{request.param}_tracker.cal"
     path = result_of(model, tmp)
     point = export_point(json.loads(path.read_text()))
     return request.param, {**consts(model), **point}, path
@@ -65,8 +55,9 @@ def exported(request, tmp_path_factory) -> tuple[str, dict[str, float], Path]:
 
 def consts(model: Path) -> dict[str, float]:
     """The model's `const NAME = EXPR;` values (pi included), read from its files."""
-    files = [ROOT / "models" / "robots" / "ur10.cal", ROOT / "models" / "robots" / "ur5.cal",
-             ROOT / "models" / "ur10_priors.cal", model]
+    robot = model.name.split("_")[0]
+    files = [ROOT / "models" / "robots" / f"{robot}.cal", ROOT / "models" / f"{robot}_priors.cal",
+             model]
     values: dict[str, float] = {"pi": math.pi}
     for f in files:
         for name, expr in re.findall(r"const (\w+) = ([^;]+);", f.read_text()):
