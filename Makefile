@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test test-slow test-all test-random lint bench clean fetch-ur10
+.PHONY: install test test-slow test-all test-random lint bench clean fetch-ur10 report-screenshot
 
 install: $(VENV)/.installed
 
@@ -30,6 +30,12 @@ test-all: install
 
 test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest
+
+# report-screenshot: docs/figures/report.png, the handover report of the shipped UR10 model
+# as chromium shows it (the browser test keeps its screenshot in build/artefacts/)
+report-screenshot: install
+	$(BIN)/pytest -m slow -n 0 tests/handover/test_browser.py -k ur10
+	cp build/artefacts/report-ur10.png docs/figures/report.png
 
 lint: install
 	$(BIN)/ruff check calib_dsl tests bench

@@ -16,6 +16,7 @@ import click
 from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.handover.command import report as handover_report
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import STRATEGIES
 
@@ -98,7 +99,7 @@ def _load(model: str, formulation: str, inputs: Any = None):
     return load(model, formulation, inputs=inputs)
 
 
-@click.group()
+@click.group(cls=outputs.Calibc)
 @click.version_option(package_name="calibc")
 def main() -> None:
     """calibc: guaranteed robot calibration by interval constraint propagation."""
@@ -194,10 +195,13 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strategy: str,
           identify: bool, lsq: bool, every: bool, inner: bool | None, shave: int | None,
           diagnose: bool, outliers: int, min_error: str | None, quiet: bool, residuals: bool,
-          plot_path: str | None, export_domains: str | None, formulation: str,
+          plot_path: str | None, export_domains: str | None, report_path: str | None,
+          formulation: str,
           data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...], unroll: bool) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
+    from calib_dsl.handover.command import from_result
+    from calib_dsl.handover.provenance import provenance
     from calib_dsl.pipeline import solve_report
     from calib_dsl.report.progress_line import progress_line
 
@@ -215,13 +219,14 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(line, err=True)
     if json_path != "-":
         click.echo(run.text(every))
-    result = run.as_json()
-    if (residuals or plot_path) and run.res.status == "contracted":
+    result = {**run.as_json(), "provenance": provenance(run.prog, main.argv)}
+    if (residuals or plot_path or report_path) and run.res.status == "contracted":
         result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
                                                 quiet=json_path == "-")
     outputs.json_out(json_path, result)
     outputs.plotted(result, plot_path)
     outputs.export_domains(result, export_domains)
+    from_result(result, report_path)
     if run.exit_code:  # 1: proven inconsistent; 4: undecided (docs/decisions/verdicts.md)
         sys.exit(run.exit_code)
 
@@ -434,7 +439,8 @@ def batch(source: str, output: str, data_glob: str | None, scheduler: str | None
     if any(line["status"] in ("error", "failed") for line in lines):
         sys.exit(1)
 
-# `plot` and `export` (calib_dsl/outputs.py), with this module's handling of user errors
-for _command in (outputs.plot, outputs.export):
+# `plot`, `export` (calib_dsl/outputs.py) and `report` (the handover report), with this
+# module's handling of user errors
+for _command in (outputs.plot, outputs.export, handover_report):
     _command.callback = user_errors(_command.callback)  # type: ignore[arg-type]
     main.add_command(_command)

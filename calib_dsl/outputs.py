@@ -6,6 +6,7 @@ module stays one a reader can hold."""
 
 from __future__ import annotations
 
+import sys
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -17,14 +18,26 @@ import click
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.plot.figure import CHOICES as PLOT_KINDS
 from calib_dsl.report.export import FORMATS as EXPORT_FORMATS
+from calib_dsl.report.export_point import POINTS as EXPORT_POINTS
 
 PLOT = click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
                     help="Also draw the result's figures into this file (.png, .svg or .pdf; "
                          "needs matplotlib: pip install calibc[plot]).")
 
 
+class Calibc(click.Group):
+    """The command group, keeping the arguments it was run with (a result's provenance
+    names the command that made it, also when run in-process, as tests and scripts do)."""
+
+    argv: list[str] = []
+
+    def main(self, args: Any = None, *rest: Any, **kwargs: Any) -> Any:
+        self.argv = list(sys.argv[1:] if args is None else args)
+        return super().main(args, *rest, **kwargs)
+
+
 def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """solve's --residuals, --plot, --export-domains."""
+    """solve's --residuals, --plot, --export-domains, --report."""
     options = [
         click.option("--residuals", is_flag=True,
                      help="Also enclose measured minus predicted over the result, per data "
@@ -33,6 +46,9 @@ def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--export-domains", "export_domains", type=click.Path(dir_okay=False),
                      help="Also write the result as `param` declarations: the next run's "
                           "search domains."),
+        click.option("--report", "report_path", type=click.Path(dir_okay=False),
+                     help="Also write the handover report (HTML, self-contained: "
+                          "`calibc report`)."),
     ]
     for option in reversed(options):
         fn = option(fn)
@@ -171,18 +187,27 @@ def plot(result: str, output: str, kind: str) -> None:
 @click.command()
 @click.argument("result", type=click.Path(dir_okay=False))
 @click.option("--format", "fmt", type=click.Choice(EXPORT_FORMATS), required=True,
-              help="dh-table, urdf, json: midpoints with guaranteed half-widths for a "
-                   "controller; cal: the result as search domains for the next run.")
+              help="dh-table, urdf, ur-kinematics (ROS ur_description), json: values with "
+                   "guaranteed half-widths for a controller; cell: where the robot stands "
+                   "in the measurement set-up; cal: the result as the next run's domains.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="Write it here (default: standard output).")
 @click.option("--model", type=click.Path(dir_okay=False),
               help="The model RESULT was solved from (default: the one it names).")
-def export(result: str, fmt: str, output: str | None, model: str | None) -> None:
+@click.option("--point", type=click.Choice(EXPORT_POINTS), default="midpoint",
+              show_default=True,
+              help="The parameter vector written: the result's midpoint, the least-squares "
+                   "estimate (solve --lsq) or the certified centre.")
+@click.option("--convention", type=click.Choice(("mdh", "dh")),
+              help="dh-table: the joints in modified or standard DH (default: the model's).")
+def export(result: str, fmt: str, output: str | None, model: str | None, point: str,
+           convention: str | None) -> None:
     """Export RESULT, a solve's JSON, for a controller or the next run."""
-    from calib_dsl.pipeline import export as run
     from calib_dsl.report.as_json import read_result
+    from calib_dsl.report.exports import Request
+    from calib_dsl.report.exports import export as run
 
-    text = run(read_result(result), fmt, model)
+    text = run(read_result(result), Request(fmt, model, point, convention))
     if output:
         write(output, text)
     else:

@@ -21,7 +21,6 @@ from calib_dsl.analysis.outlier_rows import Outliers, Row, data_rows, excluding
 from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
-from calib_dsl.analysis.robot_frames import robot_tables
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
@@ -33,12 +32,10 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.report.as_json import result_json
-from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
-from calib_dsl.report.strict_json import dumps, plain
+from calib_dsl.report.strict_json import plain
 from calib_dsl.report.text import render_summary, render_table
-from calib_dsl.report.urdf import urdf
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
@@ -360,30 +357,3 @@ def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str 
     left_out = {names.get(t, t): set(sel.excluded) for t, sel in inputs.rows.items()}
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in independents(prog)}
     return elaborated, residual_ranges(every, box), left_out
-
-
-def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
-    """The result of a solve (its JSON, `data`) in the format `fmt` (report/export.py): `cal`
-    (search domains for the next run), `json`, `dh-table` or `urdf` (midpoints with their
-    guaranteed half-widths; the robots are read from `model`, else the model `data` names)."""
-    if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
-        raise CalError("the result holds no guaranteed box to export (calibc solve --json "
-                       "writes one; an infeasible solve has none)")
-    if fmt == "cal":
-        return domains_cal(data)
-    source = model or data.get("model")
-    if not source:
-        raise CalError("the result does not name its model: give it with --model")
-    try:
-        box = {name: (number(p["result"][0]), number(p["result"][1]))
-               for name, p in data["parameters"].items()}
-    except (KeyError, TypeError, ValueError, IndexError) as err:
-        raise CalError(f"the result's parameters are malformed ({err!r})") from None
-    tables, units = robot_tables(source, box)
-    if fmt == "json":
-        return dumps(export_json(data, tables, units, units_of(tables, units)), indent=2) + "\n"
-    if not tables:
-        raise CalError(f"{source} has no robot: a {fmt} export needs one (--format json "
-                       "writes its parameters)")
-    return dh_table(data, tables, units) if fmt == "dh-table" else urdf(str(source), tables,
-                                                                         units)

@@ -24,10 +24,10 @@ PAPER_CSE = EXAMPLES / "paper_cse.cal"
 PAPER_PROP = EXAMPLES / "paper_propagation.cal"
 TOP_KEYS = {"model", "status", "stop", "sweeps", "lp_rounds", "reused_rounds", "seconds",
             "primitives", "formulation", "strategy", "parameters", "narrowed", "split",
-            "warnings", "verdict", "decision"}
+            "warnings", "verdict", "decision", "provenance"}
 OPTIONAL_TOP = {"emptied", "identifiability", "least_squares", "tightness", "history",
                 "residuals"}
-PARAM_KEYS = {"kind", "domain", "result", "true"}
+PARAM_KEYS = {"kind", "domain", "result", "true", "unit"}
 OPTIONAL_PARAM = {"identifiable", "least_squares", "inner"}
 X2_STAR = brentq(lambda x: x**3 - math.sin(x), 0.5, 1.5, xtol=1e-15)  # x1 = sin(x2) = x2^3
 X1_STAR = X2_STAR**3

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 import xml.etree.ElementTree as ET
 from fractions import Fraction
@@ -21,6 +22,7 @@ from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.pipeline import load, solve
 from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import domains_cal
+from calib_dsl.report.export_point import export_point
 
 ROOT = Path(__file__).resolve().parents[1]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -112,14 +114,14 @@ def test_dh_table_kinematics_equal_the_models_at_the_midpoints(rx90):
     rows = dh_rows(res.output)
     assert list(rows) == ["base1"] + [f"joint{j}" for j in range(1, 7)]
     assert all(rows[f"joint{j}"]["motion"] == "revolute" for j in range(1, 7))
-    mids = {n: 0.5 * sum(interval(p)) for n, p in data["parameters"].items()}
+    mids = export_point(data)  # the midpoints, as the short decimals written
     q = np.random.default_rng(5).uniform(-np.pi, np.pi, (10, 6))
     frames = [(rows["base1"]["alpha"][0], rows["base1"]["d"][0], rows["base1"]["theta"][0],
                rows["base1"]["r"][0])]
     for j in range(1, 7):
         e = rows[f"joint{j}"]
         frames.append((e["alpha"][0], e["d"][0], e["theta"][0] + q[:, j - 1], e["r"][0]))
-    np.testing.assert_allclose(chain(frames), chain(rx90_frames(q, mids)), atol=1e-12)
+    np.testing.assert_allclose(chain(frames), chain(rx90_frames(q, mids)), atol=1e-13)
     # an entry that is one parameter: midpoint +- half-width holds its whole result
     for frame, entry, name in (("base1", "r", "r0"), ("joint3", "d", "d3"),
                                ("joint4", "r", "r4"), ("joint1", "alpha", "alpha1")):
@@ -130,8 +132,9 @@ def test_dh_table_kinematics_equal_the_models_at_the_midpoints(rx90):
         assert float(h) < 1.05 * (hi - lo) / 2 + 1e-9  # rounded up, not blown up
 
 
-def urdf_forward(root: ET.Element, q: np.ndarray) -> np.ndarray:
-    """The flange's pose: each joint's origin, then its motion, in chain order."""
+def urdf_forward(root: ET.Element, q: np.ndarray, until: str = "flange_joint") -> np.ndarray:
+    """The pose of joint `until`'s child: each joint's origin, then its motion, in chain
+    order (the tool frames after the flange are not on the way)."""
     def origin(j: ET.Element) -> np.ndarray:
         o = j.find("origin")
         x, y, z = (float(v) for v in o.get("xyz").split())
@@ -153,6 +156,8 @@ def urdf_forward(root: ET.Element, q: np.ndarray) -> np.ndarray:
             m = m @ (dh_matrix(0, 0, 0, s * q[:, moving]) if j.get("type") == "prismatic"
                      else dh_matrix(0, 0, s * q[:, moving], 0))
             moving += 1
+        if j.get("name") == until:
+            break
     return m
 
 
@@ -163,13 +168,18 @@ def test_urdf_is_well_formed_with_one_joint_per_axis(rx90):
     root = ET.fromstring(res.output.split("\n", 1)[1])  # (after the XML declaration)
     assert root.tag == "robot" and root.get("name") == "rx90"
     joints = root.findall("joint")
-    assert [j.get("type") for j in joints] == ["fixed"] + ["continuous"] * 6 + ["fixed"]
+    assert [j.get("type") for j in joints] == ["continuous"] * 6 + ["fixed"] * 4
+    assert [j.get("name") for j in joints] == [f"q{k}" for k in range(1, 7)] + [
+        "flange_joint", "tool1_joint", "tool2_joint", "tool3_joint"]  # (three tool points)
     links = {lk.get("name") for lk in root.findall("link")}
     assert all(j.find("parent").get("link") in links and j.find("child").get("link") in links
                for j in joints)
-    mids = {n: 0.5 * sum(interval(p)) for n, p in data["parameters"].items()}
+    mids = export_point(data)
     q = np.random.default_rng(6).uniform(-np.pi, np.pi, (10, 6))
-    np.testing.assert_allclose(urdf_forward(root, q), chain(rx90_frames(q, mids)), atol=1e-12)
+    cell = run("export", path, "--format", "cell")  # where the robot stands: its base frame
+    placed = urdf_forward(ET.fromstring(cell.output.split("\n", 1)[1]), q[:, :0]) @ \
+        urdf_forward(root, q)
+    np.testing.assert_allclose(placed, chain(rx90_frames(q, mids)), atol=1e-13)
 
 
 def test_json_export_states_units_and_covers_each_result(rx90):
@@ -209,7 +219,7 @@ def test_a_6dof_base_gets_its_own_block_in_mm(tmp_path):
     assert urdf.exit_code == 0
     root = ET.fromstring(urdf.output.split("\n", 1)[1])
     r1 = rows["joint1"]["r"][0]  # mm in the table, m in the URDF
-    z = float(root.findall("joint")[1].find("origin").get("xyz").split()[2])
+    z = float(root.findall("joint")[0].find("origin").get("xyz").split()[2])
     assert z == pytest.approx(r1 / 1000)
 
 
@@ -271,7 +281,7 @@ def test_standard_dh_with_a_reversed_and_a_prismatic_joint(tmp_path):
     urdf = run("export", path, "--format", "urdf")
     root = ET.fromstring(urdf.output.split("\n", 1)[1])
     assert [j.get("type") for j in root.findall("joint")] == ["continuous", "continuous",
-                                                             "prismatic", "fixed"]
+                                                             "prismatic", "fixed", "fixed"]
     q = np.random.default_rng(7).uniform(-1, 1, (8, 3))
 
     def rz(t):
@@ -284,3 +294,24 @@ def test_standard_dh_with_a_reversed_and_a_prismatic_joint(tmp_path):
     expected = (dh(q[:, 0] + 0.02, 0.2, 1.0, np.pi / 2) @ dh(-q[:, 1], 0, 0.51, 0)
                 @ dh(0.3, q[:, 2], 0, 0))
     np.testing.assert_allclose(urdf_forward(root, q), expected, atol=1e-12)
+
+
+def test_no_float_noise_and_fixed_entries_marked_nominal(rx90, tmp_path):
+    """Every value is a short decimal (no 0.30000000000000004), every entry the model fixes
+    is marked nominal, and --point lsq needs a least-squares estimate in the result."""
+    path, data, _ = rx90
+    res = run("export", path, "--format", "dh-table")
+    values = [c for line in res.output.splitlines() if line.startswith(("base", "joint"))
+              for c in line.split()[2::2]]
+    assert values and all(len(v.lstrip("-").replace(".", "").rstrip("0")) <= 15
+                          for v in values)
+    assert "nominal" in res.output
+    urdf = run("export", path, "--format", "urdf").output
+    assert not re.search(r"\.\d*(0{9,}|9{9,})\d", urdf)  # float noise: ...0000001, ...99999
+    res = run("export", path, "--format", "urdf", "--point", "lsq")
+    assert res.exit_code == 2 and "calibc solve --lsq" in res.output
+    with_lsq = {**data, "parameters": {n: {**p, "least_squares": 0.5 * sum(interval(p))}
+                                       for n, p in data["parameters"].items()}}
+    (tmp_path / "l.json").write_text(json.dumps(with_lsq))
+    res = run("export", tmp_path / "l.json", "--format", "urdf", "--point", "lsq")
+    assert res.exit_code == 0 and res.output == urdf  # (the same point, the same file)

@@ -24,6 +24,7 @@ RANKS = {
     "strategy": 7,
     "report": 8, "plot": 8,
     "pipeline": 9,
+    "handover": 9,  # the handover report: renders the JSON documents, beside the pipeline
     "batch": 10,  # many solves on Dask: the pipeline's calls, one job each
     "api": 10,  # beside batch: neither imports the other
     "outputs": 10,  # the figures, residuals and exports the command line writes

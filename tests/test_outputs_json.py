@@ -105,7 +105,7 @@ def test_the_issues_documents_use_the_convention(tmp_path):
     solved = strict(found["solve paper_propagation.cal"])
     assert solved["tightness"]["median_ratio"] == "+oo"
     exported = strict(found["export unbounded"])
-    assert exported["parameters"]["a"] == {"value": None, "half_width": "+oo"}
+    assert exported["parameters"]["a"] == {"value": None, "half_width": "+oo", "nominal": False}
     predicted = json.loads(found["predict --json"])
     assert all(isinstance(v, float | type(None)) for v in predicted["width"].values())
 

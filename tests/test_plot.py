@@ -200,3 +200,48 @@ def test_without_matplotlib_the_message_says_how_to_get_it(monkeypatch, solved, 
     res = run("solve", arm, "--plot", tmp_path / "f.png")
     assert res.exit_code == 2 and "pip install calibc[plot]" in res.output
     assert "status:" not in res.output  # refused before solving
+
+
+def _param(unit, dom, res, inner=None):
+    return {"kind": "param", "domain": dom, "result": res, "true": None, "unit": unit,
+            "inner": inner}
+
+
+def test_domains_one_panel_per_unit_and_the_legend_over_no_bar():
+    """Millimetres and radians never share a log axis; the legend sits above the panels."""
+    data = {"model": "m.cal", "parameters": {
+        "d2": _param("mm", [-5, 5], [-1, 1], [-0.5, 0.5]),
+        "alpha2": _param("rad", [-0.01, 0.01], [-0.001, 0.002]),
+        "tx": _param("mm", [-5, 5], [-4, 4.5]),
+        "k": _param(None, [0, 1], [0.2, 0.3])}}
+    fig = figure(data, "domains")
+    panels = axes(fig, "domains")
+    assert [[t.get_text() for t in ax.get_yticklabels()] for ax in panels] == \
+        [["d2", "tx"], ["alpha2"], ["k"]]
+    assert ["mm" in panels[0].get_xlabel(), "rad" in panels[1].get_xlabel()] == [True, True]
+    fig.canvas.draw()
+    legend = panels[0].get_legend().get_window_extent()
+    for ax in panels:
+        assert legend.y0 >= ax.get_window_extent().y1  # above every panel, over no bar
+
+
+def test_history_names_every_narrowed_parameter_in_a_colour_never_grey():
+    names = [f"p{j}" for j in range(25)]
+    units = ["mm" if j % 2 else "rad" for j in range(25)]
+    narrowed = set(range(22))
+    steps = [{"seconds": s, "widths": [1.0 if s == 0 or j not in narrowed else 0.5 / (1 + s)
+                                       for j in range(25)]} for s in range(4)]
+    data = {"parameters": {n: {"unit": u} for n, u in zip(names, units, strict=True)},
+            "history": {"parameters": names, "steps": steps}}
+    fig = figure(data, "history")
+    panels = axes(fig, "history")
+    assert sorted("mm" in ax.get_ylabel() for ax in panels) == [False, True]
+    legends = [t.get_text() for ax in panels for t in ax.get_legend().get_texts()]
+    assert sorted(legends) == sorted(names[j] for j in narrowed)
+    for ax in panels:
+        for line in ax.lines:
+            from matplotlib.colors import to_rgb
+
+            r, g, b = to_rgb(line.get_color())
+            grey = abs(r - g) < 0.02 and abs(g - b) < 0.02
+            assert grey == (line.get_label().startswith("_")), line.get_label()

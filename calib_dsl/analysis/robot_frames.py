@@ -37,7 +37,7 @@ class Entry:
     name: str  # as the robot statement writes it: alpha, d, theta, r, x, ..., a
     lo: float  # every value consistent with the data, at q = 0, lies in [lo, hi]
     hi: float
-    mid: float  # its value at the box's midpoint (q = 0)
+    mid: float  # its value at the point exported (the box's midpoint by default; q = 0)
     reads: tuple[str, ...] = ()  # the declared unknowns it depends on
 
     @property
@@ -63,34 +63,45 @@ class FrameRow:
 class RobotTable:
     name: str
     frames: tuple[FrameRow, ...]
+    # the tool points `robot(...) at p` measures, in the last frame (x, y, z entries; the
+    # model's length unit): the tool frames a controller adds after the flange
+    tools: tuple[tuple[Entry, Entry, Entry], ...] = ()
 
 
-def robot_tables(path: str | Path, box: dict[str, tuple[float, float]]
+def robot_tables(path: str | Path, box: dict[str, tuple[float, float]],
+                 point: dict[str, float] | None = None
                  ) -> tuple[list[RobotTable], dict[str, str]]:
     """The robots of the model at `path`, their entries over `box` (name: (lo, hi) of every
-    declared unknown); and the model's units ({"length": "m", "angle": "rad"})."""
+    declared unknown) and at `point` (a value of each, by default the box's midpoint); and
+    the model's units ({"length": "m", "angle": "rad"})."""
     run = Elaborator("matrix", Inputs(), simulate_rows=1)
     run.file(str(path))
     robots = [e for e, _ in run.globals.names.values() if isinstance(e, RobotDef)]
-    return [_table(run, r, box) for r in robots], dict(run.units)
+    if point is None:
+        point = {n: 0.5 * lo + 0.5 * hi for n, (lo, hi) in box.items()}
+    return [_table(run, r, box, point) for r in robots], dict(run.units)
 
 
-def _table(run: Elaborator, robot: RobotDef, box: dict[str, tuple[float, float]]
-           ) -> RobotTable:
+def _table(run: Elaborator, robot: RobotDef, box: dict[str, tuple[float, float]],
+           point: dict[str, float]) -> RobotTable:
     joints = tuple(f"{robot.name}.{p.id}" for p in robot.params)
     qs = tuple(run.dag.var(q, -np.inf, np.inf, kind="var") for q in joints)
     frames = run.frames_of(robot, qs)
     parts = (["base"] * max(len(robot.base), 1) + ["joint"] * len(robot.joints)
              + ["tool"] * len(robot.tool))
     rows, seen = [], {"base": 0, "joint": 0, "tool": 0}
-    values = _Values(run.dag, box, set(joints))
+    values = _Values(run.dag, box, set(joints), point)
     for part, frame in zip(parts, frames, strict=True):
         seen[part] += 1
         if part == "base" and not robot.base:
             continue  # no base line: the identity, nothing to write
         convention, named = _named(frame, part, robot.convention)
         rows.append(_row(robot.name, part, seen[part], convention, named, values))
-    return RobotTable(robot.name, tuple(rows))
+    tools = tuple(tuple(Entry(axis, *values.over_box(n), values.at_point(n, 0.0),
+                              tuple(values.names_in(n)))
+                        for axis, n in zip("xyz", xyz, strict=True))
+                  for xyz in run.tool_points(robot.name))
+    return RobotTable(robot.name, tuple(rows), tools)  # type: ignore[arg-type]
 
 
 def _named(frame: Any, part: str, convention: str) -> tuple[str, list[tuple[str, int]]]:
@@ -109,12 +120,12 @@ def _row(robot: str, part: str, number: int, convention: str,
         lo, hi = values.over_box(node)
         names = values.names_in(node)
         moving = [n for n in names if n in values.joints]
-        entries.append(Entry(name, lo, hi, values.at_mid(node, 0.0),
+        entries.append(Entry(name, lo, hi, values.at_point(node, 0.0),
                              tuple(n for n in names if n not in values.joints)))
         if not moving:
             continue
         kind = MOVES.get(convention, {}).get(name)
-        slope = values.at_mid(node, 1.0) - values.at_mid(node, 0.0)
+        slope = values.at_point(node, 1.0) - values.at_point(node, 0.0)
         where = f"robot '{robot}', {part} {number}, entry {name}"
         if part != "joint" or kind is None or joint is not None or len(moving) > 1:
             raise CalError(f"{where}: a joint variable here cannot be written as a DH table "
@@ -127,18 +138,19 @@ def _row(robot: str, part: str, number: int, convention: str,
 
 
 class _Values:
-    """Frame entries as intervals: over the box, or at its midpoint with every joint
+    """Frame entries as intervals: over the box, or at a point of it with every joint
     variable at a given value."""
 
-    def __init__(self, dag: Dag, box: dict[str, tuple[float, float]], joints: set[str]):
+    def __init__(self, dag: Dag, box: dict[str, tuple[float, float]], joints: set[str],
+                 point: dict[str, float]):
         self.dag, self.box, self.joints = dag, box, joints
+        self.point = {n: (v, v) for n, v in point.items()}
 
     def over_box(self, node: int) -> tuple[float, float]:
         return self._eval(node, {q: (0.0, 0.0) for q in self.joints}, {})
 
-    def at_mid(self, node: int, q: float) -> float:
-        point = {n: (0.5 * lo + 0.5 * hi,) * 2 for n, (lo, hi) in self.box.items()}
-        lo, hi = self._eval(node, {**point, **{j: (q, q) for j in self.joints}}, {})
+    def at_point(self, node: int, q: float) -> float:
+        lo, hi = self._eval(node, {**self.point, **{j: (q, q) for j in self.joints}}, {})
         return 0.5 * lo + 0.5 * hi
 
     def names_in(self, node: int) -> list[str]:

@@ -141,7 +141,8 @@ def _prefix(prog: Program, rows: int) -> Program:
     return Program(prog.source, prog.formulation, _slots(prog.slots, small, n_slots),
                    _tiled(prog.primitives, rows), [_group(g, n_prims) for g in prog.groups],
                    prog.true_values, prog.domains, prog.priors, prog.centred,
-                   prog.true_stated, small)
+                   prog.true_stated, small, prog.units, prog.tables,
+                   prog.sources)
 
 
 def _group(g: Group, n_prims: int) -> Group:

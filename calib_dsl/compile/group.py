@@ -26,16 +26,20 @@ def compile_model(model: Model) -> Program:
     domains = {v.name: (v.lo, v.hi) for v in model.dag.variables.values()}
     priors = {v.name: v.prior for v in model.dag.variables.values() if v.prior is not None}
     stated = {v.name for v in model.dag.variables.values() if v.true_stated}
+    units = {v.name: v.unit for v in model.dag.variables.values() if v.unit is not None}
+    tables = {t.name: (t.path, len(t.numbers) or t.rows) for t in model.tables}
     if model.batch is None:
         return Program(model.path, model.formulation, slots, prims, groups_of(arrays), truth,
-                       domains, priors, true_stated=stated)
+                       domains, priors, true_stated=stated, units=units, tables=tables,
+                       sources=model.sources)
     try:
         slots, tiled, template, layout = replicate(model, slots, prims, arrays)
     except NotBatchable:
         return compile_model(model.batch.unrolled())
     return Program(model.path, model.formulation, slots, tiled,
                    tile_groups(groups_of(template), layout), truth, domains, priors,
-                   true_stated=stated, rows=layout)
+                   true_stated=stated, rows=layout, units=units,
+                   tables=tables, sources=model.sources)
 
 
 def make_groups(prims: list[Primitive]) -> list[Group]:

@@ -42,6 +42,7 @@ class Context:
     globals: Scope
     including: list[tuple[Path, str]]  # the include stack (resolved, as shown)
     included: set[Path]
+    sources: list[str]  # every file read, as shown, the model first (provenance)
     expanding: list[Macro]  # the macros being expanded (recursion is an error)
     _consts: dict[Fraction, int]
     _robot_frames: dict[tuple, list[Any]]

@@ -88,7 +88,7 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
                        "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
-                 batch=run.batch)
+                 batch=run.batch, sources=tuple(run.sources))
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -134,6 +134,7 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
         self.globals = Scope()
         self.including: list[tuple[Path, str]] = []  # the include stack (resolved, as shown)
         self.included: set[Path] = set()
+        self.sources: list[str] = []
         self.expanding: list[Macro] = []
         self._consts: dict[Fraction, int] = {}
         # Robot uses are pure functions of their arguments: computed once each.

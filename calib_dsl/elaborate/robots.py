@@ -61,6 +61,8 @@ class Robots(Context):
                            e.point.loc)
         where = e.point.loc
         xyz = (self.node(point[0], where), self.node(point[1], where), self.node(point[2], where))
+        for n in xyz:
+            self._note_unit(n, "length")
         key = (robot.name, args, xyz)
         found = self._robot_calls.get(key)
         if found is None:
@@ -81,6 +83,18 @@ class Robots(Context):
             self._robot_calls[key] = found
         return found
 
+    def _note_unit(self, node: int, dimension: str) -> None:
+        """The unknowns a frame entry (or a tool point's coordinate) adds or subtracts take
+        the model's unit of its dimension: `theta2 + q2` makes theta2 an angle. A factor
+        (`s * 100`) says nothing of its own dimension, so only sums are followed."""
+        nodes, stack = self.dag.nodes, [node]
+        while stack:
+            n = nodes[stack.pop()]
+            if n.op in ("add", "sub", "neg"):
+                stack.extend(n.args)
+            elif n.op == "var" and n.data in self.dag.variables:
+                self.dag.variables[n.data].unit = self.units[dimension]
+
     def _joint_values(self, e: ast.RobotAt | ast.RobotAxes, scope: Scope,
                       what: str) -> tuple[Scalar, ...]:
         robot = self.lookup(e.robot, e.loc, scope)
@@ -90,6 +104,13 @@ class Robots(Context):
             raise CalError(f"robot '{e.robot}' takes {count(len(robot.params), 'joint value')}"
                            f", got {len(e.args)}", e.loc)
         return tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
+
+    def tool_points(self, robot: str) -> list[tuple[int, int, int]]:
+        """The tool points `robot(...) at p` has been asked for, as DAG nodes (x, y, z), each
+        once: what `calibc export` writes as the robot's tool frame."""
+        found = [key[2] for key in self._robot_calls if key[0] == robot and
+                 isinstance(key[2], tuple)]
+        return list(dict.fromkeys(found))
 
     def frames_of(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The robot's frames (base, joints, tool: chains.Frame or Transform of DAG nodes)
@@ -117,6 +138,7 @@ class Robots(Context):
         for entry in decl.entries if decl is not None else ():
             v = self.scalar(self.value(entry.value, scope), entry.value.loc, "a frame entry")
             values[entry.name.id] = self.node(v, entry.value.loc)
+            self._note_unit(values[entry.name.id], DIMENSION[entry.name.id])
         zero = self.dag.const(0.0)
 
         def get(name: str) -> int:
@@ -131,6 +153,9 @@ class Robots(Context):
 
 MDH_BASE = ("theta", "r")  # a modified-DH base frame (alpha = d = 0)
 SIX_DOF = ("x", "y", "z", "rx", "ry", "rz")  # translation, then X-Y-Z Euler angles
+# the dimension of each frame entry: what its unknowns' unit is
+DIMENSION = {**dict.fromkeys(("alpha", "theta", "rx", "ry", "rz"), "angle"),
+             **dict.fromkeys(("d", "r", "a", "x", "y", "z"), "length")}
 JOINT_ENTRIES = {"mdh": ("alpha", "d", "theta", "r"), "dh": ("theta", "d", "a", "alpha")}
 
 

@@ -36,6 +36,7 @@ class Statements(Context):
     # -- files and statements -------------------------------------------------------------
     def file(self, shown: str) -> None:
         resolved = Path(shown).resolve()
+        self.sources.append(shown)
         self.including.append((resolved, shown))
         try:
             self.block(parse_file(shown), self.globals, top=True)

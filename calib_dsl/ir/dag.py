@@ -56,6 +56,9 @@ class Variable:
     # `param x in lsq(start) +- w`: the domain is to be centred on a least-squares estimate
     # of the data at hand, as (start, w); [lo, hi] is unbounded until then
     prior: tuple[float, float] | None = None
+    # the model's unit for it where a robot frame says which dimension it has (a length or
+    # an angle entry, or a tool point's coordinate); None when nothing says
+    unit: str | None = None
 
 
 @dataclass

@@ -54,6 +54,7 @@ class Model:
     simulation: bool = False
     consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts
     batch: RowBatch | None = None  # a loop compiled once for all its rows
+    sources: tuple[str, ...] = ()  # the files read: the model, then what it includes
 
 
 @dataclass

@@ -49,6 +49,11 @@ class Program:
     true_stated: set[str] = field(default_factory=set)
     # a loop compiled once: where its rows' slots and primitives are (ir/rows.py)
     rows: RowLayout | None = None
+    # the unknowns whose unit the model says (a robot frame's length or angle), by name
+    units: dict[str, str] = field(default_factory=dict)
+    # the data it was compiled from: per table, the file read and the rows used (provenance)
+    tables: dict[str, tuple[str, int]] = field(default_factory=dict)
+    sources: tuple[str, ...] = ()  # the model's files: the model, then what it includes
     # What the solvers derive from the program whatever the box (propagation kernels,
     # layouts, plans), by kind, with the groups it was made from (see `derived`).
     derived_cache: dict[str, tuple[list[Group], Any]] = field(

@@ -50,7 +50,7 @@ def _height(kind: str, data: dict[str, Any]) -> float:
     n = KINDS[kind].count(data)
     if kind == "domains":
         return max(2.5, 1.2 + 0.2 * n)
-    return 3.5 if kind == "history" else 2.8 * n
+    return 3.0 * n if kind == "history" else 2.8 * n
 
 
 def figure(data: dict[str, Any], kind: str = "all") -> Any:

@@ -27,6 +27,7 @@ def result_json(prog: Program, res: Solution, strategy: str,
             "domain": [_num(x) for x in r["domain"]],
             "result": None if r["result"] is None else [_num(x) for x in r["result"]],
             "true": r["true"],
+            "unit": prog.units.get(r["name"]),
         }
         if r["name"] in prog.centred:  # the domain is the data's least-squares estimate +- w
             centre, w = prog.centred[r["name"]]

@@ -5,9 +5,10 @@
   language reads a decimal bound outward (the nearest float below a lower bound, above an
   upper one), so each bound is the shortest decimal that reads back as the result's float
   exactly: the domain read is the result, not a float wider.
-- `json`, `dh-table`: each value as its midpoint and a guaranteed half-width (the exact
-  distance to the farther end of the enclosure, rounded up to 3 significant digits): every
-  value consistent with the data lies within midpoint +- half-width, in the model's units.
+- `json`, `dh-table`: each value at the exported point (report/export_point.py: the
+  midpoint by default, as a short decimal) and a guaranteed half-width (the exact distance to
+  the farther end of the enclosure, rounded up to 3 significant digits): every value consistent
+  with the data lies within value +- half-width, in the model's units.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from fractions import Fraction
 from typing import Any
 
 from calib_dsl.analysis.robot_frames import FrameRow, RobotTable
+from calib_dsl.report.decimals import clean
 
-FORMATS = ("dh-table", "urdf", "json", "cal")
+FORMATS = ("dh-table", "urdf", "cell", "ur-kinematics", "json", "cal")
 NOTE = ("value: the midpoint of the guaranteed enclosure; half_width: rounded up, so that "
         "every value consistent with the data lies within value +- half_width")
 
@@ -123,10 +125,10 @@ def half_float(h: str) -> float | str:
     return float(math.nextafter(x, math.inf)) if Fraction(x) < Fraction(h) else x
 
 
-def value_json(lo: float, hi: float, unit: str | None, mid: float | None = None
-               ) -> dict[str, Any]:
-    m, h = plus_minus(lo, hi, mid)
-    out: dict[str, Any] = {"value": m, "half_width": half_float(h)}
+def value_json(lo: float, hi: float, unit: str | None, mid: float | None = None,
+               nominal: bool = False) -> dict[str, Any]:
+    m, h = plus_minus(lo, hi, None if mid is None else float(clean(mid)))
+    out: dict[str, Any] = {"value": m, "half_width": half_float(h), "nominal": nominal}
     if unit is not None:
         out["unit"] = unit
     return out
@@ -145,9 +147,11 @@ def units_of(tables: list[RobotTable], units: dict[str, str]) -> dict[str, str]:
 
 
 def export_json(data: dict[str, Any], tables: list[RobotTable], units: dict[str, str],
-                param_units: dict[str, str]) -> dict[str, Any]:
+                param_units: dict[str, str], point: dict[str, float] | None = None
+                ) -> dict[str, Any]:
+    point = point or {}
     params = {name: value_json(number(p["result"][0]), number(p["result"][1]),
-                               param_units.get(name))
+                               param_units.get(name), point.get(name))
               for name, p in data["parameters"].items()}
     robots = [{"name": t.name, "frames": [_frame_json(f, units) for f in t.frames]}
               for t in tables]
@@ -158,8 +162,8 @@ def export_json(data: dict[str, Any], tables: list[RobotTable], units: dict[str,
 def _frame_json(f: FrameRow, units: dict[str, str]) -> dict[str, Any]:
     return {"part": f.part, "number": f.number, "convention": f.convention,
             "motion": f.motion, "joint": f.joint, "axis": f.axis,
-            "entries": {e.name: value_json(e.lo, e.hi, units[e.dimension], e.mid)
-                        for e in f.entries}}
+            "entries": {e.name: value_json(e.lo, e.hi, units[e.dimension], e.mid,
+                                           not e.reads) for e in f.entries}}
 
 
 # -- the DH table ------------------------------------------------------------------------------
@@ -172,8 +176,9 @@ CONVENTIONS = {
 
 def dh_table(data: dict[str, Any], tables: list[RobotTable], units: dict[str, str]) -> str:
     out = [f"# DH tables of the robots of {data.get('model')}, from its guaranteed result",
-           "# each entry: its midpoint, then '+-' its half-width (rounded up): every value "
-           "consistent with the data lies within",
+           "# each entry: its value at the exported point (--point), then '+-' its "
+           "half-width (rounded up): every value consistent with the data lies within; "
+           "'nominal': fixed by the model, not calibrated",
            f"# lengths in {units['length']}, angles in {units['angle']}; entries at q = 0: "
            "a revolute joint's variable adds to theta, a prismatic one's to r (MDH) or d (DH)"]
     for t in tables:
@@ -192,8 +197,9 @@ def _block(t: RobotTable, convention: str) -> list[str]:
         motion = f.motion if f.axis > 0 else f"{f.motion}(-q)"
         row = [f"{f.part}{f.number}", motion]
         for n in names:
-            m, h = plus_minus(f.entry(n).lo, f.entry(n).hi, f.entry(n).mid)
-            row += [repr(m), h]
+            e = f.entry(n)
+            m, h = plus_minus(e.lo, e.hi, float(clean(e.mid)))
+            row += [clean(m), "nominal" if not e.reads else h]
         rows.append(row)
     widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
     return [f"# {CONVENTIONS[convention]}"] + [

@@ -1,5 +1,5 @@
 """The command line's progress: one line on standard error, redrawn in place as the work
-goes (`calibc: solving  LP round 3, total width 0.0123, 2.4 s`), on a terminal only.
+goes (`calibc: solving  LP round 3, widths 12.3 % of the domains, 2.4 s`), on a terminal only.
 
 It is click's progress bar, drawn without its bar (the work has no known length): click is
 the command line's library already, so this costs no dependency, and it handles what a hand-
@@ -23,10 +23,12 @@ from calib_dsl.progress import Progress
 
 
 def describe(label: str, width: float | None, seconds: float) -> str:
-    """`LP round 3, total width 0.0123, 2.4 s` (an unbounded width is +oo)."""
+    """`LP round 3, widths 12.3 % of the domains, 2.4 s` (`width`: the mean fraction of
+    the unknowns' search domains, calib_dsl/progress.py)."""
     parts = [label]
     if width is not None:
-        parts.append(f"total width {'+oo' if math.isinf(width) else f'{width:.4g}'}")
+        shown = "+oo" if math.isinf(width) else f"{100 * width:.3g} %"
+        parts.append(f"widths {shown} of the domains")
     parts.append(f"{seconds:.1f} s")
     return ", ".join(parts)
 

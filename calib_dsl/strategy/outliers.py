@@ -213,7 +213,8 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     those rows encloses it too, and the box is the intersection (and no other row can be an
     outlier of any such vector: none is possible)."""
     start = time.perf_counter()
-    meter = Meter(progress, independents(prog), start) if progress is not None else None
+    meter = Meter.over(progress, independents(prog), prog.slots.lo, prog.slots.hi, start) \
+        if progress is not None else None
     blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress,
                        suspects(prog, k))
     if blocks is None:  # every set inconsistent: no vector fails at most k rows

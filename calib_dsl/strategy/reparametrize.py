@@ -168,7 +168,8 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
                                                                   np.full(extra, -1)]),
                    s.row_keys, s.col_keys)
     out.prog = Program(prog.source, prog.formulation, slots2, list(prog.primitives) + new,
-                       groups + prog.groups, true, domains, true_stated=stated)
+                       groups + prog.groups, true, domains, true_stated=stated,
+                       units=prog.units, tables=prog.tables, sources=prog.sources)
     return out
 
 

@@ -99,12 +99,12 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
 
 
 def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | None:
-    """What reports to `progress` (told the search domains at once), or None: the total
-    width is over the declared unknowns (params and vars), as propagation watches them."""
+    """What reports to `progress` (told the search domains at once), or None: the widths
+    are the declared unknowns' (params and vars), as propagation watches them."""
     if progress is None:
         return None
     s = prog.slots
     slots = np.array([i for i in s.declared if s.kinds[i] in ("param", "var")], dtype=np.int64)
-    meter = Meter(progress, slots, start)
+    meter = Meter.over(progress, slots, s.lo, s.hi, start)
     meter("start", s.lo, s.hi)
     return meter

@@ -36,7 +36,7 @@ class FakeTerminal(io.StringIO):
 def assert_monotone(calls: list[tuple[str, float | None, float]]) -> None:
     widths = [w for _, w, _ in calls]
     seconds = [t for _, _, t in calls]
-    assert all(w is not None and w >= 0 for w in widths)
+    assert all(w is not None and 0 <= w <= 1 for w in widths)  # fractions of the domains
     assert all(a >= b for a, b in zip(widths, widths[1:], strict=False)), widths  # never grows
     assert all(a <= b for a, b in zip(seconds, seconds[1:], strict=False)), seconds
 
@@ -57,7 +57,10 @@ def test_tight_reports_its_steps_and_rounds_and_changes_nothing(name):
     steps = [label for label in labels[1:] if not label.startswith("LP round ")]
     assert steps == ["propagation", "rounds of LPs", "propagation", "split"]
     assert_monotone(seen.calls)
-    assert seen.calls[-1][1] < seen.calls[0][1]  # the solve narrowed the box
+    s = prog.slots  # the line falls exactly when an unknown narrows from a bounded domain
+    bounded = [i for i in s.declared if np.isfinite(s.hi[i] - s.lo[i])]
+    narrowed = any(watched.hi[i] - watched.lo[i] < s.hi[i] - s.lo[i] for i in bounded)
+    assert (seen.calls[-1][1] < seen.calls[0][1]) == narrowed
 
 
 def test_hc4_reports_start_and_end_and_changes_nothing():
@@ -102,7 +105,7 @@ def test_the_line_is_drawn_on_a_terminal_only():
         assert progress is not None
         progress("LP round 2", 0.0123456, 2.44)
     shown = term.getvalue()
-    assert "calibc: solving  LP round 2, total width 0.01235, 2.4 s" in shown
+    assert "calibc: solving  LP round 2, widths 1.23 % of the domains, 2.4 s" in shown
     assert shown.endswith("\n")
     for quiet, out in ((True, FakeTerminal()), (False, io.StringIO())):
         with progress_line("solving", quiet=quiet, file=out) as progress:
@@ -111,7 +114,8 @@ def test_the_line_is_drawn_on_a_terminal_only():
 
 
 def test_describe():
-    assert describe("start", float("inf"), 0.0) == "start, total width +oo, 0.0 s"
+    assert describe("start", 1.0, 0.0) == "start, widths 100 % of the domains, 0.0 s"
+    assert describe("start", float("inf"), 0.0) == "start, widths +oo of the domains, 0.0 s"
     assert describe("written", None, 1.26) == "written, 1.3 s"
 
 
@@ -124,4 +128,22 @@ def test_no_progress_when_stderr_is_not_a_terminal(args, tmp_path):
     res = CliRunner().invoke(cli.main, argv, catch_exceptions=False)
     assert res.exit_code == 0
     assert "calibc: solving" not in res.stderr and "calibc: simulating" not in res.stderr
-    assert "total width" not in res.stderr and "\r" not in res.stderr
+    assert "widths" not in res.stderr and "\r" not in res.stderr
+
+
+def test_the_meter_adds_fractions_of_the_domains_never_units():
+    """Millimetres and radians are never added: each unknown counts as the fraction of its
+    own search domain the box keeps; an unbounded domain counts 1 until the box bounds it,
+    then relative to that first width; a point domain is left out."""
+    import numpy as np
+
+    from calib_dsl.progress import Meter
+
+    seen = Recorder()
+    lo, hi = np.array([0.0, 0.0, -np.inf, 1.0]), np.array([1000.0, 0.01, np.inf, 1.0])
+    meter = Meter.over(seen, np.arange(4), lo, hi)
+    meter("start", lo, hi)
+    meter("half", np.array([0.0, 0.0, -1.0, 1.0]), np.array([500.0, 0.005, 1.0, 1.0]))
+    meter("mm only", np.array([0.0, 0.0, -1.0, 1.0]), np.array([1.0, 0.01, 1.0, 1.0]))
+    meter("bounded", np.array([0.0, 0.0, -0.5, 1.0]), np.array([1.0, 0.01, 0.5, 1.0]))
+    assert [w for _, w, _ in seen.calls] == pytest.approx([1.0, 2 / 3, 2.001 / 3, 1.501 / 3])
