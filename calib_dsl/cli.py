@@ -8,7 +8,6 @@ import sys
 import traceback
 from collections.abc import Callable
 from functools import wraps
-from pathlib import Path
 from typing import Any
 
 import click
@@ -16,6 +15,7 @@ import click
 from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.plan import command as plan_command
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import STRATEGIES
 
@@ -369,7 +369,7 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS), required=True,
+@click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS),
               help=f"Number of configurations (rows) to draw, at most {MAX_CONFIGS:,}.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the random draws (a non-negative integer): the same seed gives "
@@ -381,16 +381,17 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 @FORMULATION
 @user_errors
 @outputs.campaign_options
-def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
-             formulation: str, campaign: Any) -> None:
-    """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
-    from calib_dsl.analysis.simulate import simulate as run
+@plan_command.simulate_options
+def simulate(model: str, configs: int | None, seed: int, output: str, quiet: bool,
+             formulation: str, campaign: Any, at: str | None, consts: Any) -> None:
+    """Simulate measurements of MODEL by the paper's protocol, into a CSV file: at --configs
+    drawn configurations, or at those of the file --at."""
     from calib_dsl.report.progress_line import progress_line
 
     with progress_line("simulating", quiet) as progress:
-        run(model, configs, seed, formulation=formulation, out_csv=Path(output),
-            progress=progress, campaign=campaign)
-    click.echo(f"wrote {configs} configurations to {output}", err=output == "-")
+        n = plan_command.simulated(model, configs, at, seed, output, formulation, campaign,
+                                   consts, progress)
+    click.echo(f"wrote {n} configurations to {output}", err=output == "-")
 
 
 @main.command()
