@@ -54,6 +54,8 @@ class Model:
     simulation: bool = False
     consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts
     batch: RowBatch | None = None  # a loop compiled once for all its rows
+    # (table, column) -> the limits of the robot joint its cells are the values of
+    joint_limits: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass
