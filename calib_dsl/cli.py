@@ -435,7 +435,8 @@ def batch(source: str, output: str, data_glob: str | None, scheduler: str | None
     if any(line["status"] in ("error", "failed") for line in lines):
         sys.exit(1)
 
-# `plot` and `export` (calib_dsl/outputs.py), with this module's handling of user errors
-for _command in (outputs.plot, outputs.export):
+# `plot`, `export` (calib_dsl/outputs.py) and `plan` (calib_dsl/plan/command.py), with
+# this module's handling of user errors
+for _command in (outputs.plot, outputs.export, plan_command.plan):
     _command.callback = user_errors(_command.callback)  # type: ignore[arg-type]
     main.add_command(_command)
