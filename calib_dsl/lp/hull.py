@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from calib_dsl.lp.highs import MANY_PIVOTS, load, optimal
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 

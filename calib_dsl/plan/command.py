@@ -126,15 +126,18 @@ def plan(model: str, candidates: str | None, n: str, target: tuple[str, ...],
          plot_path: str | None, defines: tuple[str, ...], formulation: str) -> None:
     """Choose N configurations of MODEL to measure, for the smallest guaranteed
     enclosure (docs/planning.md)."""
-    from calib_dsl import outputs
     from calib_dsl.elaborate.options import consts
     from calib_dsl.plan import report
-    from calib_dsl.plan.planner import Problem, given_rows, plan as make, sweep
+    from calib_dsl.plan.planner import Problem, given_rows, sweep
+    from calib_dsl.plan.planner import plan as make
     from calib_dsl.settings import DEFAULT
 
     sizes, goals = counts(n), targets(target)
-    if plot_path:
-        outputs.plot_ready(plot_path)
+    if plot_path:  # (before any work: a figure that cannot be drawn costs no plan)
+        from calib_dsl.plot.backend import file_format, require
+
+        file_format(plot_path)
+        require()
     problem = Problem(model, DEFAULT, formulation, consts(defines), seed)
     pool = _candidates(problem, candidates)
     done = None if given is None else given_rows(problem, *_file(given, "--given"))
@@ -153,7 +156,21 @@ def plan(model: str, candidates: str | None, n: str, target: tuple[str, ...],
     _write_plan(problem, chosen.configs, output)
     if json_path != "-":
         click.echo(text)
-    outputs.json_out(json_path, data)
+    _json_out(json_path, data)
+
+
+def _json_out(json_path: str | None, data: dict) -> None:
+    from pathlib import Path
+
+    from calib_dsl.report.strict_json import dumps
+
+    if json_path == "-":
+        click.echo(dumps(data, indent=2))
+    elif json_path:
+        try:
+            Path(json_path).write_text(dumps(data, indent=2) + "\n", encoding="utf-8")
+        except OSError as err:
+            raise CalError(f"cannot write '{json_path}': {err.strerror or err}") from None
 
 
 def _file(item: str, option: str) -> tuple[str, str]:

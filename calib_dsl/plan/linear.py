@@ -71,9 +71,9 @@ def linearize(model_path: str | Path, configs: Configurations, formulation: str 
               domains: Mapping[str, tuple[float, float]] | None = None) -> Linear:
     """The candidates linearized at the planning point; `domains` (by name) replace the
     declared ones (a solve's box, when planning after measured rows)."""
-    inputs = Inputs(data={configs.table: Values(dict(candidate_cells(
-        _table(model_path, configs, formulation, consts), configs)), "<candidates>")},
-        consts=dict(consts or {}))
+    cells = candidate_cells(_table(model_path, configs, formulation, consts), configs)
+    inputs = Inputs(data={configs.table: Values(cells, "<candidates>")},  # type: ignore[arg-type]
+                    consts=dict(consts or {}))
     model, prog = load_model(model_path, formulation, inputs=inputs, centre=False)
     t = table_of(model, configs.table)
     ind = independents(prog)
