@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -79,11 +79,12 @@ def given_rows(problem: Problem, path: str | Path, table: str = "") -> Given:
 
 
 def plan(problem: Problem, candidates: Configurations, count: int,
-         given: Given | None = None, final: bool = True) -> Plan:
+         given: Given | None = None, final: bool = True,
+         prepared: tuple[Linear, np.ndarray | None] | None = None) -> Plan:
     """Choose `count` of the candidates; with `final`, among the stages' designs by
-    simulated solves, else by the LP score."""
+    simulated solves, else by the LP score (`prepared`: the candidates linearized)."""
     start = time.perf_counter()
-    lin, fixed = _linear(problem, candidates, given)
+    lin, fixed = prepared or linear(problem, candidates, given)
     if count > len(candidates):
         raise CalError(f"--n {count}: more than the {len(candidates)} candidates")
     found = stages(lin, count, problem.settings, fixed)
@@ -104,8 +105,9 @@ def plan(problem: Problem, candidates: Configurations, count: int,
                 best.name, results, time.perf_counter() - start)
 
 
-def _linear(problem: Problem, candidates: Configurations,
-            given: Given | None) -> tuple[Linear, np.ndarray | None]:
+def linear(problem: Problem, candidates: Configurations,
+           given: Given | None) -> tuple[Linear, np.ndarray | None]:
+    """The candidates linearized, and the given rows' own rows (None without)."""
     domains = None if given is None else given.domains
     lin = linearize(problem.model, candidates, problem.formulation, problem.consts, domains)
     if given is None:
@@ -139,8 +141,12 @@ class Sweep:
 
 def sweep(problem: Problem, candidates: Configurations, counts: Sequence[int],
           targets: Mapping[str, float], given: Given | None = None) -> Sweep:
-    """A plan for each count (by LP score, no solves: a sweep predicts) and its widths."""
-    plans = [plan(problem, candidates, n, given, final=False) for n in counts]
+    """A plan for each count and its predicted widths: the classical stages and the LP
+    score only (no LP exchange, no solves: a sweep predicts; the plan written is made
+    after it, in full, at the count chosen)."""
+    quick = replace(problem, settings=replace(problem.settings, plan_lp_seconds=0.0))
+    prepared = linear(problem, candidates, given)
+    plans = [plan(quick, candidates, n, given, False, prepared) for n in counts]
     names = plans[0].names
     unknown = [t for t in targets if t not in names]
     if unknown:

@@ -67,7 +67,9 @@ def render_sweep(s: Sweep) -> str:
 def sweep_json(s: Sweep) -> dict[str, Any]:
     return {"counts": s.counts, "targets": s.targets, "enough": s.enough,
             "domains": dict(zip(s.names, s.plans[0].domain.tolist(), strict=True)),
-            "predicted": {n: s.widths[:, j].tolist() for j, n in enumerate(s.names)}}
+            "predicted": {n: s.widths[:, j].tolist() for j, n in enumerate(s.names)},
+            "rows": {str(n): [int(r) + 1 for r in p.rows]
+                     for n, p in zip(s.counts, s.plans, strict=True)}}
 
 
 def draw_sweep(s: Sweep, path: str | Path) -> None:
