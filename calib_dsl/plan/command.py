@@ -153,7 +153,7 @@ def plan(model: str, candidates: str | None, n: str, target: tuple[str, ...],
         data = {"sweep": report.sweep_json(swept), "plan": report.plan_json(chosen)}
         if plot_path:
             report.draw_sweep(swept, plot_path)
-    _write_plan(problem, chosen.configs, output)
+    write_plan(problem, chosen.configs, output)
     if json_path != "-":
         click.echo(text)
     _json_out(json_path, data)
@@ -181,13 +181,18 @@ def _file(item: str, option: str) -> tuple[str, str]:
 
 
 def _candidates(problem: Any, item: str | None) -> Any:
-    """The candidate configurations: the file's, or drawn within the joint limits."""
+    path, table = _file(item, "--candidates") if item else (None, "")
+    return candidate_pool(problem, path, table)
+
+
+def candidate_pool(problem: Any, path: str | None, table: str = "") -> Any:
+    """The candidate configurations: the file's, or drawn within the joint limits (the
+    table's `simulate in` ranges where a joint has none)."""
     import numpy as np
 
     from calib_dsl.elaborate.elaborator import Inputs, elaborate
     from calib_dsl.plan.configs import draw_configurations, read_configurations, table_of
 
-    path, table = _file(item, "--candidates") if item else ("", "")
     model = elaborate(str(problem.model), formulation=problem.formulation, simulate_rows=1,
                       inputs=Inputs(consts=dict(problem.consts)))
     t = table_of(model, table)
@@ -198,7 +203,7 @@ def _candidates(problem: Any, item: str | None) -> Any:
                                np.random.default_rng([problem.seed, 7]), limits)
 
 
-def _write_plan(problem: Any, configs: Any, output: str) -> None:
+def write_plan(problem: Any, configs: Any, output: str) -> None:
     from calib_dsl.elaborate.elaborator import Inputs, elaborate
     from calib_dsl.plan.configs import table_of, write_configurations
 

@@ -95,6 +95,10 @@ def draw_configurations(t: Table, count: int, rng: np.random.Generator,
     column name where the model declares joint limits, else its `simulate in` range)."""
     ins = inputs_of(t)
     ranges = [(limits or {}).get(c.name, c.sim) for c in ins]
+    for c, (a, b) in zip(ins, ranges, strict=True):  # type: ignore[misc]
+        if not a < b:
+            raise CalError(f"column '{c.name}' of table '{t.name}': the joints whose values "
+                           f"it holds have limits that do not overlap ({a:g} to {b:g})", t.loc)
     q = np.column_stack([rng.uniform(a, b, size=count) for a, b in ranges])  # type: ignore[misc]
     factor = np.array([0.5 * (c.factor[0] + c.factor[1]) for c in ins])
     return Configurations(t.name, "<drawn>", tuple(c.name for c in ins), q, q / factor)
