@@ -196,7 +196,7 @@ class Settings:
     # whole set, not all: a member is worth leaving only for one of them.
     plan_shortlist: int = 200
     plan_tries: int = 4  # members and candidates paired per round of the LP exchange
-    plan_lp_seconds: float = 6.0  # the LP exchange's time (a try: two LPs per unknown)
+    plan_lp_seconds: float = 5.0  # the LP exchange's time (a try: two LPs per unknown)
     plan_draws: int = 5  # noise draws a predicted width is the median of
     plan_candidates: int = 3000  # configurations drawn when no candidate file is given
 

@@ -89,9 +89,10 @@ def plan(problem: Problem, candidates: Configurations, count: int,
         raise CalError(f"--n {count}: more than the {len(candidates)} candidates")
     found = stages(lin, count, problem.settings, fixed)
     results: dict[str, Solved | None] = {}
-    if final:
+    if final:  # the LP stage's design, and the better classical one by the LP score
+        classical = min(found[:-1], key=lambda s: s.score)
         seen: dict[bytes, Solved | None] = {}
-        for s in found:
+        for s in (classical, found[-1]):
             key = np.sort(s.rows).tobytes()
             if key not in seen:
                 seen[key] = solved(problem.model, candidates.subset(np.sort(s.rows)),

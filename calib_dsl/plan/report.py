@@ -22,7 +22,7 @@ def render_plan(p: Plan) -> str:
     lines += ["", "stage        LP score  simulated solve: median width/domain, truth inside"]
     for s in p.stages:
         got = p.solved.get(s.name)
-        solved = ("not solved" if s.name not in p.solved else "inconsistent" if got is None
+        solved = ("not a finalist" if s.name not in p.solved else "inconsistent" if got is None
                   else f"{got.median_ratio:.4f}, {'yes' if got.truth_inside else 'NO'}")
         lines.append(f"{s.name:<12} {s.score:>8.4f}  {solved}")
     return "\n".join(lines)
