@@ -40,10 +40,12 @@ class Solved:
 
 def solved(model_path: str | Path, configs: Configurations, seed: int, formulation: str,
            consts: Mapping[str, str] | None, settings: Settings,
-           given: Mapping[str, np.ndarray] | None = None) -> Solved | None:
+           given: Mapping[str, np.ndarray] | None = None,
+           domains: Mapping[str, tuple[float, float]] | None = None) -> Solved | None:
     """Simulate the configurations, solve (the `given` table's columns, in file units,
-    measured before them), and measure the enclosure; None if the solve found the data
-    inconsistent (a model whose truth breaks its own bounds)."""
+    measured before them), and measure the enclosure against the solve's domains (or
+    `domains`, the given rows' box); None if the solve found the data inconsistent (a
+    model whose truth breaks its own bounds)."""
     model, data = measured_at(model_path, configs, seed, formulation, PLAIN, consts)
     t = table_of(model, configs.table)
     files = [c for c in t.columns if not c.derived]
@@ -61,7 +63,9 @@ def solved(model_path: str | Path, configs: Configurations, seed: int, formulati
     ind = independents(prog)
     names = [prog.slots.names[k] for k in ind]
     width = np.array([float(sol.hi[k] - sol.lo[k]) for k in ind])
-    domain = np.array([float(prog.slots.hi[k] - prog.slots.lo[k]) for k in ind])
+    domain = np.array([float(prog.slots.hi[k] - prog.slots.lo[k]) if domains is None
+                       else domains[n][1] - domains[n][0] for k, n in zip(ind, names,
+                                                                          strict=True)])
     truth = [prog.true_values.get(n) for n in names]
     inside = all(t is None or sol.lo[k] <= t <= sol.hi[k] for k, t in zip(ind, truth,
                                                                            strict=True))

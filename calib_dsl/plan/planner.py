@@ -97,7 +97,8 @@ def plan(problem: Problem, candidates: Configurations, count: int,
             if key not in seen:
                 seen[key] = solved(problem.model, candidates.subset(np.sort(s.rows)),
                                    problem.seed, problem.formulation, problem.consts,
-                                   problem.settings, None if given is None else given.cells)
+                                   problem.settings, None if given is None else given.cells,
+                                   None if given is None else given.domains)
             results[s.name] = seen[key]
     best = _best(found, results)
     rows = np.sort(best.rows)
