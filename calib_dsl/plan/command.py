@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
 
 
@@ -119,7 +120,7 @@ def targets(items: tuple[str, ...]) -> dict[str, float]:
               help="With a range: draw the predicted widths against N into this file.")
 @click.option("-D", "--define", "defines", multiple=True, metavar="NAME=VALUE",
               help="Set a const of the model, e.g. -D e=0.5.")
-@click.option("--formulation", type=click.Choice(("matrix", "rotation")), default="matrix",
+@click.option("--formulation", type=click.Choice(FORMULATIONS), default="matrix",
               show_default=True, help="How a robot chain becomes constraints.")
 def plan(model: str, candidates: str | None, n: str, target: tuple[str, ...],
          given: str | None, output: str, seed: int, json_path: str | None,
@@ -133,6 +134,8 @@ def plan(model: str, candidates: str | None, n: str, target: tuple[str, ...],
     from calib_dsl.settings import DEFAULT
 
     sizes, goals = counts(n), targets(target)
+    if len(sizes) == 1 and (goals or plot_path):
+        raise CalError("--target and --plot are for a range of counts: --n FIRST..LAST")
     if plot_path:  # (before any work: a figure that cannot be drawn costs no plan)
         from calib_dsl.plot.backend import file_format, require
 

@@ -153,7 +153,8 @@ def test_planning_after_measured_rows_starts_from_their_solve(tmp_path):
     (("--n", "500"), "more than the 120 candidates"),
     (("--n", "3..6", "--target", "zz=1"), "no unknown 'zz'"),
     (("--n", "3..6", "--target", "l1=-1"), "--target l1=-1"),
-    (("--n", "3", "--plot", "f.txt"), "cannot plot to 'f.txt'"),
+    (("--n", "3..6", "--plot", "f.txt"), "cannot plot to 'f.txt'"),
+    (("--n", "3", "--target", "l1=1"), "for a range of counts"),
 ])
 def test_user_errors_are_one_line_and_exit_2(tmp_path, args, says):
     cand = candidates(tmp_path)
