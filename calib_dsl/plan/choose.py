@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calib_dsl.lp.hull import Hull
 from calib_dsl.plan.classical import d_optimal, marginal_exchange
 from calib_dsl.plan.linear import Linear
 from calib_dsl.plan.refine import hull_of, refine, rows_of, score
@@ -67,5 +68,5 @@ def predicted(lin: Linear, rows: np.ndarray, draws: int, seed: int,
     return np.median(np.array(widths), axis=0)
 
 
-def _widths(lin: Linear, hull) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _widths(lin: Linear, hull: Hull) -> np.ndarray:
     return (hull.hi - hull.lo) * lin.half

@@ -84,9 +84,9 @@ def plan(problem: Problem, candidates: Configurations, count: int,
     """Choose `count` of the candidates; with `final`, among the stages' designs by
     simulated solves, else by the LP score (`prepared`: the candidates linearized)."""
     start = time.perf_counter()
+    if not 1 <= count <= len(candidates):
+        raise CalError(f"--n {count}: a count from 1 to the {len(candidates)} candidates")
     lin, fixed = prepared or linear(problem, candidates, given)
-    if count > len(candidates):
-        raise CalError(f"--n {count}: more than the {len(candidates)} candidates")
     found = stages(lin, count, problem.settings, fixed)
     results: dict[str, Solved | None] = {}
     if final:  # the LP stage's design, and the better classical one by the LP score

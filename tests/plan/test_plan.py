@@ -150,7 +150,7 @@ def test_planning_after_measured_rows_starts_from_their_solve(tmp_path):
 
 @pytest.mark.parametrize("args, says", [
     (("--n", "0"), "--n 0"), (("--n", "5..2"), "--n 5..2"), (("--n", "x"), "--n x"),
-    (("--n", "500"), "more than the 120 candidates"),
+    (("--n", "500"), "a count from 1 to the 120 candidates"),
     (("--n", "3..6", "--target", "zz=1"), "no unknown 'zz'"),
     (("--n", "3..6", "--target", "l1=-1"), "--target l1=-1"),
     (("--n", "3..6", "--plot", "f.txt"), "cannot plot to 'f.txt'"),
