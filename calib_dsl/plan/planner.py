@@ -146,7 +146,7 @@ def sweep(problem: Problem, candidates: Configurations, counts: Sequence[int],
     """A plan for each count and its predicted widths: the classical stages and the LP
     score only (no LP exchange, no solves: a sweep predicts; the plan written is made
     after it, in full, at the count chosen)."""
-    quick = replace(problem, settings=replace(problem.settings, plan_lp_seconds=0.0))
+    quick = replace(problem, settings=replace(problem.settings, plan_lp_hulls=0))
     prepared = linear(problem, candidates, given)
     plans = [plan(quick, candidates, n, given, False, prepared) for n in counts]
     names = plans[0].names

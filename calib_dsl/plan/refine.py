@@ -16,7 +16,6 @@ violate most (that would cut it most); a swap is kept when the score falls.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,18 +54,17 @@ def score(hull: Hull, box: tuple[np.ndarray, np.ndarray]) -> float:
 
 
 def refine(blocks: np.ndarray, chosen: np.ndarray, box: tuple[np.ndarray, np.ndarray],
-           tries: int, seconds: float, given: np.ndarray | None = None) -> Refinement:
+           tries: int, budget: int, given: np.ndarray | None = None) -> Refinement:
     """Swap members for candidates while the score falls: each round tries the `tries`
     members the hull rests least on against the `tries` candidates that would cut it most,
     keeping the first swap that helps; it stops when a round finds none, or after
-    `seconds`."""
-    start_time = time.perf_counter()
+    `budget` hulls (a count, not a time: the same inputs give the same plan)."""
     chosen = np.array(chosen, dtype=int)
     r = blocks.shape[1]
     hull = hull_of(rows_of(blocks, chosen, given), box)
     first = best = score(hull, box)
     hulls, swaps = 1, 0
-    while time.perf_counter() - start_time < seconds:
+    while hulls < budget:
         rests = hull.weight[: len(chosen) * r].reshape(len(chosen), r).sum(axis=1)
         leave = np.argsort(rests, kind="stable")[:tries]
         cut = _cuts(blocks, hull.points)
@@ -75,6 +73,8 @@ def refine(blocks: np.ndarray, chosen: np.ndarray, box: tuple[np.ndarray, np.nda
         found = False
         for i in leave:
             for c in join:
+                if hulls >= budget:
+                    break
                 trial = chosen.copy()
                 trial[i] = c
                 h = hull_of(rows_of(blocks, trial, given), box)
@@ -84,7 +84,7 @@ def refine(blocks: np.ndarray, chosen: np.ndarray, box: tuple[np.ndarray, np.nda
                     chosen, hull, best, found = trial, h, s, True
                     swaps += 1
                     break
-            if found or time.perf_counter() - start_time >= seconds:
+            if found or hulls >= budget:
                 break
         if not found:
             break

@@ -60,6 +60,12 @@ def test_planned_beats_random_sets_in_its_criterion_and_the_truth_is_inside(tmp_
     assert p.chosen in {s.name for s in p.stages} and len(p.rows) == 5
 
 
+def test_the_same_inputs_and_seed_give_the_same_plan(tmp_path):
+    configs = pool(candidates(tmp_path))
+    a, b = (plan(Problem(ARM, DEFAULT, consts=BOUND, seed=5), configs, 6) for _ in range(2))
+    assert a.rows.tolist() == b.rows.tolist() and a.chosen == b.chosen
+
+
 def test_the_exchanges_never_undo_what_the_start_had():
     rng = np.random.default_rng(4)
     blocks = rng.normal(size=(80, 2, 5))
@@ -84,7 +90,7 @@ def test_the_lp_exchange_only_keeps_swaps_that_narrow():
     blocks = rng.normal(size=(60, 2, 4))
     box = (np.full(4, -1.0), np.full(4, 1.0))
     start = np.arange(6)
-    got = refine(blocks, start, box, 3, 5.0)
+    got = refine(blocks, start, box, 3, 30)
     assert got.score <= got.start
     assert got.score == pytest.approx(score(hull_of(rows_of(blocks, got.chosen, None), box),
                                             box))
