@@ -5,7 +5,9 @@ For each candidate set (`calibc simulate --configs 3000 --seed S`: drawn here, n
 repository), 30 configurations are planned (`calibc plan --n 30`, timed) and measured as a
 user would: `calibc simulate --at PLAN` then `calibc solve`, each unknown's width over its
 domain, the median over the unknowns; 5 random sets of 30 of the same candidates the same
-way (their mean is the baseline). Then a sweep (`--n 10..60:10`): each count's predicted
+way (their mean is the baseline). Every simulated measurement has a seed of its own (a
+reused seed would give every design the same noise, and one lucky draw would look like a
+trend). Then a sweep (`--n 10..60:10`): each count's predicted
 widths (median over noisy linearized hulls) against a simulated solve of the design the
 sweep chose at that count. The truth must lie inside every solve.
 
@@ -75,12 +77,13 @@ def case(seed: int, tmp: Path) -> tuple[str, list[str], bool]:
                   "-o", tmp / "plan.csv", "--seed", seed, "--json", tmp / "plan.json")
     seconds = time.perf_counter() - start
     assert done.returncode == 0, done.stderr
-    planned, ok = measured(tmp / "plan.csv", 50 + seed, tmp)
+    planned, ok = measured(tmp / "plan.csv", 1000 * seed + 50, tmp)
     rng = np.random.default_rng(seed)
     randoms = []
     for k in range(RANDOM_SETS):
         rows = sorted(int(r) + 1 for r in rng.choice(CANDIDATES, N, replace=False))
-        got, inside = measured(subset(cand, rows, tmp / f"rand{k}.csv"), 60 + k, tmp)
+        got, inside = measured(subset(cand, rows, tmp / f"rand{k}.csv"), 1000 * seed + 60 + k,
+                               tmp)
         randoms.append(statistics.median(got.values()))
         ok &= inside
     p, r = statistics.median(planned.values()), statistics.mean(randoms)
@@ -100,7 +103,7 @@ def sweep_lines(seed: int, cand: Path, tmp: Path) -> tuple[list[str], bool]:
     out, ok = [], True
     for j, n in enumerate(sweep["counts"]):
         got, inside = measured(subset(cand, sweep["rows"][str(n)], tmp / f"s{n}.csv"),
-                               70 + n, tmp)
+                               1000 * seed + 100 + n, tmp)
         ok &= inside
         pred = {u: sweep["predicted"][u][j] / sweep["domains"][u] for u in got}
         rel = [pred[u] / got[u] for u in got]
