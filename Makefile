@@ -46,7 +46,7 @@ lint: install
 # configurations (RX90 and a Series-A-sized UR10 table) beside calibc as of $(BASELINE), the
 # last commit before rows were compiled once; then simulated UR10 campaigns of 500-12,000 rows
 # (random, grid and repeated poses) and Series B, against the yardstick and their own
-# certified outer/inner.
+# certified outer/inner; then planned campaigns against random ones (bench/plan.py).
 BASELINE ?= 404e2ec
 # The venv's python once `make install` made it; else $(PY) when calibc already runs there
 # (no install needed); else install first.
@@ -62,6 +62,7 @@ bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/inner.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/scale.py --baseline $(BASELINE)
 	$(or $(BENCH_PY),$(BIN)/python) bench/campaigns.py
+	$(or $(BENCH_PY),$(BIN)/python) bench/plan.py
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.

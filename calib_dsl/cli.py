@@ -8,7 +8,6 @@ import sys
 import traceback
 from collections.abc import Callable
 from functools import wraps
-from pathlib import Path
 from typing import Any
 
 import click
@@ -17,6 +16,7 @@ from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.handover.command import report as handover_report
+from calib_dsl.plan import command as plan_command
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import STRATEGIES
 
@@ -374,7 +374,7 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS), required=True,
+@click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS),
               help=f"Number of configurations (rows) to draw, at most {MAX_CONFIGS:,}.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the random draws (a non-negative integer): the same seed gives "
@@ -386,16 +386,17 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 @FORMULATION
 @user_errors
 @outputs.campaign_options
-def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
-             formulation: str, campaign: Any) -> None:
-    """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
-    from calib_dsl.analysis.simulate import simulate as run
+@plan_command.simulate_options
+def simulate(model: str, configs: int | None, seed: int, output: str, quiet: bool,
+             formulation: str, campaign: Any, at: str | None, consts: Any) -> None:
+    """Simulate measurements of MODEL by the paper's protocol, into a CSV file: at --configs
+    drawn configurations, or at those of the file --at."""
     from calib_dsl.report.progress_line import progress_line
 
     with progress_line("simulating", quiet) as progress:
-        run(model, configs, seed, formulation=formulation, out_csv=Path(output),
-            progress=progress, campaign=campaign)
-    click.echo(f"wrote {configs} configurations to {output}", err=output == "-")
+        n = plan_command.simulated(model, configs, at, seed, output, formulation, campaign,
+                                   consts, progress)
+    click.echo(f"wrote {n} configurations to {output}", err=output == "-")
 
 
 @main.command()
@@ -439,8 +440,8 @@ def batch(source: str, output: str, data_glob: str | None, scheduler: str | None
     if any(line["status"] in ("error", "failed") for line in lines):
         sys.exit(1)
 
-# `plot`, `export` (calib_dsl/outputs.py) and `report` (the handover report), with this
-# module's handling of user errors
-for _command in (outputs.plot, outputs.export, handover_report):
+# `plot`, `export` (calib_dsl/outputs.py), `report` (the handover report) and `plan`
+# (calib_dsl/plan/command.py), with this module's handling of user errors
+for _command in (outputs.plot, outputs.export, handover_report, plan_command.plan):
     _command.callback = user_errors(_command.callback)  # type: ignore[arg-type]
     main.add_command(_command)

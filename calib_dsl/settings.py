@@ -185,6 +185,26 @@ class Settings:
     # bounds work row by row of the multipliers on the sparse matrix, not on a dense copy.
     dense_entries: int = 4_000_000
 
+    # -- planning a campaign (plan/) -------------------------------------------------------
+    # The domains counted as information in the classical designs, in units where a uniform
+    # prior over a domain and uniform noise within a bound have the same variance: 1 is
+    # one row's worth along every unknown. Less lets the design follow the rows alone (the
+    # guaranteed widths are set by the rows; the domains only cap them).
+    plan_ridge: float = 0.1
+    plan_passes: int = 10  # exchange passes at most, each over every member
+    # An exchange pass weighs, for each member, the candidates of highest value on the
+    # whole set, not all: a member is worth leaving only for one of them.
+    plan_shortlist: int = 200
+    plan_tries: int = 4  # members and candidates paired per round of the LP exchange
+    # The LP exchange's budget, in hulls (a hull: two LPs per unknown; about 0.1 s for 23
+    # unknowns and 30 configurations on a loaded host): a count, so a plan is reproducible.
+    plan_lp_hulls: int = 40
+    # Noise draws a predicted width is the median of: one draw's median width/domain
+    # spreads about +-15 % (10th-90th percentile, UR10, 60 configurations), and with 5
+    # draws the median was 16 % off at one count; 15 bring it within a few percent.
+    plan_draws: int = 15
+    plan_candidates: int = 3000  # configurations drawn when no candidate file is given
+
     @property
     def piece_lp_threads(self) -> int:
         return max(1, self.lp_workers // self.piece_processes)

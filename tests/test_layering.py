@@ -28,6 +28,7 @@ RANKS = {
     "batch": 10,  # many solves on Dask: the pipeline's calls, one job each
     "api": 10,  # beside batch: neither imports the other
     "outputs": 10,  # the figures, residuals and exports the command line writes
+    "plan": 10,  # planning a campaign (calibc plan, simulate --at): simulated solves
     "cli": 11,
 }
 MAX_LINES = 450  # "no module over ~400 lines"

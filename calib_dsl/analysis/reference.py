@@ -10,10 +10,10 @@ measured value's error within its bound" gives the hull to a few parts in a thou
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
+from calib_dsl.lp.hull import HullFailed, linear_hull
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import inequalities
@@ -36,21 +36,15 @@ def linearized_hull(prog: Program,
     rel = inequalities(ev.run(), p, p, p, ev.e, cell_variables=True)
     domains = prog.domains or {}
     box = [domains.get(n, (-np.inf, np.inf)) for n in all_names]
-    bounds = [(a if np.isfinite(a) else None, b if np.isfinite(b) else None) for a, b in box]
-    bounds += list(zip(rel.lo[rel.main:], rel.hi[rel.main:], strict=True))
-    A_ub, b_ub = rel.one_sided()
-    out = {}
-    for k, n in enumerate(all_names):
-        if names is not None and n not in names:
-            continue
-        c = np.zeros(rel.A.shape[1])
-        c[k] = 1.0
-        low = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
-        high = linprog(-c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
-        if low.status != 0 or high.status != 0:
-            raise CalError(f"the reference hull LP failed for '{n}'")
-        out[n] = (float(low.fun), float(-high.fun))
-    return out
+    lo = np.concatenate([[a for a, _ in box], rel.lo[rel.main:]])
+    hi = np.concatenate([[b for _, b in box], rel.hi[rel.main:]])
+    wanted = [k for k, n in enumerate(all_names) if names is None or n in names]
+    try:
+        hull = linear_hull(rel.A, rel.b_lo, rel.b, lo, hi, wanted)
+    except HullFailed as err:
+        raise CalError(f"the reference hull LP failed: {err}") from None
+    return {all_names[k]: (float(hull.lo[i]), float(hull.hi[i]))
+            for i, k in enumerate(wanted)}
 
 
 def yardstick(prog: Program) -> dict[str, tuple[float, float]]:

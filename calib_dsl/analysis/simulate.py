@@ -19,13 +19,14 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from calib_dsl.analysis.campaign import PLAIN, Campaign, poses, systematic
 from calib_dsl.analysis.evaluate import Array, Evaluator
-from calib_dsl.elaborate.elaborator import elaborate
+from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
@@ -39,11 +40,12 @@ CHECK_ATOL = 1e-9
 
 def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "matrix",
              out_csv: Path | None = None, progress: Progress | None = None,
-             campaign: Campaign = PLAIN) -> None:
+             campaign: Campaign = PLAIN, consts: Mapping[str, str] | None = None) -> None:
     """Elaborate MODEL for `rows` configurations, simulate its tables, write the CSV.
 
     `out_csv` receives the model's table; without it each table goes to its own path.
-    `progress` is told each stage as it ends (no width: there is no box).
+    `progress` is told each stage as it ends (no width: there is no box). `consts` sets
+    top-level consts (-D), as an error bound the noise is drawn within.
     """
     start = time.perf_counter()
 
@@ -51,7 +53,8 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
         if progress is not None:
             progress(stage, None, time.perf_counter() - start)
 
-    model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows)
+    model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows,
+                      inputs=Inputs(consts=dict(consts or {})))
     if not model.tables:
         raise CalError("the model has no `table` to simulate")
     if out_csv is not None and len(model.tables) != 1:
@@ -66,9 +69,11 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
     done("written")
 
 
-def simulate_model(model: Model, seed: int,
-                   campaign: Campaign = PLAIN) -> dict[str, Array]:
-    """The noisy measurements of every table: {table name: (rows, columns) array}."""
+def simulate_model(model: Model, seed: int, campaign: Campaign = PLAIN,
+                   given: Mapping[str, Array] | None = None) -> dict[str, Array]:
+    """The noisy measurements of every table: {table name: (rows, columns) array}. `given`
+    holds, by table name, the true inputs (rows, input columns in declaration order, in the
+    model's units) to measure at instead of drawing them (`simulate --at`)."""
     dag = model.dag
     rng = np.random.default_rng(seed)
     values = _true_parameters(dag)
@@ -77,8 +82,11 @@ def simulate_model(model: Model, seed: int,
     for t in model.tables:  # draw the inputs
         ins = [(col, nodes) for col, nodes in zip(t.columns, cells[t.name], strict=True)
                if col.sim is not None]
-        drawn[t.name] = poses(campaign, [col.sim for col, _ in ins if col.sim is not None],
-                              t.rows, rng)
+        if given is not None and t.name in given:
+            drawn[t.name] = _given(given[t.name], t, len(ins))
+        else:
+            drawn[t.name] = poses(campaign, [col.sim for col, _ in ins if col.sim is not None],
+                                  t.rows, rng)
         for (_, nodes), xs in zip(ins, drawn[t.name].T, strict=True):
             for node, x in zip(nodes, xs, strict=True):
                 if node is not None:
@@ -105,6 +113,14 @@ def simulate_model(model: Model, seed: int,
             table[:, j] = exact + noise
         out[t.name] = table
     return out
+
+
+def _given(q: Array, t: Table, inputs: int) -> Array:
+    q = np.asarray(q, dtype=float)
+    if q.shape != (t.rows, inputs):
+        raise ValueError(f"table '{t.name}': {q.shape} given inputs, for {t.rows} rows of "
+                         f"{inputs} input columns")
+    return q
 
 
 def write_csv(path: Path, table: Table, data: Array) -> None:

@@ -47,6 +47,7 @@ class Context:
     _consts: dict[Fraction, int]
     _robot_frames: dict[tuple, list[Any]]
     _robot_calls: dict[tuple, tuple[int, ...]]
+    joint_limits: dict[tuple[str, str], tuple[float, float]]
     _stmts: dict[type, Callable[[Any, Scope, bool], None]]
     _exprs: dict[type, Callable[[Any, Scope], Entity]]
 

@@ -88,7 +88,8 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
                        "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
-                 batch=run.batch, sources=tuple(run.sources))
+                 batch=run.batch, sources=tuple(run.sources),
+                 joint_limits=dict(run.joint_limits))
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -140,6 +141,7 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
         # Robot uses are pure functions of their arguments: computed once each.
         self._robot_frames: dict[tuple, list[Any]] = {}
         self._robot_calls: dict[tuple, tuple[int, ...]] = {}
+        self.joint_limits: dict[tuple[str, str], tuple[float, float]] = {}
         self._stmts: dict[type, Callable[[Any, Scope, bool], None]] = {
             ast.Const: self._const, ast.Let: self._let, ast.Def: self._def,
             ast.Decl: self._decl, ast.For: self._for, ast.Include: self._include,

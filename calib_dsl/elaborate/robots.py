@@ -4,6 +4,7 @@ workshop coordinates of a tool point (the chain itself is built by chains.py).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from calib_dsl.elaborate import chains
@@ -18,6 +19,7 @@ from calib_dsl.elaborate.scope import (
     RobotDef,
     Scalar,
     Scope,
+    TableRef,
 )
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError
@@ -46,9 +48,19 @@ class Robots(Context):
             parts[frame.kind].append(frame)
         if not parts["joint"]:
             raise CalError(f"robot '{s.name.id}' has no joint", s.loc)
+        limits = tuple(None if e is None else self._joint_limit(e, scope) for e in s.limits)
         scope.define(s.name, RobotDef(s.name.id, s.params, tuple(parts["base"]),
                                       tuple(parts["joint"]), tuple(parts["tool"]), convention,
-                                      scope))
+                                      scope, limits))
+
+    def _joint_limit(self, e: ast.Expr, scope: Scope) -> tuple[float, float]:
+        """`q in [lo, hi]`: finite, and a range (configurations are drawn within it)."""
+        lo, hi, _ = self.domain(e, scope)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            shown = ", ".join(f"{x:g}".replace("inf", "oo") for x in (lo, hi))
+            raise CalError(f"a joint limit is a finite range [lo, hi] with lo < hi, not "
+                           f"[{shown}]", e.loc)
+        return lo, hi
 
     def _robot_at(self, e: ast.RobotAt, scope: Scope) -> tuple[int, ...]:
         args = self._joint_values(e, scope, "'at' gives the workshop coordinates of a tool "
@@ -103,6 +115,11 @@ class Robots(Context):
         if len(e.args) != len(robot.params):
             raise CalError(f"robot '{e.robot}' takes {count(len(robot.params), 'joint value')}"
                            f", got {len(e.args)}", e.loc)
+        for a, limit in zip(e.args, robot.limits or (None,) * len(e.args), strict=True):
+            column = self._cell_column(a, scope)
+            if limit is not None and column is not None:
+                old = self.joint_limits.get(column, limit)  # (two joints: both limits hold)
+                self.joint_limits[column] = (max(old[0], limit[0]), min(old[1], limit[1]))
         return tuple(self.scalar(self.value(a, scope), a.loc, "a joint value") for a in e.args)
 
     def tool_points(self, robot: str) -> list[tuple[int, int, int]]:
@@ -111,6 +128,15 @@ class Robots(Context):
         found = [key[2] for key in self._robot_calls if key[0] == robot and
                  isinstance(key[2], tuple)]
         return list(dict.fromkeys(found))
+
+    def _cell_column(self, a: ast.Expr, scope: Scope) -> tuple[str, str] | None:
+        """(table, column) when the joint value is a table's cell `m.q1[k]`."""
+        if isinstance(a, ast.Index) and isinstance(a.base, ast.Field) and \
+                isinstance(a.base.base, ast.Name):
+            table = self.lookup(a.base.base.id, a.base.base.loc, scope)
+            if isinstance(table, TableRef):
+                return table.name, a.base.name
+        return None
 
     def frames_of(self, robot: RobotDef, args: tuple[Scalar, ...]) -> list[Any]:
         """The robot's frames (base, joints, tool: chains.Frame or Transform of DAG nodes)

@@ -64,6 +64,7 @@ class RobotDef:
     tool: tuple[ast.FrameDecl, ...]  # composed in order, after the joints
     convention: str  # of the joints: "mdh" or "dh"
     scope: Scope
+    limits: tuple[tuple[float, float] | None, ...] = ()  # per joint variable (None: none)
 
 
 @dataclass(frozen=True)

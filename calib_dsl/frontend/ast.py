@@ -224,6 +224,7 @@ class Robot:
     frames: tuple[FrameDecl, ...]
     loc: Loc
     convention: Ident | None = None  # of the joints: "mdh" (None) or "dh"
+    limits: tuple[Expr | None, ...] = ()  # per joint variable: `q in [lo, hi]` (None: none)
 
 
 @dataclass(frozen=True)

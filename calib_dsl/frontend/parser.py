@@ -123,7 +123,15 @@ class _Builder(Transformer_NonRecursive):
 
     def robot_stmt(self, meta: Any, c: list) -> ast.Robot:
         convention = self._id(c[2]) if c[2] is not None else None
-        return ast.Robot(self._id(c[0]), c[1] or (), tuple(c[3:]), self._loc(meta), convention)
+        joints = c[1] or ()
+        return ast.Robot(self._id(c[0]), tuple(j[0] for j in joints), tuple(c[3:]),
+                         self._loc(meta), convention, tuple(j[1] for j in joints))
+
+    def joints(self, meta: Any, c: list) -> tuple[tuple[ast.Ident, Any], ...]:
+        return tuple(c)
+
+    def joint(self, meta: Any, c: list) -> tuple[ast.Ident, Any]:
+        return self._id(c[0]), c[1]
 
     def base_frame(self, meta: Any, c: list) -> ast.FrameDecl:
         return ast.FrameDecl("base", tuple(c), self._loc(meta))

@@ -55,6 +55,8 @@ class Model:
     consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts
     batch: RowBatch | None = None  # a loop compiled once for all its rows
     sources: tuple[str, ...] = ()  # the files read: the model, then what it includes
+    # (table, column) -> the limits of the robot joint its cells are the values of
+    joint_limits: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass
