@@ -12,7 +12,7 @@ d for a prismatic one): the entry at q = 0 is then the offset a controller adds 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +66,8 @@ class RobotTable:
     # the tool points `robot(...) at p` measures, in the last frame (x, y, z entries; the
     # model's length unit): the tool frames a controller adds after the flange
     tools: tuple[tuple[Entry, Entry, Entry], ...] = ()
+    # the joint limits the robot statement declares (`q1 in [lo, hi]`), by joint variable
+    limits: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 def robot_tables(path: str | Path, box: dict[str, tuple[float, float]],
@@ -101,7 +103,9 @@ def _table(run: Elaborator, robot: RobotDef, box: dict[str, tuple[float, float]]
                               tuple(values.names_in(n)))
                         for axis, n in zip("xyz", xyz, strict=True))
                   for xyz in run.tool_points(robot.name))
-    return RobotTable(robot.name, tuple(rows), tools)  # type: ignore[arg-type]
+    limits = {p.id: lim for p, lim in zip(robot.params, robot.limits, strict=False)
+              if lim is not None}
+    return RobotTable(robot.name, tuple(rows), tools, limits)  # type: ignore[arg-type]
 
 
 def _named(frame: Any, part: str, convention: str) -> tuple[str, list[tuple[str, int]]]:

@@ -76,8 +76,10 @@ def _robot(t: RobotTable, scale: dict[str, float]) -> list[str]:
         child = f"link{f.number}"
         fixed = frame_matrix(f, scale)
         origin, acc = (acc @ fixed, np.eye(4)) if f.convention == "mdh" else (acc, fixed)
-        kind = {"revolute": "continuous"}.get(f.motion, f.motion)
-        out += _joint(name, kind, parent, child, origin, f, f.axis)
+        limit = t.limits.get(f.joint or "")
+        kind = "continuous" if f.motion == "revolute" and limit is None else f.motion
+        out += _joint(name, kind, parent, child, origin, f, f.axis,
+                      None if limit is None else _scaled(limit, f, scale))
         parent = child
     for f in (f for f in t.frames if f.part == "tool"):
         acc = acc @ frame_matrix(f, scale)
@@ -96,8 +98,16 @@ def _entries(entries: Any) -> str:
         for e in entries)
 
 
+def _scaled(limit: tuple[float, float], f: FrameRow, scale: dict[str, float]
+            ) -> tuple[float, float]:
+    """A joint limit in URDF's units (radians, or metres for a prismatic joint)."""
+    k = scale["length" if f.motion == "prismatic" else "angle"]
+    return limit[0] * k, limit[1] * k
+
+
 def _joint(name: str, kind: str, parent: str, child: str, origin: np.ndarray,
-           f: FrameRow | None, axis: float | None) -> list[str]:
+           f: FrameRow | None, axis: float | None,
+           limit: tuple[float, float] | None = None) -> list[str]:
     xyz = " ".join(_num(x) for x in origin[:3, 3])
     rpy = " ".join(_num(x) for x in rpy_of(origin[:3, :3]))
     out = [f'  <link name="{child}"/>']
@@ -109,7 +119,10 @@ def _joint(name: str, kind: str, parent: str, child: str, origin: np.ndarray,
             f'    <origin xyz="{xyz}" rpy="{rpy}"/>']
     if axis is not None and kind != "fixed":
         out.append(f'    <axis xyz="0 0 {_num(axis)}"/>')
-    if kind == "prismatic":  # URDF requires limits; calibration does not know them
+    if limit is not None:  # (the model's; effort and velocity are the controller's)
+        out.append(f'    <limit lower="{_num(limit[0])}" upper="{_num(limit[1])}" '
+                   'effort="0" velocity="0"/>')
+    elif kind == "prismatic":  # URDF requires limits; the model declares none
         out.append('    <limit lower="0" upper="0" effort="0" velocity="0"/>'
                    "  <!-- not calibrated: set the joint's limits -->")
     return out + ["  </joint>"]

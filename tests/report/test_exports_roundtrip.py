@@ -99,6 +99,13 @@ def test_urdf_read_by_yourdfpy(exported, tmp_path):
     urdf = yourdfpy.URDF.load(str(tmp_path / "r.urdf"), build_scene_graph=True,
                               load_meshes=False)
     assert urdf.actuated_joint_names == [f"q{j}" for j in range(1, 7)]
+    limited = robot == "ur10"  # (models/robots/ur10.cal declares +-2 pi; ur5.cal none)
+    for name in urdf.actuated_joint_names:
+        joint = urdf.robot.joints[[j.name for j in urdf.robot.joints].index(name)]
+        assert joint.type == ("revolute" if limited else "continuous")
+        if limited:
+            assert (joint.limit.lower, joint.limit.upper) == pytest.approx((-2 * math.pi,
+                                                                             2 * math.pi))
     q = joints(1)
     got = []
     for row in q:
