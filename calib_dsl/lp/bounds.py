@@ -154,6 +154,11 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
             h.setOptionValue("simplex_strategy", DUAL_SIMPLEX)
             h.run()
             h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
+        if infeasible(h):
+            y = _farkas(h, rel, rows)
+            if y is not None:  # the relaxation is empty: so is the box (any bound is valid)
+                out.append((i, sign, -np.inf, y, None, None))
+                break
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
@@ -169,6 +174,28 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     return out
 
 
+
+
+def _farkas(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> np.ndarray | None:
+    """Multipliers proving the relaxation empty, from HiGHS's dual ray where it found the LP
+    infeasible (None: no ray, or the proof failed in rigorous arithmetic). They prove it as
+    any multipliers bound an objective (certified_max): with the objective 0, a bound below
+    0 holds for no point. The LP may hold a subset of the rows (row generation): rows left
+    out get multiplier 0. Its sign convention is not relied on: both signs are tried."""
+    try:
+        _, has, ray = h.getDualRay()
+    except (AttributeError, RuntimeError, TypeError):
+        return None
+    ray = np.asarray(ray, dtype=float)
+    if not has or len(ray) < len(rows) or not np.all(np.isfinite(ray[:len(rows)])):
+        return None
+    zero = np.zeros(rel.A.shape[1])
+    for sign in (1.0, -1.0):
+        y = np.zeros(rel.A.shape[0])
+        y[rows] = sign * ray[:len(rows)]
+        if certified_max(rel, zero, y) < 0:
+            return y
+    return None
 
 
 def _first_rows(rel: LinearRelaxation, share: list,
