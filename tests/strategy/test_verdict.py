@@ -282,3 +282,26 @@ def test_solve_outliers_gives_the_verdict_of_all_rows_but_k(tmp_path):
     code, out, text, err = verdict_of(model, "--data", str(data))
     assert_said(code, out, text, err)
     assert out["verdict"] == "inconsistent"
+
+
+def test_the_proof_effort_stops_at_its_budget(tmp_path, monkeypatch):
+    """A budget of almost nothing: the effort's first step runs (it always does), and no other: the
+    budget bounds every attempt, the first one's own steps too (it used to count only
+    attempts that had ended, so the fine rounds ran on whatever their cost)."""
+    from dataclasses import replace
+
+    from calib_dsl.pipeline import effort_for, load_model, solve
+    from calib_dsl.settings import DEFAULT
+    from calib_dsl.strategy import verdict
+
+    monkeypatch.setattr(verdict, "certified_point", lambda *a, **k: (False, None))
+    model = arm(tmp_path, {"l1": 1.0, "l2": 0.5, "l3": 0.3, "o2": 0.01, "o3": -0.02}, 3)
+    elaborated, prog = load_model(model)
+    res = solve(prog)
+    effort = replace(effort_for(model, "matrix", None, prog, elaborated, 1e-5, 1000),
+                     settings=replace(DEFAULT, verdict_share=1e-9, verdict_outlier_bounds=0.0,
+                                      verdict_outlier_rows=3))
+    _, said = verdict.decide(prog, res, False, effort)
+    assert said.verdict == "undecided"
+    ran = [t for t in said.tried if "not tried" not in t]
+    assert len(ran) == 1 and ran[0].startswith("proof against"), said.tried
