@@ -148,6 +148,7 @@ def test_the_shipped_models_brackets_are_within_2_percent(model):
     assert found.lo is not None and found.hi / found.lo <= 1.02, (found.lo, found.hi)
 
 
+@pytest.mark.slow
 def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     """ur10_all.cal (33 parameters, some of which end on their domains' bounds): the upper
     end is the fit with the joint readings free, proven where its linear model said (it was
