@@ -7,7 +7,8 @@ any y >= 0 and any p in the box with A p <= b,
     c.p = y.(A p) + (c - A'y).p  <=  y.b + max over the box of (c - A'y).p,
 
 whatever y is. Every sum is bounded with an explicit rounding-error term, so the bound holds
-in exact arithmetic. A poor y gives a poor bound, never a wrong one.
+in exact arithmetic. A poor y gives a poor bound, never a wrong one. With c = 0 the same
+bound below 0 proves that no p satisfies the rows: an infeasible LP's dual ray is such a y.
 """
 
 from __future__ import annotations
@@ -44,9 +45,10 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
     from the previous basis (a few pivots each); HiGHS releases the GIL, so the workers run on
-    separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
-    certify), the bound falls back to the box's own bound on c.p: never wrong, just not
-    tighter. Objectives flagged in `skip` get the box bound without an LP. `iterations` and
+    separate cores. Where the LP finds the relaxation infeasible and its dual ray proves it
+    (`_farkas`), the share's bound is -inf: the bounds cross. Where the LP fails otherwise,
+    the bound falls back to the box's own bound on c.p: never wrong, just not tighter.
+    Objectives flagged in `skip` get the box bound without an LP. `iterations` and
     `seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
     HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
     starts afresh each time but costs the same few dozen iterations on any objective, which
