@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point, exact_inside
-from calib_dsl.analysis.lsq import estimate, linearized, rows_at
+from calib_dsl.analysis.lsq import Linearized, estimate, linearized, rows_at
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import minimize
@@ -20,6 +20,8 @@ from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 ITERATIONS = 8  # linear programs lowering the largest residual
 TRUST = 0.5  # each LP step within this share of the domains
+SHRINK = 0.25  # a step that did not lower the largest residual: the next within this share
+MIN_TRUST = 1e-4  # the fit stops once its steps would be smaller than this share
 
 
 def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
@@ -33,13 +35,7 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
     linearized model cannot bring the largest residual below `target` (its LP's optimum), or
     once a step's largest residual is within `settle` (relative) of what its LP predicted:
     the model is linear there to within that, so another step would gain about as little."""
-    ind = independents(prog)
-    lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
-    # inside the declared domains exactly (their floats are rounded outward), so that the
-    # point can be certified even where it sits at a bound
-    dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
-    some = dlo <= dhi
-    lo, hi = np.where(some, np.maximum(lo, dlo), lo), np.where(some, np.minimum(hi, dhi), hi)
+    lo, hi = within_domains(prog, box)
     p = estimate(prog, max_evaluations=200).values if start is None else start
     p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
     d, half, jac = rows_at(prog, p)
@@ -47,7 +43,7 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
     unit = np.maximum(half, 1e-12) if normalized else np.ones_like(half)
     need = _largest(d, rows, unit)
     width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    n = len(p)
+    n, trust = len(p), TRUST
     for _ in range(ITERATIONS):
         # min s  s.t.  -s <= r + J dp <= s on `rows`, |r + J dp| <= their bound elsewhere
         # (r, J: the residuals and their Jacobian, absolute or in bounds)
@@ -59,19 +55,38 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
                        np.hstack([A_o, np.zeros((len(r_o), 1))]),
                        np.hstack([-A_o, np.zeros((len(r_o), 1))])])
         b = np.concatenate([-r_b, r_b, h_o - r_o, h_o + r_o])
-        step = TRUST * width
+        step = trust * width
         x = _minimize(np.r_[np.zeros(n), 1.0], A, b, np.r_[np.maximum(lo - p, -step), 0.0],
                       np.r_[np.minimum(hi - p, step), np.inf])
         if x is None:
             break
         q = np.clip(p + x[:n], lo, hi)
         dq, _, jq = rows_at(prog, q)
-        if _largest(dq, rows, unit) >= need * (1 - 1e-6):
-            break
+        if not _largest(dq, rows, unit) < need * (1 - 1e-6):
+            # the model was not linear over the step: a smaller one (where the domains
+            # allow large steps along directions the data hardly see, the step's curvature
+            # can undo the gain)
+            trust *= SHRINK
+            if trust < MIN_TRUST:
+                break
+            continue
         p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
         if x[-1] >= target * (1 + 1e-9) > 0 or abs(need - x[-1]) <= settle * need:
             break
     return p, need
+
+
+def within_domains(prog: Program, box: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """`box` (the unknowns' bounds; the search domains if None) within the declared domains
+    exactly (their floats are rounded outward), so that a point found in it can be certified
+    even where it sits at a bound (certify_point.py: a point on a float bound proves
+    nothing)."""
+    ind = independents(prog)
+    lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
+    dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
+    some = dlo <= dhi
+    return (np.where(some, np.maximum(lo, dlo), lo), np.where(some, np.minimum(hi, dhi), hi))
 
 
 def _minimize(cost: np.ndarray, A: Any, b: np.ndarray, lo: np.ndarray,
@@ -89,19 +104,50 @@ def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
 def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = None,
                   box: tuple[np.ndarray, np.ndarray] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """One more step of the fit from `point`, the joint readings free within their intervals
-    (their errors lower the largest residual where the arm's lever is long): the point, the
-    readings (Readings order) and the linear model's largest residual on `rows` (all if
-    None); None when the model has no readings or the LP fails. A point and a hope, as
+    """The fit continued from `point` with the joint readings free within their intervals
+    (their errors lower the largest residual where the arm's lever is long): steps of linear
+    programs in the unknowns and the readings' errors, each within a trust region, kept while
+    they lower the largest residual. The point, the readings (Readings order) and the largest
+    residual on `rows` (all if None) that the model linearized at the point gives with those
+    readings; None when the model has no readings or the LP fails. A point and a hope, as
     above."""
-    from scipy import sparse
-
     readings = Readings(prog)
     if not len(readings.at):
         return None
-    ind = independents(prog)
-    lo, hi = box if box is not None else (prog.slots.lo[ind], prog.slots.hi[ind])
+    lo, hi = within_domains(prog, box)
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
     lin = linearized(prog, point)
+    rows = np.ones(len(lin.d), dtype=bool) if rows is None else rows
+    best: tuple[np.ndarray, np.ndarray, float] | None = None
+    p, trust = point, TRUST
+    for _ in range(ITERATIONS):
+        got = _readings_step(lin, readings, p, rows, (np.maximum(lo - p, -trust * width),
+                                                     np.minimum(hi - p, trust * width)))
+        if got is None:
+            break
+        q = np.clip(p + got[0], lo, hi)
+        lin_q = linearized(prog, q)
+        merit = _with_errors(lin_q, readings, got[1], rows)
+        if best is not None and not merit < best[2] * (1 - 1e-6):
+            trust *= SHRINK  # (as in `chebyshev`)
+            if trust < MIN_TRUST:
+                break
+            continue
+        best, p, lin = (q, got[1], merit), q, lin_q
+        if abs(merit - got[2]) <= 1e-6 * merit:  # linear to within rounding: done
+            break
+    if best is None:
+        return None
+    return best[0], readings.values(best[1]), best[2]
+
+
+def _readings_step(lin: Linearized, readings: Readings, point: np.ndarray, rows: np.ndarray,
+                   step: tuple[np.ndarray, np.ndarray]
+                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """One LP of `with_readings`: the unknowns' step (within `step`), the readings' errors (in
+    half-widths) and the linear model's largest residual on `rows`."""
+    from scipy import sparse
+
     r, c, v = readings.entries(lin)
     m, n, k = len(lin.d), len(point), len(readings.at)
     # columns: the unknowns' steps, the readings' errors (in half-widths), the largest residual
@@ -111,7 +157,6 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
     B = sparse.csr_matrix((v / unit[r], (r, c)), shape=(m, k))
     J = sparse.hstack([sparse.csr_matrix(lin.jac / unit[:, None]), B]).tocsr()
     t_col = sparse.csr_matrix(np.ones((m, 1)))
-    rows = np.ones(m, dtype=bool) if rows is None else rows
     fit, other = np.flatnonzero(rows), np.flatnonzero(~rows)
     A = sparse.vstack([sparse.hstack([J[fit], -t_col[fit]]), sparse.hstack([-J[fit], -t_col[fit]]),
                        sparse.hstack([J[other], 0 * t_col[other]]),
@@ -120,13 +165,29 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
     ones = np.ones(len(other))
     b = np.concatenate([-d[fit], d[fit], ones - d[other], ones + d[other]])
     zlo, zhi = readings.bounds()
-    x = _minimize(np.r_[np.zeros(n + k), 1.0], A, b, np.r_[lo - point, zlo, 0.0],
-                  np.r_[hi - point, zhi, np.inf])
+    x = _minimize(np.r_[np.zeros(n + k), 1.0], A, b, np.r_[step[0], zlo, 0.0],
+                  np.r_[step[1], zhi, np.inf])
     if x is None:
         return None
-    q = np.clip(point + x[:n], lo, hi)
     scale = float(np.max(lin.half[fit])) if len(fit) else 1.0  # the bound rows share it
-    return q, readings.values(x[n:n + k]), float(x[-1]) * scale
+    return x[:n], x[n:n + k], float(x[-1]) * scale
+
+
+def _with_errors(lin: Linearized, readings: Readings, z: np.ndarray, rows: np.ndarray) -> float:
+    """The largest residual on `rows` at the point `lin` was made at, the readings at errors
+    z (linear in them: their intervals are narrow), in the units `_readings_step` gives it;
+    inf where another row leaves its bound."""
+    from scipy import sparse
+
+    r, c, v = readings.entries(lin)
+    unit = np.maximum(lin.half, 1e-300)
+    moved = lin.d / unit + sparse.csr_matrix((v / unit[r], (r, c)),
+                                             shape=(len(lin.d), len(z))) @ z
+    with np.errstate(invalid="ignore"):
+        if np.any(~(np.abs(moved[~rows]) <= 1 + 1e-9)):
+            return float("inf")
+    scale = float(np.max(lin.half[rows])) if np.any(rows) else 1.0
+    return float(np.max(np.abs(moved[rows]), initial=0.0)) * scale
 
 
 def proven_consistent(prog: Program) -> bool:

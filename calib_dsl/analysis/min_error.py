@@ -23,7 +23,7 @@ from fractions import Fraction
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev, with_readings
+from calib_dsl.analysis.chebyshev import chebyshev, with_readings, within_domains
 from calib_dsl.analysis.lsq import rows_at
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.elaborate.elaborator import Inputs
@@ -72,25 +72,36 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    point, need = chebyshev(prog, rows)
-    readings = None
-    step = with_readings(prog, point, rows)  # the joint readings' errors lower it further
-    if step is not None and step[2] < need:
-        point, need = step[0], step[2]
-        readings = Readings(prog).by_cell(step[1])
-    try:
-        hi, check_prog, point = _certified(name, inputs, load, point, need, readings)
-    except CalError:
-        if readings is None:
-            raise
-        point, need = chebyshev(prog, rows)  # the readings' step could not be proven: without
-        readings = None
-        hi, check_prog, point = _certified(name, inputs, load, point, need)
+    hi, check_prog, point = _upper(name, inputs, load, prog, rows)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
     del model, prog, check_prog  # each trial loads its own: one program in memory at a time
     _lower(out, inputs, load, solve)
     return out
+
+
+def _upper(name: str, inputs: Inputs, load: Loader, prog: Program, rows: np.ndarray
+           ) -> tuple[float, Program, np.ndarray]:
+    """The smallest bound proven feasible: the Chebyshev fit's point, or the fit continued
+    with the joint readings free (their errors lower it further), whichever is certified at
+    the smaller bound (a point the readings' step moves may break a row by more than its
+    linear model said: then the plain fit's may be the smaller)."""
+    point, need = chebyshev(prog, rows)
+    step = with_readings(prog, point, rows)
+    found: list[tuple[float, Program, np.ndarray]] = []
+    if step is not None and step[2] < need:
+        try:
+            found.append(_certified(name, inputs, load, step[0], step[2],
+                                    Readings(prog).by_cell(step[1])))
+        except CalError:
+            pass
+    if not found or found[0][0] > need:
+        try:
+            found.append(_certified(name, inputs, load, point, need))
+        except CalError:
+            if not found:
+                raise
+    return min(found, key=lambda f: f[0])
 
 
 def _names(prog: Program) -> list[str]:
@@ -119,9 +130,9 @@ def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need:
     computed = False
     for _ in range(CERTIFY_TRIES):
         _, prog = load(_with(inputs, name, e))
-        ind = independents(prog)  # an LP's point may sit a rounding outside a domain (and
-        # domains centred on least squares move with the data)
-        point = np.clip(point, prog.slots.lo[ind], prog.slots.hi[ind])
+        # an LP's point may sit a rounding outside a domain (and domains centred on least
+        # squares move with the data)
+        point = np.clip(point, *within_domains(prog))
         check = check_point(prog, point,
                             None if readings is None else Readings(prog).from_cells(readings))
         if check.holds:

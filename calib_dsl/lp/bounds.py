@@ -7,7 +7,8 @@ any y >= 0 and any p in the box with A p <= b,
     c.p = y.(A p) + (c - A'y).p  <=  y.b + max over the box of (c - A'y).p,
 
 whatever y is. Every sum is bounded with an explicit rounding-error term, so the bound holds
-in exact arithmetic. A poor y gives a poor bound, never a wrong one.
+in exact arithmetic. A poor y gives a poor bound, never a wrong one. With c = 0 the same
+bound below 0 proves that no p satisfies the rows: an infeasible LP's dual ray is such a y.
 """
 
 from __future__ import annotations
@@ -44,9 +45,10 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
     from the previous basis (a few pivots each); HiGHS releases the GIL, so the workers run on
-    separate cores. Where the LP fails (or finds the relaxation infeasible, which we do not
-    certify), the bound falls back to the box's own bound on c.p: never wrong, just not
-    tighter. Objectives flagged in `skip` get the box bound without an LP. `iterations` and
+    separate cores. Where the LP finds the relaxation infeasible and its dual ray proves it
+    (`_farkas`), the share's bound is -inf: the bounds cross. Where the LP fails otherwise,
+    the bound falls back to the box's own bound on c.p: never wrong, just not tighter.
+    Objectives flagged in `skip` get the box bound without an LP. `iterations` and
     `seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
     HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
     starts afresh each time but costs the same few dozen iterations on any objective, which
@@ -154,6 +156,11 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
             h.setOptionValue("simplex_strategy", DUAL_SIMPLEX)
             h.run()
             h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
+        if infeasible(h):
+            y = _farkas(h, rel, rows)
+            if y is not None:  # the relaxation is empty: so is the box (any bound is valid)
+                out.append((i, sign, -np.inf, y, None, None))
+                break
         # Any multipliers certify a bound, so even a solve stopped by its iteration or time
         # limit gives a valid (if weaker) one: only a missing solution is skipped.
         sol = h.getSolution()
@@ -169,6 +176,28 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     return out
 
 
+
+
+def _farkas(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> np.ndarray | None:
+    """Multipliers proving the relaxation empty, from HiGHS's dual ray where it found the LP
+    infeasible (None: no ray, or the proof failed in rigorous arithmetic). They prove it as
+    any multipliers bound an objective (certified_max): with the objective 0, a bound below
+    0 holds for no point. The LP may hold a subset of the rows (row generation): rows left
+    out get multiplier 0. Its sign convention is not relied on: both signs are tried."""
+    try:
+        _, has, ray = h.getDualRay()
+    except (AttributeError, RuntimeError, TypeError):
+        return None
+    ray = np.asarray(ray, dtype=float)
+    if not has or len(ray) < len(rows) or not np.all(np.isfinite(ray[:len(rows)])):
+        return None
+    zero = np.zeros(rel.A.shape[1])
+    for sign in (1.0, -1.0):
+        y = np.zeros(rel.A.shape[0])
+        y[rows] = sign * ray[:len(rows)]
+        if certified_max(rel, zero, y) < 0:
+            return y
+    return None
 
 
 def _first_rows(rel: LinearRelaxation, share: list,

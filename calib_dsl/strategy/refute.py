@@ -77,6 +77,7 @@ class Refuter:
     progress: Callable[[str], None] | None = None
     found: Found = field(default_factory=Found)
     box: tuple[np.ndarray, np.ndarray] | None = None  # the result after the fine rounds
+    steps: int = 0  # the steps started
 
     def run(self, far: Attempts) -> Found:
         self.found.far = far
@@ -92,8 +93,14 @@ class Refuter:
 
     # -- the budget ---------------------------------------------------------------------------
     def affords(self, cost: float) -> bool:
+        """Whether a step of this cost ends within the budget; the effort's first step always
+        starts (`steps` counts those started: `tried` is written after an attempt's steps)."""
         spent = time.perf_counter() - self.start
-        return spent + cost <= self.budget or not self.found.tried
+        self.steps += 1
+        if spent + cost <= self.budget or self.steps == 1:
+            return True
+        self.steps -= 1
+        return False
 
     def _say(self, text: str) -> None:
         if self.progress is not None:
@@ -169,15 +176,18 @@ class Refuter:
         stalled: set[str] = set()
         costs: list[float] = []
         done: dict[str, list[float]] = {k: [] for k in kinds}
+        spent: dict[str, list[float]] = {k: [] for k in kinds}  # a kind's rounds cost alike
         while len(stalled) < len(kinds):
             kind = next(k for k in kinds if k not in stalled)
-            if not self.affords(float(np.mean(costs)) if costs else self.res.seconds):
+            like = spent[kind] or costs
+            if not self.affords(float(np.mean(like)) if like else self.res.seconds):
                 break
             t = time.perf_counter()
             self._say(f"verdict: fine rounds ({KIND_NAMES[kind]})")
             out = LPRounds(self.prog, self.settings, Certificates(), self.tol, self.max_sweeps,
                            1, fine_start=True, fine_kind=kind).contract(lo, hi)
             costs.append(time.perf_counter() - t)
+            spent[kind].append(costs[-1])
             if out.emptied is not None:
                 self.found.proof = Proof(out.emptied, "rounds of LPs over the result's box "
                                          f"({KIND_NAMES[kind]}) proved that it holds no "

@@ -132,3 +132,39 @@ def test_an_accepted_point_satisfies_every_row_exactly(tmp_path_factory, rows, a
     for x, y in cells:
         # the witness reads x at its value; y's error must be within e exactly
         assert abs(fa * Fraction(x) + fb - Fraction(y)) <= e, (x, y, a, b, e)
+
+
+# -- brackets within 2 % (issue #44) ---------------------------------------------------------
+MODELS = Path(__file__).resolve().parents[2] / "models"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["ur10_tracker.cal", "ur10_simulated.cal"])
+def test_the_shipped_models_brackets_are_within_2_percent(model):
+    """On their shipped (simulated) table. ur10_all.cal is not here: its ten parameters the
+    data cannot separate keep the box wide, and its bracket is 23 % wide
+    (docs/decisions/verdicts.md)."""
+    found = min_error(MODELS / model, "e")
+    assert found.lo is not None and found.hi / found.lo <= 1.02, (found.lo, found.hi)
+
+
+@pytest.mark.slow
+def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
+    """ur10_all.cal (33 parameters, some of which end on their domains' bounds): the upper
+    end is the fit with the joint readings free, proven where its linear model said (it was
+    the fit without them, 10 % higher: that point sat on a float bound, which proves
+    nothing)."""
+    from calib_dsl.analysis import min_error as found
+    from calib_dsl.analysis.chebyshev import chebyshev, with_readings
+    from calib_dsl.pipeline import load_model, on_priors_of
+
+    path = MODELS / "ur10_all.cal"
+    model, prog = load_model(path)
+    load = on_priors_of(prog, lambda i: load_model(path, inputs=i, centre=False),
+                        (model, prog))
+    rows = found._bound_rows(prog, float(model.consts["e"]))
+    point, plain = chebyshev(prog, rows)
+    step = with_readings(prog, point, rows)
+    assert step is not None and step[2] < 0.99 * plain
+    hi, _, _ = found._upper("e", Inputs(), load, prog, rows)
+    assert hi <= step[2] * 1.001
