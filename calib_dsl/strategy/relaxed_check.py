@@ -47,9 +47,10 @@ def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
         return None
     slots = ex.rows.slots[rel.keys]
     data_row = (slots - lay.shared) // max(lay.width, 1)
+    points = np.array([mapped(keys, values, rel.col_keys, np.nan)
+                       for keys, values in certs.columns.values()])
     out = []
-    for keys, values in certs.columns.values():
-        excess = _excess(rel, mapped(keys, values, rel.col_keys, np.nan))
+    for excess in _excesses(rel, points):
         bad = (excess > 0) & (slots >= lay.shared)
         out.append((data_row[bad], excess[bad]))
     return out
@@ -58,19 +59,44 @@ def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
 def _excess(rel: LinearRelaxation, x: np.ndarray) -> np.ndarray:
     """How far each row of rel is from holding at x, where the columns x leaves unknown
     (NaN) take whatever value in their bounds suits that row best: > 0 where none does."""
+    return _excesses(rel, x[None])[0]
+
+
+def _excesses(rel: LinearRelaxation, X: np.ndarray) -> np.ndarray:
+    """_excess at each row of X (points x columns). Points that leave the same columns
+    unknown (the optima of one LP) share the free columns' part, and their known part is
+    one sparse product for all of them."""
+    from scipy.sparse import csr_matrix  # (a large campaign's check only: a slow import)
+
     A = rel.A
     m = A.shape[0]
     row = np.repeat(np.arange(m), np.diff(A.indptr))
     col, a = A.indices, A.data
-    known = ~np.isnan(x[col])
-    fixed = np.bincount(row[known], a[known] * x[col[known]], minlength=m)
-    free = ~known
-    lo_part = np.minimum(a[free] * rel.lo[col[free]], a[free] * rel.hi[col[free]])
-    hi_part = np.maximum(a[free] * rel.lo[col[free]], a[free] * rel.hi[col[free]])
-    least = fixed + np.bincount(row[free], lo_part, minlength=m)
-    most = fixed + np.bincount(row[free], hi_part, minlength=m)
+    out = np.empty((len(X), m))
+    groups: dict[bytes, list[int]] = {}
+    for k, x in enumerate(X):
+        groups.setdefault(np.isnan(x).tobytes(), []).append(k)
+    for members in groups.values():
+        known = ~np.isnan(X[members[0]])[col]
+        fixed = csr_matrix((np.where(known, a, 0.0), col, A.indptr), shape=A.shape) \
+            @ np.nan_to_num(X[members], nan=0.0).T  # (m, points)
+        free = ~known
+        af, lo, hi = a[free], rel.lo[col[free]], rel.hi[col[free]]
+        least = np.bincount(row[free], np.minimum(af * lo, af * hi), minlength=m)
+        most = np.bincount(row[free], np.maximum(af * lo, af * hi), minlength=m)
+        out[members] = _outside(rel, fixed + least[:, None], fixed + most[:, None]).T
+    return out
+
+
+def _outside(rel: LinearRelaxation, least: np.ndarray, most: np.ndarray) -> np.ndarray:
+    """How far rows whose value ranges over [least, most] (rows x points) are from their
+    sides: > 0 where no value in the range holds."""
+    b = rel.b[:, None]
     with np.errstate(invalid="ignore"):
-        over = np.where(np.isfinite(rel.b), least - rel.b, -np.inf)
-        under = (np.where(np.isfinite(rel.b_lo), rel.b_lo - most, -np.inf)
-                 if rel.b_lo is not None else np.full(m, -np.inf))
+        over = np.where(np.isfinite(b), least - b, -np.inf)
+        if rel.b_lo is None:
+            under = np.full(least.shape, -np.inf)
+        else:
+            b_lo = rel.b_lo[:, None]
+            under = np.where(np.isfinite(b_lo), b_lo - most, -np.inf)
     return np.nan_to_num(np.maximum(over, under), nan=-np.inf)

@@ -63,9 +63,13 @@ class WorkingRows:
         # and would stop the rounds before the fine ones ran on the rows that joined)
         # (readings' columns and McCormick's inequalities both: the strongest fine rounds)
         resume, kind = False, "both"
+        # the fine rounds' multipliers carry over the passes: a resumed pass's first LPs
+        # start their row generation from the rows the last pass's optima bound on (a
+        # working set grows by few rows, and the optima move little)
+        fine = Certificates()
         for passes in range(s.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
-            certs, fine = self.certs if every else Certificates(), Certificates()
+            certs = self.certs if every else Certificates()
             rounds = LPRounds(self.prog, s, certs, self.tol, self.max_sweeps - work.sweeps,
                               self.max_rounds or s.max_rounds, self.second_order,
                               unsolved=self.unsolved, progress=self.progress,

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
-from calib_dsl.strategy.relaxed_check import _excess
+from calib_dsl.strategy.relaxed_check import _excess, _excesses
 
 
 @settings(max_examples=200, deadline=None)
@@ -32,6 +32,31 @@ def test_a_row_is_violated_only_where_no_free_value_satisfies_it(a, c, x, b, wid
         assert abs(excess - gap) <= step + eps
     assert (excess > eps) <= (gap > 0)
     assert (gap > step + eps) <= (excess > 0)
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_points_checked_together_get_each_its_own_excess(seed):
+    """Several points at once, some leaving the same columns unknown and some not: each
+    point's excesses are those it gets alone."""
+    rng = np.random.default_rng(seed)
+    m, n = 12, 6
+    dense = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.6)
+    rows, cols = np.nonzero(dense)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=m))])
+    A = Rows(dense[rows, cols], cols, indptr, (m, n))
+    b = rng.normal(size=m)
+    rel = LinearRelaxation(A, b, -rng.random(n), rng.random(n), main=2,
+                           b_lo=np.where(rng.random(m) < 0.3, -np.inf, b - rng.random(m)))
+    X = rng.uniform(-1, 1, (5, n))
+    X[:3, 4:] = np.nan  # three points of one LP
+    X[3, rng.random(n) < 0.5] = np.nan
+    together = _excesses(rel, X)
+    for x, got in zip(X, together, strict=True):
+        alone = _excess(rel, x)
+        assert np.array_equal(np.isinf(alone), np.isinf(got))
+        finite = np.isfinite(alone)
+        assert np.allclose(alone[finite], got[finite], rtol=1e-12, atol=1e-12)
 
 
 def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp_path):
