@@ -12,7 +12,10 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "calib_dsl"
 
-# lowest first; a module may import from its own package and from lower ranks only
+# lowest first; a module may import from its own package and from lower ranks only. A
+# feature's package spans layers where its parts do (the outliers' solve drives the tight
+# strategy, which the rows at fault are below): such a module has a rank of its own
+# ("package.module"), and its package's other modules may not import it.
 RANKS = {
     "settings": 0, "arith": 0, "frontend": 0, "progress": 0,
     "ir": 1,
@@ -21,13 +24,15 @@ RANKS = {
     "relax": 4,
     "lp": 5,
     "analysis": 6,
-    "strategy": 7,
-    "report": 8, "plot": 8,
-    "pipeline": 9,
-    "batch": 10,  # many solves on Dask: the pipeline's calls, one job each
-    "api": 10,  # beside batch: neither imports the other
-    "outputs": 10,  # the figures, residuals and exports the command line writes
-    "cli": 11,
+    "inner": 7,  # certified inner bounds: their LPs and warm starts
+    "strategy": 8,
+    "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
+    "report": 10, "plot": 10,
+    "pipeline": 11,
+    "batch": 12,  # many solves on Dask: the pipeline's calls, one job each
+    "api": 12,  # beside batch: neither imports the other
+    "outputs": 12,  # the figures, residuals and exports the command line writes
+    "cli": 13,
 }
 MAX_LINES = 450  # "no module over ~400 lines"
 
@@ -59,7 +64,10 @@ def imports(path: Path, name: str) -> list[tuple[str, list[str], int]]:
 
 
 def stage(module: str) -> str:
+    """The unit a module's rank belongs to: its own "package.module" entry, else its package."""
     parts = module.split(".")
+    if len(parts) > 2 and ".".join(parts[1:3]) in RANKS:
+        return ".".join(parts[1:3])
     return parts[1] if len(parts) > 1 else ""
 
 

@@ -11,13 +11,13 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.analysis.identify import analyse, combination_enclosures
-from calib_dsl.analysis.inner import Inner, inner_bounds
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.inner.bounds import Inner, inner_bounds
+from calib_dsl.inner.shave import Shaved, shave
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
-from calib_dsl.strategy.shave import Shaved, shave
 from calib_dsl.strategy.solution import Solution
 
 

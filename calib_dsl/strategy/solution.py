@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.lp.starts import Starts
+from calib_dsl.inner.starts import Starts
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
+from calib_dsl.inner.starts import from_certificates
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
-from calib_dsl.lp.starts import from_certificates
 from calib_dsl.progress import Meter, Progress
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT, Settings

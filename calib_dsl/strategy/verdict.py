@@ -22,9 +22,9 @@ import numpy as np
 from calib_dsl.analysis.certify_point import check_point
 from calib_dsl.analysis.chebyshev import chebyshev, with_readings
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.inner import inner_bounds
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents

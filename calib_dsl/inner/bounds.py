@@ -24,10 +24,10 @@ import numpy as np
 from calib_dsl.analysis.certify_point import PointCheck, check_point, check_points, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.inner_lp import LinearModel, Solver
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.lp import LinearModel, Solver
+from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.starts import Starts
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 

@@ -13,9 +13,9 @@ import numpy as np
 from calib_dsl.analysis.certify_point import PointCheck
 from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import RowCheck, add_rows, load, optimal, set_basis
-from calib_dsl.lp.starts import Starts
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 from calib_dsl.settings import DEFAULT

@@ -15,12 +15,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.inner import inner_bounds
 from calib_dsl.cli import main
+from calib_dsl.inner.bounds import inner_bounds
+from calib_dsl.inner.shave import candidates, shave
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
-from calib_dsl.strategy.shave import candidates, shave
 from calib_dsl.strategy.tight import solve_tight
 from tests.relax.test_linearize import random_robot, robot_draws
 
@@ -186,7 +186,7 @@ def test_a_program_in_chunks_is_shaved_by_default_only_after_fine_rounds(tmp_pat
                                                                        monkeypatch):
     """A program relaxed in chunks of rows: by default (a budget) only where the solve ran
     fine rounds; asked (no budget), always."""
-    import calib_dsl.strategy.shave as module
+    import calib_dsl.inner.shave as module
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
 

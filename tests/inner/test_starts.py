@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from calib_dsl.inner.starts import from_certificates
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.lp.highs import BASIC, LOWER
-from calib_dsl.lp.starts import from_certificates
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 UPPER = 2  # HiGHS's kUpper
