@@ -25,9 +25,7 @@ import numpy as np
 
 from calib_dsl import pipeline
 from calib_dsl.analysis.advice import Advice, advise
-from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import MinError
-from calib_dsl.analysis.outlier_rows import Outliers
 from calib_dsl.analysis.predict import Prediction
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs
@@ -36,6 +34,8 @@ from calib_dsl.elaborate.values import Values
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import Conflict
+from calib_dsl.outliers.rows import Outliers
 from calib_dsl.progress import Progress
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows

@@ -14,10 +14,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from calib_dsl.analysis.conflict import Conflict, find_conflict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
-from calib_dsl.analysis.outlier_rows import Outliers, Row, data_rows, excluding
 from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -28,6 +26,10 @@ from calib_dsl.elaborate.rows import Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import Conflict, find_conflict
+from calib_dsl.outliers.proof import pinned, prove_outliers
+from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
+from calib_dsl.outliers.solve import solve_outliers
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
@@ -42,8 +44,6 @@ from calib_dsl.report.urdf import urdf
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
-from calib_dsl.strategy.outlier_proof import pinned, prove_outliers
-from calib_dsl.strategy.outliers import solve_outliers
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers

@@ -25,8 +25,10 @@ RANKS = {
     "lp": 5,
     "analysis": 6,
     "inner": 7,  # certified inner bounds: their LPs and warm starts
+    "outliers": 7,  # the rows at fault: ranked, named, dropped from relaxations
     "strategy": 8,
     "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
+    "outliers.solve": 9, "outliers.proof": 9,  # solves with outliers: tight solves of subsets
     "report": 10, "plot": 10,
     "pipeline": 11,
     "batch": 12,  # many solves on Dask: the pipeline's calls, one job each

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from calib_dsl.analysis.leverage import heavy_rows
-from calib_dsl.analysis.outlier_rows import data_rows
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.rows import data_rows
 from calib_dsl.report.rows import narrowed, parameter_rows
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution

@@ -23,13 +23,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from calib_dsl.analysis.chebyshev import proven_consistent
-from calib_dsl.analysis.conflict import DataRow, ranked_rows
 from calib_dsl.analysis.min_error import Loader
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import RowRange, Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import DataRow, ranked_rows
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.tight import solve_tight

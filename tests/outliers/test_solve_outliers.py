@@ -21,11 +21,11 @@ from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
+from calib_dsl.outliers import solve as outliers
+from calib_dsl.outliers.solve import MOST_SETS, groups
 from calib_dsl.pipeline import load, solve, solve_report
 from calib_dsl.propagate.diagnose import Emptied
-from calib_dsl.strategy import outliers
 from calib_dsl.strategy.contractor import Work
-from calib_dsl.strategy.outliers import MOST_SETS, groups
 from calib_dsl.strategy.solution import Solution
 
 ROOT = Path(__file__).resolve().parents[2]

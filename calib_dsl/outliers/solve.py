@@ -29,17 +29,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.analysis.conflict import ranked_ids
-from calib_dsl.analysis.outliers import classify
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.outliers.classify import classify
+from calib_dsl.outliers.conflict import ranked_ids
+from calib_dsl.outliers.dropping import dropping, relax_owned
 from calib_dsl.progress import Meter, Progress, labelled
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.contractor import Work
-from calib_dsl.strategy.dropping import dropping, relax_owned
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
 
