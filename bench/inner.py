@@ -81,7 +81,7 @@ def line(label: str, r: dict[str, Any]) -> str:
 
 
 def report(runs: int, draws: int) -> str:
-    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.studies.simulate import simulate
 
     out = [SECTION, "",
            f"{datetime.date.today()}, {machine()['cpu']}: outer/inner = the result's width (the "

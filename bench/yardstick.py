@@ -18,9 +18,9 @@ from typing import Any
 def yardstick(model: Path, inputs: Any) -> dict[str, tuple[float, float, float]]:
     """name: (domain width, yardstick width, least-squares value), for `model` loaded with
     `inputs` (an elaborate.elaborator.Inputs)."""
-    from calib_dsl.analysis.reference import yardstick as hull_at_estimate
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
+    from calib_dsl.studies.reference import yardstick as hull_at_estimate
 
     prog = load(model, inputs=inputs)
     hull = hull_at_estimate(prog)

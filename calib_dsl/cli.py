@@ -250,8 +250,8 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
             unroll: bool) -> None:
     """Which parameters of MODEL the measurements can determine, which move with which, and
     a well-conditioned subset to calibrate (judged against the data's error bounds)."""
-    from calib_dsl.analysis.advice import advice_json, advise, render
     from calib_dsl.report.strict_json import dumps
+    from calib_dsl.studies.advice import advice_json, advise, render
 
     info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
     click.echo(dumps(advice_json(info), indent=2) if as_json else render(info))
@@ -384,8 +384,8 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 def simulate(model: str, configs: int, seed: int, output: str, quiet: bool,
              formulation: str, campaign: Any) -> None:
     """Simulate measurements of MODEL by the paper's protocol, into a CSV file."""
-    from calib_dsl.analysis.simulate import simulate as run
     from calib_dsl.report.progress_line import progress_line
+    from calib_dsl.studies.simulate import simulate as run
 
     with progress_line("simulating", quiet) as progress:
         run(model, configs, seed, formulation=formulation, out_csv=Path(output),

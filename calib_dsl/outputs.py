@@ -44,7 +44,7 @@ def campaign_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     `campaign` (analysis/campaign.py)."""
     from functools import wraps
 
-    from calib_dsl.analysis.campaign import POSES, Campaign
+    from calib_dsl.studies.campaign import POSES, Campaign
 
     @wraps(fn)
     def run(*args: Any, poses: str, repeats: int, systematic: float, noise: bool,

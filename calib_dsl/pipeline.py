@@ -16,10 +16,8 @@ from typing import Any
 
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
-from calib_dsl.analysis.predict import Prediction, predict
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
-from calib_dsl.analysis.robot_frames import robot_tables
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
@@ -47,6 +45,8 @@ from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
+from calib_dsl.studies.predict import Prediction, predict
+from calib_dsl.studies.robot_frames import robot_tables
 
 
 def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,

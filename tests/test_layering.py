@@ -23,9 +23,10 @@ RANKS = {
     "propagate": 3,
     "relax": 4,
     "lp": 5,
-    "analysis": 6,
+    "analysis": 6,  # what the solver relies on: least squares, fits, point proofs, rank
     "inner": 7,  # certified inner bounds: their LPs and warm starts
     "outliers": 7,  # the rows at fault: ranked, named, dropped from relaxations
+    "studies": 7,  # what a user asks beside a solve: predictions, simulation, advice, frames
     "strategy": 8,
     "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
     "outliers.solve": 9, "outliers.proof": 9,  # solves with outliers: tight solves of subsets

@@ -17,7 +17,7 @@ from decimal import ROUND_CEILING, ROUND_FLOOR, Context, Decimal
 from fractions import Fraction
 from typing import Any
 
-from calib_dsl.analysis.robot_frames import FrameRow, RobotTable
+from calib_dsl.studies.robot_frames import FrameRow, RobotTable
 
 FORMATS = ("dh-table", "urdf", "json", "cal")
 NOTE = ("value: the midpoint of the guaranteed enclosure; half_width: rounded up, so that "

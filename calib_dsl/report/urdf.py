@@ -20,9 +20,9 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from calib_dsl.analysis.robot_frames import FrameRow, RobotTable
 from calib_dsl.elaborate.units import factor
 from calib_dsl.report.export import plus_minus
+from calib_dsl.studies.robot_frames import FrameRow, RobotTable
 
 
 def urdf(model: str, tables: list[RobotTable], units: dict[str, str]) -> str:

@@ -17,12 +17,12 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from calib_dsl.analysis.certify_point import check_point, check_points, reading_slots
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -17,7 +17,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
@@ -27,6 +26,7 @@ from calib_dsl.pipeline import load, solve, solve_report
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Work
 from calib_dsl.strategy.solution import Solution
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"

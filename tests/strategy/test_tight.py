@@ -32,7 +32,6 @@ from relax.test_linearize import (  # the sibling test module: its model generat
     truth_arrays,
 )
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
@@ -43,6 +42,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -265,8 +265,8 @@ def _plane_model(tmp_path: Path, curve: str) -> Program:
 
 
 def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
-    from calib_dsl.analysis.reference import linearized_hull
     from calib_dsl.relax.linearize import relax
+    from calib_dsl.studies.reference import linearized_hull
 
     prog = _plane_model(tmp_path, "plane")
     rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)

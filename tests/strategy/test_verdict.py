@@ -19,9 +19,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from calib_dsl import cli
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.pipeline import min_error, solve_report
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 E = 1e-4  # the tool point's error bound (m): 0.1 mm
