@@ -113,7 +113,7 @@ def report(runs: int, draws: int) -> str:
             extras.append(f"`{file}` {min(share):.0%}-{max(share):.0%}")
         shaved = [f"{label} {r['shave']:.1f} s on a {r['solve']:.1f} s solve"
                   for label, r in shaved_cases]
-        out += ["", "*worst unshaved*: the worst ratio before shaving (strategy/shave.py: "
+        out += ["", "*worst unshaved*: the worst ratio before shaving (inner/shave.py: "
                 "the unknowns over 1.05 times their inner interval get each end's gap "
                 "contracted as a slice of its own, within 30 % of the solve's time, as `calibc "
                 "solve` does by default). Where a ratio stays above 1, the gap is the outer "

@@ -1,5 +1,5 @@
 """The yardstick of any benchmark table: the linearized hull at the data's least-squares
-estimate (analysis/reference.py: the LP over the model linearized there, the same domains,
+estimate (studies/reference.py: the LP over the model linearized there, the same domains,
 each measured value within its bound). Not rigorous: what the data hold to first order. It
 can under- or over-state the true hull where the estimate's largest residual exceeds the
 bound; the certified outer/inner of a result is the honest measure beside it.

@@ -190,7 +190,7 @@ class Result:
     # the solver's own result (boxes over all slots)
     solution: Solution = field(repr=False, compare=False)
     _report: pipeline.SolveReport = field(repr=False, compare=False)
-    # the unknowns whose ends were shaved towards their inner bounds (strategy/shave.py)
+    # the unknowns whose ends were shaved towards their inner bounds (inner/shave.py)
     shaved: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> Parameter:

@@ -41,7 +41,7 @@ def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def campaign_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """simulate's --poses, --repeats, --systematic, --noise, handed to `fn` as one
-    `campaign` (analysis/campaign.py)."""
+    `campaign` (studies/campaign.py)."""
     from functools import wraps
 
     from calib_dsl.studies.campaign import POSES, Campaign

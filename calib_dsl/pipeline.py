@@ -243,7 +243,7 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
                    formulation: str = "matrix", inputs: Inputs | None = None,
                    tol: float = 1e-5, max_sweeps: int = 1000, identify: bool = True,
                    progress: Progress | None = None) -> SolveReport:
-    """`solve --outliers K` (strategy/outliers.py). No inner bounds: they would be values
+    """`solve --outliers K` (outliers/solve.py). No inner bounds: they would be values
     taken by vectors that satisfy every row, not by S_K."""
     if not elaborated.tables:
         raise CalError(f"{model}: --outliers needs data rows, and the model has no table")

@@ -114,14 +114,14 @@ class Settings:
     # for the change of unknowns; `calibc identify` always does.
     routine_max_primitives: int = 50_000
 
-    # -- identifiability advice (analysis/advice.py; in error bounds over the whole domain) ---
+    # -- identifiability advice (studies/advice.py; in error bounds over the whole domain) ---
     seen: float = 1e-4  # a direction fainter than this is below the data's rounding: unseen
     well_seen: float = 1.0  # a parameter adding less than one bound is left to the others
     subset_cond: float = 1e3  # the suggested subset's condition number at most
     leads: float = 0.5  # share of the largest component that leads a weak direction
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
 
-    # -- shaving (strategy/shave.py) ---------------------------------------------------------
+    # -- shaving (inner/shave.py) ---------------------------------------------------------
     # After the inner bounds, the unknowns whose result is wider than shave_above times their
     # inner interval (at most shave_unknowns, the loosest first) have each end's gap
     # contracted as a slice of its own, by at most shave_rounds fine rounds of LPs; an end

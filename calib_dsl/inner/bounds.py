@@ -5,7 +5,7 @@ a and b are coordinates of parameter vectors that certify_point.py proves to sat
 constraint (interval evaluation at the point, outward rounding: floating point is never
 trusted). The candidates are the extremes of each unknown over the model linearized at the
 box's middle (one LP per end, the same LP re-solved with another objective, from the solve's
-final basis for that end where it kept one: lp/starts.py). A wave of them is checked in one
+final basis for that end where it kept one: inner/starts.py). A wave of them is checked in one
 pass; one that fails is pulled back towards a certified centre by what the check measured,
 else the rows it violates are tightened and its LP is solved again, and as a last resort it
 is pulled back by halves. An end that this left well short of its LP's optimum is sought

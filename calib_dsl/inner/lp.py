@@ -1,7 +1,7 @@
-"""The inner bounds' LP (analysis/inner.py): the rows linearized at a point, the free
+"""The inner bounds' LP (inner/bounds.py): the rows linearized at a point, the free
 unknowns' steps and the joint readings' errors its columns, each row narrowed inside its
 bounds; and the HiGHS models that solve it for one end after another, each in its own
-thread, from the solve's final basis for that end where there is one (lp/starts.py).
+thread, from the solve's final basis for that end where there is one (inner/starts.py).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Shaving: the gap between a result's end and a value certified taken, contracted as a slice.
 
-The inner bounds (analysis/inner.py) certify values a <= b that an unknown p takes at
+The inner bounds (inner/bounds.py) certify values a <= b that an unknown p takes at
 solutions, inside the result [lo, hi]. Every solution with p < a lies in the slice of the box
 with p in [lo, a], and that slice is contracted on its own: propagation, then fine
 second-order rounds of LPs (the readings' errors as LP columns where the program has them).

@@ -115,7 +115,7 @@ class Certificates:
     # the simplex's final basis for each objective (row keys, row statuses, column keys,
     # column statuses): the next LP of the same objective starts from it; and what that
     # LP's rows and columns meant (its rows' compared slots, its cells, its count of unknowns:
-    # lp/starts.py), where the relaxation said
+    # inner/starts.py), where the relaxation said
     basis: dict[tuple[int, float], tuple] = field(default_factory=dict)
     meaning: dict[tuple[int, float], tuple] = field(default_factory=dict)
     # each objective's LP optimum, in the unknowns (unknowns_at), where the LP found one:

@@ -8,7 +8,7 @@ in S_K. Then S_K lies in S_{K-1} of the rows without r, and the next candidate i
 against K rows, and so on. With K rows proven, S_K lies in the solutions of the other rows:
 their tight solve encloses it, and no other row can fail for any vector of it.
 
-Candidates are the rows with the largest least-squares residuals (analysis/conflict.py); a
+Candidates are the rows with the largest least-squares residuals (outliers/conflict.py); a
 candidate that is not proven costs one solve (the first set's, or none when a set is proven
 consistent with it) and is passed over, and tried again after another row is proven (then
 with one set fewer, each larger: a row that no small set refutes may fail with every

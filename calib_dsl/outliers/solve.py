@@ -14,7 +14,7 @@ solves. A row that no set still consistent leaves out holds on all of S_K, and a
 consistent set of K suspects proves them certain (`Blocks`). Then LPs alone, over
 relaxations made from the box (relax/evaluation.py recomputes every temporary's range from
 the unknowns' box), with the rows of each data row the sets left possible allowed to fail
-through the big-M columns of strategy/dropping.py. Each round relaxes on the box the last
+through the big-M columns of outliers/dropping.py. Each round relaxes on the box the last
 one left (a smaller box: smaller M, a tighter relaxation) until no unknown narrows by
 `gain`. Every bound is certified (lp/), so the box holds S_K whatever the LP solver did.
 """
@@ -207,7 +207,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
                    tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
                    progress: Progress | None = None) -> WithOutliers:
     """A box holding every vector of `prog`'s unknowns that satisfies all data rows but at
-    most k (outlier_box), its certain and possible outliers (analysis/outliers.py). When
+    most k (outlier_box), its certain and possible outliers (outliers/classify.py). When
     exactly k rows are certain outliers, every such vector fails them (they fail on the
     whole box), so it satisfies all the others: the tight solve of the program `without`
     those rows encloses it too, and the box is the intersection (and no other row can be an

@@ -76,7 +76,7 @@ class Extras:
     def shave(self, prog: Program, res: Solution, count: int | None = None,
               tol: float = 1e-5, max_sweeps: int = 1000) -> Solution:
         """`res` with the ends of its loosest unknowns contracted towards the inner bounds
-        (strategy/shave.py), or `res` itself: no inner bounds, or none worth it. `count`: the
+        (inner/shave.py), or `res` itself: no inner bounds, or none worth it. `count`: the
         loosest unknowns at most, whatever their ratio; if None, settings.shave_unknowns above
         settings.shave_above within a time budget of settings.shave_share of the solve's."""
         if self.inner is None or not self.inner.consistent or count == 0:

@@ -80,7 +80,7 @@ class LPRounds:
     progress: Meter | None = None  # told the box after each round
     # straight to the fine second-order rounds, the readings' errors as LP columns where the
     # program has them (else every product tied by McCormick's inequalities): a slice of a
-    # solved box (strategy/shave.py) is already where first order has nothing left to give
+    # solved box (inner/shave.py) is already where first order has nothing left to give
     fine_start: bool = False
     # with fine_start, which fine rounds begin: "readings" (the readings' errors as LP
     # columns, McCormick's instead where the program has none), "mccormick" (every product

@@ -1,4 +1,4 @@
-"""Shaving (strategy/shave.py): the gap between an end of the result and the certified inner
+"""Shaving (inner/shave.py): the gap between an end of the result and the certified inner
 bound, contracted as a slice of its own. It must never cut a solution (every point that
 satisfies the rows stays inside; on random robots the truth stays inside), it must narrow
 where the gap is the relaxation's (points round a circle), and it keeps to its count and

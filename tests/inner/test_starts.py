@@ -1,4 +1,4 @@
-"""Warm starts keyed by meaning (lp/starts.py): a basis found on one LP read onto another whose
+"""Warm starts keyed by meaning (inner/starts.py): a basis found on one LP read onto another whose
 rows and columns are the same quantities in another order, some missing, some new."""
 
 from __future__ import annotations
