@@ -1,12 +1,13 @@
 """Compare every shipped model's `calibc solve --json` result with a base revision's.
 
-    python scripts/compare_results.py BASE_REV [--only NAME ...] [--list]
+    python scripts/compare_results.py BASE_REV [--only NAME ...] [--code DIR] [--list]
 
 A refactoring must leave results bit for bit: each case below is solved by the code of
 BASE_REV (extracted with `git archive` into a temporary folder) and by the working tree, on
 the working tree's model files, and the two JSON documents must be equal once the fields
 that measure time are dropped. The base's results are cached by commit under
-.cache/compare/, so a second run only solves the working tree. Cases whose data are absent
+.cache/compare/, so a second run only solves the working tree (or the package under --code
+DIR, e.g. a `git archive` of a commit, while the tree changes). Cases whose data are absent
 (the public UR10 set, CALIBC_UR10 or /work/shared/data/ur10 by default) are skipped with
 a note. Shaving runs a fixed number of ends (`--shave N`): by default how many ends it
 shaves depends on the machine's speed, which no comparison can hold fixed.
@@ -125,6 +126,8 @@ def main() -> int:
     ap.add_argument("base", help="the revision to compare against (e.g. main)")
     ap.add_argument("--only", nargs="*", help="these cases only")
     ap.add_argument("--list", action="store_true", help="list the cases and exit")
+    ap.add_argument("--code", type=Path, default=ROOT,
+                    help="the folder holding the calib_dsl to compare (default: this tree)")
     opts = ap.parse_args()
     if opts.list:
         print("\n".join(f"{n}: {' '.join(a)}" for n, a in CASES.items()))
@@ -144,7 +147,7 @@ def main() -> int:
             if not saved.exists():
                 saved.write_text(json.dumps(solve(Path(tmp), CASES[name]), indent=1))
             base = json.loads(saved.read_text())
-            mine = solve(ROOT, CASES[name])
+            mine = solve(opts.code.resolve(), CASES[name])
             diff = differences(base, mine)
             failed += bool(diff)
             print(f"{name}: {'DIFFERS' if diff else 'same'} (exit {mine['exit']})")
