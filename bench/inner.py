@@ -34,6 +34,7 @@ SEEDS = (101, 202, 303, 404, 505)
 
 def case(model: Path, data: Path | None, runs: int, consts: dict[str, str] | None = None,
          rows: str | None = None) -> dict[str, Any]:
+    from calib_dsl import sections
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load, solve
@@ -47,9 +48,9 @@ def case(model: Path, data: Path | None, runs: int, consts: dict[str, str] | Non
         prog = load(model, inputs=inputs)
         extra = Extras()
         sol = solve(prog)
-        extra.inner_bounds(prog, sol)
+        sections.inner(extra, prog, sol)
         inner = extra.inner
-        shaved = extra.shave(prog, sol)  # as `calibc solve` does by default
+        shaved = sections.shaved(extra, prog, sol)  # as `calibc solve` does by default
         solves.append(sol.seconds)
         inners.append(inner.seconds)
         shaves.append(extra.shaved.seconds if extra.shaved is not None else 0.0)

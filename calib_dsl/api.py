@@ -225,14 +225,13 @@ def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
     consistent with all data rows but at most K; `shave` N as --shave; `progress` as in
     calib_dsl/progress.py)."""
     prog = problem.program
+    asked = pipeline.SolveRequest(problem.path, problem.formulation, problem.inputs, strategy,
+                                  tol, max_sweeps, identify, lsq, inner, diagnose, outliers,
+                                  shave)
     if outliers > 0:
-        run = pipeline.outlier_report(problem.model, prog, problem.path, outliers,
-                                      problem.formulation, problem.inputs, tol, max_sweeps,
-                                      identify, progress)
+        run = pipeline.outlier_report(asked, problem.model, prog, progress)
     else:
-        run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
-                                 strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
-                                 progress, problem.model, shave)
+        run = pipeline.report_on(asked, prog, problem.model, progress)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))

@@ -198,7 +198,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
           data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
           defines: tuple[str, ...], unroll: bool) -> None:
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
-    from calib_dsl.pipeline import solve_report
+    from calib_dsl.pipeline import SolveRequest, solve_report
     from calib_dsl.report.progress_line import progress_line
 
     inputs = _inputs(data, rows, exclude, defines, unroll)
@@ -207,10 +207,9 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         return
     outputs.plot_ready(plot_path)
     with progress_line("solving", quiet) as progress:
-        run = solve_report(model, formulation, inputs, strategy, tol=tol,
-                           max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
-                           diagnose=diagnose, progress=progress, outliers=outliers,
-                           shave=shave)
+        asked = SolveRequest(model, formulation, inputs, strategy, tol, max_sweeps, identify,
+                             lsq, inner, diagnose, outliers, shave)
+        run = solve_report(asked, progress)
     for line in run.stderr_lines():  # the warnings, and a verdict left undecided
         click.echo(line, err=True)
     if json_path != "-":

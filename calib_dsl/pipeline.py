@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from calib_dsl import sections
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.priors import centre_on_least_squares
@@ -152,9 +153,10 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
     fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
     if fine is not None:
         return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
-                            data=fine[0], center=fine[1].center)
+                            data=(fine[0], fine[1].center))
     data = relax(prog, sol.lo, sol.hi, max_cell_columns=DEFAULT.max_cell_columns)
-    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows, data=data)
+    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
+                        data=None if data is None else (data, None))
 
 
 def conflict(model: str | Path, formulation: str = "matrix",
@@ -219,39 +221,54 @@ class SolveReport:
         return "\n".join(out)
 
 
-def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
-                 strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
-                 identify: bool = True, lsq: bool = False, inner: bool | None = None,
-                 diagnose: bool = True, progress: Progress | None = None,
-                 outliers: int = 0, shave: int | None = None) -> SolveReport:
-    """Load and solve `model`, with the report's optional sections (the command line's
-    `calibc solve`, and each job of `calibc batch`); with `outliers` K > 0, an enclosure of
-    every parameter vector that satisfies all data rows but at most K (outlier_report)."""
-    elaborated, prog = load_model(model, formulation, inputs=inputs)
-    if outliers > 0:
-        run = outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
-                             max_sweeps, identify, progress)
-        if shave:
+@dataclass(frozen=True)
+class SolveRequest:
+    """What `calibc solve` (and each `calibc batch` job) asks: the model and its inputs, the
+    strategy and its limits, the report's optional sections (`inner`: True, False, or None
+    for the default, on after tight; `shave`: how many of the loosest unknowns are shaved
+    towards their inner bounds, settings.shave_unknowns if None; `outliers` K > 0: every
+    parameter vector that satisfies all data rows but at most K), and the settings."""
+
+    model: str | Path
+    formulation: str = "matrix"
+    inputs: Inputs = field(default_factory=Inputs)
+    strategy: str = "tight"
+    tol: float = 1e-5
+    max_sweeps: int = 1000
+    identify: bool = True
+    lsq: bool = False
+    inner: bool | None = None
+    diagnose: bool = True
+    outliers: int = 0
+    shave: int | None = None
+    settings: Settings = DEFAULT
+
+
+def solve_report(request: SolveRequest, progress: Progress | None = None) -> SolveReport:
+    """Load and solve the request's model, with the report's optional sections."""
+    elaborated, prog = load_model(request.model, request.formulation, inputs=request.inputs)
+    if request.outliers > 0:
+        run = outlier_report(request, elaborated, prog, progress)
+        if request.shave:
             run.extra.skipped.append("shaving: not with --outliers (it shaves towards inner "
                                      "bounds, which are not computed there)")
         return run
-    return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
-                     lsq, inner, diagnose, progress, elaborated, shave)
+    return report_on(request, prog, elaborated, progress)
 
 
-def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
-                   formulation: str = "matrix", inputs: Inputs | None = None,
-                   tol: float = 1e-5, max_sweeps: int = 1000, identify: bool = True,
+def outlier_report(request: SolveRequest, elaborated: Model, prog: Program,
                    progress: Progress | None = None) -> SolveReport:
     """`solve --outliers K` (outliers/solve.py). No inner bounds: they would be values
     taken by vectors that satisfy every row, not by S_K."""
+    model, formulation, k = request.model, request.formulation, request.outliers
+    tol, max_sweeps, settings = request.tol, request.max_sweeps, request.settings
     if not elaborated.tables:
         raise CalError(f"{model}: --outliers needs data rows, and the model has no table")
-    given = inputs or Inputs()
+    given = request.inputs
     first = elaborated.tables[0].name
     # every program below on this one's domains (S_K is over them)
     loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
-    proofs = prove_outliers(given, loader, k, elaborated, prog, progress=progress)
+    proofs = prove_outliers(given, loader, k, elaborated, prog, settings, progress=progress)
     proven = [Row(p.row.table, p.row.file, p.row.line, p.row.row) for p in proofs]
     if proven:  # S_K lies in S_{K - len(proven)} of the other rows
         given = excluding(given, proven, first)
@@ -264,69 +281,64 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
     more: list[Row] = []
     kept: Program | None = prog  # all rows but at most k: the certain outliers out
     if left == 0:
-        res = solve(prog, tol=tol, max_sweeps=max_sweeps, progress=progress)
+        res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
         found_more = find_conflict(given, loader) if res.status == "infeasible" else None
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
     else:
         found = solve_outliers(prog, left, without, tol=tol, max_sweeps=max_sweeps,
-                               progress=progress)
+                               settings=settings, progress=progress)
         res, certain, possible = found.solution, found.certain, found.possible
         kept = without(certain) if 0 < len(certain) <= left else prog
     extra = Extras()
-    if res.status == "contracted" and identify:
-        extra.identify(prog, res, use_lp=True)
+    if res.status == "contracted" and request.identify:
+        sections.identify(extra, prog, res, True, settings)
     rows = Outliers(k, sorted(proven + more + data_rows(elaborated, prog, certain),
                               key=lambda r: (r.table, r.row)),
                     [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
                     proven=len(proven))
-    return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows,
+    return SolveReport(prog, res, extra, "tight", None,
+                       solve_warnings(prog, res, None, settings.routine_max_primitives), rows,
                        of_outliers(res, kept, k))
 
 
-def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
-              inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
-              max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
-              inner: bool | None = None, diagnose: bool = True,
-              progress: Progress | None = None, elaborated: Model | None = None,
-              shave: int | None = None) -> SolveReport:
-    """`solve_report` on a program already loaded from `model` (with these inputs; the
-    elaborated model, when given, names the data rows of the warnings). `inner`: True or
-    False, or None for the default (on after tight, at every size). `shave`: how many
-    of the loosest unknowns are shaved towards their inner bounds (settings.shave_unknowns
-    if None)."""
-    res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
+def report_on(request: SolveRequest, prog: Program, elaborated: Model | None = None,
+              progress: Progress | None = None) -> SolveReport:
+    """`solve_report` on a program already loaded from the request's model (the elaborated
+    model, when given, names the data rows of the warnings)."""
+    r, settings = request, request.settings
+    res = solve(prog, r.strategy, tol=r.tol, max_sweeps=r.max_sweeps, settings=settings,
+                progress=progress)
     extra = Extras()
-    if res.status == "contracted" and inner is not False:
-        extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
-    effort = (effort_for(model, formulation, inputs, prog, elaborated, tol, max_sweeps)
-              if strategy == "tight" else None)
+    if res.status == "contracted" and r.inner is not False:
+        sections.inner(extra, prog, res, bool(r.inner) or bool(r.shave), settings)
+    effort = effort_for(r, prog, elaborated) if r.strategy == "tight" else None
     res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
                           _told(progress))
     if res.status == "contracted":
-        if inner is not False:
-            if strategy == "tight" or shave:  # (hc4 is propagation alone, unless asked)
-                res = extra.shave(prog, res, shave, tol, max_sweeps)
-        elif shave:
+        if r.inner is not False:
+            if r.strategy == "tight" or r.shave:  # (hc4 is propagation alone, unless asked)
+                res = sections.shaved(extra, prog, res, r.shave, settings, r.tol, r.max_sweeps)
+        elif r.shave:
             extra.skipped.append("shaving: not without the inner bounds it shaves towards "
                                  "(--no-inner)")
-        if identify:
-            extra.identify(prog, res, use_lp=strategy == "tight")
-        if lsq:
-            extra.least_squares(prog, res)
+        if r.identify:
+            sections.identify(extra, prog, res, r.strategy == "tight", settings)
+        if r.lsq:
+            sections.least_squares(extra, prog, res)
     found = None
-    if res.status == "infeasible" and diagnose:
-        found = conflict(model, formulation, inputs)
-    return SolveReport(prog, res, extra, strategy, found,
-                       solve_warnings(prog, res, elaborated), verdict=verdict)
+    if res.status == "infeasible" and r.diagnose:
+        found = conflict(r.model, r.formulation, r.inputs)
+    return SolveReport(prog, res, extra, r.strategy, found,
+                       solve_warnings(prog, res, elaborated, settings.routine_max_primitives),
+                       verdict=verdict)
 
 
-def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,
-            elaborated: Model | None, tol: float, max_sweeps: int) -> Effort:
+def effort_for(request: SolveRequest, prog: Program, elaborated: Model | None) -> Effort:
     """What the verdict may spend (strategy/verdict.py): the program without some data rows,
     on this one's domains (a proof about other rows must hold on the same box)."""
-    given = inputs or Inputs()
+    model, formulation, given = request.model, request.formulation, request.inputs
     load = None
     if elaborated is not None and len(elaborated.tables) == 1:
         loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
@@ -336,7 +348,7 @@ def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog:
             assert elaborated is not None
             return loader(excluding(given, data_rows(elaborated, prog, ids), first))[1]
 
-    return Effort(elaborated, load, DEFAULT, tol, max_sweeps,
+    return Effort(elaborated, load, request.settings, request.tol, request.max_sweeps,
                   f"calibc solve {model} (with the same options)")
 
 

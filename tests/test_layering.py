@@ -31,11 +31,13 @@ RANKS = {
     "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
     "outliers.solve": 9, "outliers.proof": 9,  # solves with outliers: tight solves of subsets
     "report": 10, "plot": 10,
-    "pipeline": 11,
-    "batch": 12,  # many solves on Dask: the pipeline's calls, one job each
-    "api": 12,  # beside batch: neither imports the other
-    "outputs": 12,  # the figures, residuals and exports the command line writes
-    "cli": 13,
+    "sections": 11,  # the report's optional sections, computed (the report only renders)
+    "problem": 11,  # a model loaded once, and the programs of other inputs it gives
+    "pipeline": 12,
+    "batch": 13,  # many solves on Dask: the pipeline's calls, one job each
+    "api": 13,  # beside batch: neither imports the other
+    "outputs": 13,  # the figures, residuals and exports the command line writes
+    "cli": 14,
 }
 MAX_LINES = 450  # "no module over ~400 lines"
 

@@ -28,7 +28,7 @@ A round is four named steps:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -46,7 +46,7 @@ from calib_dsl.relax.quadratic_readings import FAMILY as READINGS_FAMILY
 from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
-from calib_dsl.settings import Settings
+from calib_dsl.settings import LPSettings, Settings
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
 
@@ -70,7 +70,7 @@ class LPRounds:
     max_rounds: int
     second_order: bool = True
     cells: bool = False
-    threads: int | None = None  # LP threads (settings.lp_workers unless given)
+    threads: int | None = None  # LP threads (settings.lp.workers unless given)
     unsolved: np.ndarray | None = None
     history: History | None = None
     # the loop's rows whose constraints the relaxations take (all if None): a working set
@@ -197,7 +197,8 @@ class _Rounds:
             if first is None:
                 return None
         wide = order2 and (first is None or first.curvature > s.wide)
-        quad = relax_quadratic(prog, self.lo, self.hi, rows=self.spec.rows) if wide else None
+        quad = (relax_quadratic(prog, self.lo, self.hi, s.prune, rows=self.spec.rows) if wide
+                else None)
         if quad is None and first is None:  # (cannot happen: a first round built them)
             return None
         this = _Round(first, quad, True)
@@ -225,13 +226,12 @@ class _Rounds:
         if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
             certs.box = (self.lo.copy(), self.hi.copy())
         self.skip = self.skip | self.never
-        threads = self.spec.threads or s.lp_workers
+        lp = replace(s.lp, workers=self.spec.threads or s.lp.workers)
         if this.quad is None:
-            return _bounds(this.target, n, self.skip, certs, this.fresh, threads=threads,
-                           iterations=s.lp_iterations, seconds=s.lp_seconds)
+            return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, threads=threads,
-                         iterations=s.wide_iterations, seconds=s.wide_seconds,
+        wide = replace(lp, iterations=s.wide_iterations, seconds=s.wide_seconds)
+        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, wide,
                          solver=s.wide_solver, probes=s.wide_probes,
                          own_bases=s.wide_own_bases)
         tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
@@ -388,14 +388,14 @@ class _Rounds:
 
 
 def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
-            fresh: bool, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
+            fresh: bool, lp: LPSettings, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
     """Certified bounds on the relaxation's n main columns: from the multipliers kept in
     `certs` (a matrix product), and unless only those are asked for, from the LPs too (the
     tighter of each pair is kept, and the LPs' multipliers replace the old ones)."""
-    lo, hi = reused_bounds(rel, np.eye(n), certs)
+    lo, hi = reused_bounds(rel, np.eye(n), certs, lp.dense_entries)
     if not fresh:
         return lo, hi
-    tl, th = lp_bounds(rel, np.eye(n), skip=skip, certificates=certs, **lp_options)
+    tl, th = lp_bounds(rel, np.eye(n), lp, skip=skip, certificates=certs, **lp_options)
     return np.maximum(lo, tl), np.minimum(hi, th)
 
 
@@ -409,7 +409,7 @@ def _narrowed_bounds(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray, th: n
     for _ in range(s.narrowed_rounds):
         if np.any(tl > th):
             break  # no solution: the caller says so
-        lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs)
+        lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs, s.lp.dense_entries)
         lo, hi = np.maximum(lo, tl), np.minimum(hi, th)
         gain = _gains(th - tl, hi - lo).max(initial=0.0)
         tl, th = lo, hi

@@ -115,7 +115,7 @@ def worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray, s: Settings,
     nothing. The slots `uncut` are not candidates."""
     if not np.any(_left(prog, _cuttable(prog, uncut), lo, hi) > s.left_wide):
         return None  # nothing left wide: no need for the analysis (an SVD)
-    info = analyse_design(prog)
+    info = analyse_design(prog, s.rank_tol)
     if info is None:
         return None  # no nominal values, or a Jacobian without finite values there
     every = independents(prog)

@@ -28,7 +28,7 @@ from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, far_rows
 from calib_dsl.strategy.solution import Solution
 
@@ -123,7 +123,7 @@ class Effort:
 
     model: Model | None
     load: RowLoader | None
-    settings: Settings = DEFAULT
+    settings: Settings = Settings()
     tol: float = 1e-5
     max_sweeps: int = 1000
     command: str = "calibc solve MODEL"  # how the user ran the solve, for the next command
@@ -149,7 +149,7 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
                             "constraint (interval evaluation at the point)",
                             time.perf_counter() - start, largest=largest)
     if effort is None or effort.settings.verdict_share <= 0:
-        far = far_rows(prog, fit, DEFAULT) if fit is not None and effort else []
+        far = far_rows(prog, fit, effort.settings) if fit is not None and effort else []
         return res, _undecided(prog, res, largest, (), time.perf_counter() - start, None,
                                effort, far)
     budget = effort.settings.verdict_share * res.seconds

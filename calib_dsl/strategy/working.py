@@ -101,7 +101,7 @@ class WorkingRows:
         found = violated_rows(self.prog, fine, outside)
         if not found:
             return np.zeros(0, dtype=np.int64)
-        per = max(1, self.settings.rows_added // len(found))
+        per = max(1, self.settings.lp.rows_added // len(found))
         picked = [_first_distinct(row[np.argsort(-excess)], per) for row, excess in found]
         return np.unique(np.concatenate(picked)).astype(np.int64)
 
@@ -128,7 +128,7 @@ class WorkingRows:
                 bad = (c.excess > 0) & ch.kept(c.slots) & (c.slots >= lay.shared)
                 row = (ch.slots(c.slots[bad]) - lay.shared) // max(lay.width, 1)
                 found[k].append((row, c.excess[bad]))
-        per = max(1, self.settings.rows_added // len(points))
+        per = max(1, self.settings.lp.rows_added // len(points))
         picked = []
         for parts in found:
             if parts:

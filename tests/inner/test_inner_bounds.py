@@ -443,12 +443,12 @@ def test_a_point_off_the_circles_is_not_proven(tmp_path):
 
 
 def test_a_failure_of_the_inner_bounds_keeps_the_result(tmp_path, monkeypatch):
-    import calib_dsl.report.extras as extras
+    import calib_dsl.sections as sections
 
     def fails(*args, **kwargs):
         raise ValueError("no centre")
 
-    monkeypatch.setattr(extras, "inner_bounds", fails)
+    monkeypatch.setattr(sections, "inner_bounds", fails)
     res, data = _solve(tmp_path)
     assert res.exit_code == 0, res.output
     assert "inner bounds: not computed (ValueError: no centre)" in res.stdout
@@ -495,8 +495,8 @@ def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
     import subprocess
     import sys
 
-    code = ("import sys; from calib_dsl.pipeline import solve_report; "
-            f"r = solve_report({str(ROOT / 'models' / 'rx90_lengths.cal')!r}); "
+    code = ("import sys; from calib_dsl.pipeline import SolveRequest, solve_report; "
+            f"r = solve_report(SolveRequest({str(ROOT / 'models' / 'rx90_lengths.cal')!r})); "
             "assert r.extra.inner is not None and r.extra.inner.consistent, 'no inner bounds'; "
             "print('scipy.optimize' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)

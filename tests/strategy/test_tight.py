@@ -560,6 +560,7 @@ def test_no_split_where_it_does_not_pay(tmp_path):
 
 @pytest.mark.slow
 def test_split_is_reported(tmp_path):
+    from calib_dsl import sections
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
     from calib_dsl.report.text import render_summary
@@ -569,7 +570,7 @@ def test_split_is_reported(tmp_path):
         warnings.simplefilter("ignore", RuntimeWarning)
         res = solve_tight(sim.prog, combinations=False)
     extra = Extras()
-    extra.identify(sim.prog, res, use_lp=True)
+    sections.identify(extra, sim.prog, res, use_lp=True)
     text = render_summary(sim.prog, res, "tight", extra)
     assert f"split: {res.split[0]} (not identifiable alone)" in text
     assert "guaranteed: r2 + r3 in [" in text
