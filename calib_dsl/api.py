@@ -30,10 +30,9 @@ from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import RowRange, Selection, parse_numbers, parse_ranges
 from calib_dsl.elaborate.values import Values
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program
 from calib_dsl.outliers.conflict import Conflict
 from calib_dsl.outliers.rows import Outliers
+from calib_dsl.problem import Problem
 from calib_dsl.progress import Progress
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
@@ -53,26 +52,6 @@ class Inconsistent(Exception):
     """The data and the model were proven inconsistent where a result needs them not to be."""
 
 
-@dataclass(frozen=True, eq=False)  # (its program's arrays have no single truth value)
-class Problem:
-    """A model loaded: parsed, elaborated with its inputs, compiled."""
-
-    path: str
-    formulation: str
-    inputs: Inputs
-    model: Model  # the elaborated model: its tables, consts, DAG
-    program: Program  # the flat program the solvers work on
-
-    @property
-    def unknowns(self) -> list[str]:
-        """The declared unknowns (params, then vars, as declared), as results list them."""
-        return list(self.program.slots.declared_names)
-
-    @property
-    def consts(self) -> dict[str, Fraction]:
-        return dict(self.model.consts)
-
-
 def load(model: str | Path, data: Source | None = None, *,
          tables: Mapping[str, Source] | None = None,
          defines: Mapping[str, int | float | Fraction | str] | None = None,
@@ -87,8 +66,7 @@ def load(model: str | Path, data: Source | None = None, *,
     inputs = Inputs({t: _source(t, s) for t, s in sources.items()},
                     _selections(rows, exclude),
                     {n: _const_text(v) for n, v in (defines or {}).items()}, unroll)
-    elaborated, prog = pipeline.load_model(model, formulation, inputs=inputs)
-    return Problem(str(model), formulation, inputs, elaborated, prog)
+    return Problem.load(model, formulation, inputs)
 
 
 def _source(table: str, source: Source) -> str | Path | Values:
@@ -229,9 +207,9 @@ def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
                                   tol, max_sweeps, identify, lsq, inner, diagnose, outliers,
                                   shave)
     if outliers > 0:
-        run = pipeline.outlier_report(asked, problem.model, prog, progress)
+        run = pipeline.outlier_report(asked, problem, progress)
     else:
-        run = pipeline.report_on(asked, prog, problem.model, progress)
+        run = pipeline.report_on(asked, problem, progress)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))

@@ -216,7 +216,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         click.echo(run.text(every))
     result = run.as_json()
     if (residuals or plot_path) and run.res.status == "contracted":
-        result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
+        result["residuals"] = outputs.residuals(run,
                                                 quiet=json_path == "-")
     outputs.json_out(json_path, result)
     outputs.plotted(result, plot_path)

@@ -16,7 +16,7 @@ import click
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.plot.figure import CHOICES as PLOT_KINDS
-from calib_dsl.report.export import FORMATS as EXPORT_FORMATS
+from calib_dsl.report.exports import EXPORTS
 
 PLOT = click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
                     help="Also draw the result's figures into this file (.png, .svg or .pdf; "
@@ -89,13 +89,13 @@ def plotted(result: dict[str, Any], plot_path: str | None) -> None:
             click.echo(f"calibc: drew {', '.join(kinds)} in {plot_path}", err=True)
 
 
-def residuals(model: str, prog: Any, res: Any, formulation: str, inputs: Any,
-              quiet: bool) -> dict[str, Any]:
-    """The solve JSON's `residuals`; its summary printed unless `quiet`."""
+def residuals(run: Any, quiet: bool) -> dict[str, Any]:
+    """The solve JSON's `residuals` (`run`: the SolveReport); its summary printed unless
+    `quiet`."""
     from calib_dsl.pipeline import residuals as ranges
     from calib_dsl.report.residuals import render_residuals, residuals_json
 
-    found = residuals_json(*ranges(model, prog, res, formulation, inputs))
+    found = residuals_json(*ranges(run.problem, run.prog, run.res))
     if not quiet:
         click.echo(render_residuals(found))
     return found
@@ -170,7 +170,7 @@ def plot(result: str, output: str, kind: str) -> None:
 
 @click.command()
 @click.argument("result", type=click.Path(dir_okay=False))
-@click.option("--format", "fmt", type=click.Choice(EXPORT_FORMATS), required=True,
+@click.option("--format", "fmt", type=click.Choice(tuple(EXPORTS)), required=True,
               help="dh-table, urdf, json: midpoints with guaranteed half-widths for a "
                    "controller; cal: the result as search domains for the next run.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False),

@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import gc
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -17,29 +16,28 @@ from typing import Any
 from calib_dsl import sections
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
-from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
-from calib_dsl.compile.group import compile_model
-from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.conflict import Conflict, find_conflict
-from calib_dsl.outliers.proof import pinned, prove_outliers
+from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
 from calib_dsl.outliers.solve import solve_outliers
+from calib_dsl.problem import Problem, load_model
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.report.as_json import result_json
-from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
+from calib_dsl.report.export import number
+from calib_dsl.report.exports import EXPORTS, Exported
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
-from calib_dsl.report.strict_json import dumps, plain
+from calib_dsl.report.strict_json import plain
 from calib_dsl.report.text import render_summary, render_table
-from calib_dsl.report.urdf import urdf
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
@@ -55,23 +53,6 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
     """Parse, elaborate and compile a `.cal` model (with `data` replacing its first table's
     file; `inputs`: files by table, rows, const values, as on the command line)."""
     return load_model(model, formulation, data, inputs)[1]
-
-
-def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
-               inputs: Inputs | None = None, centre: bool = True) -> tuple[Model, Program]:
-    """`load`, with the elaborated model too (its tables and consts); `centre=False` leaves
-    `lsq +- w` domains unbounded (for a caller that gives them another program's)."""
-    # The DAG's nodes live as long as the program: the garbage collector would only rescan
-    # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
-    gc.disable()
-    try:
-        elaborated = elaborate(model, formulation=formulation, data=data, inputs=inputs)
-        prog = compile_model(elaborated)
-    finally:
-        gc.enable()
-    if centre:
-        centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
-    return elaborated, prog
 
 
 def min_error(model: str | Path, name: str, formulation: str = "matrix",
@@ -159,10 +140,13 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
                         data=None if data is None else (data, None))
 
 
-def conflict(model: str | Path, formulation: str = "matrix",
+def conflict(model: str | Path | Problem, formulation: str = "matrix",
              inputs: Inputs | None = None) -> Conflict | None:
     """For data proven inconsistent: the worst rows without which the rest is proven
-    consistent (None when the model has no table)."""
+    consistent (None when the model has no table). `model`: its file, or the problem
+    loaded already (then `formulation` and `inputs` are its own)."""
+    if isinstance(model, Problem):
+        return find_conflict(model.inputs, model.loader())
     return find_conflict(inputs or Inputs(), lambda i: load_model(model, formulation, inputs=i))
 
 
@@ -179,6 +163,7 @@ class SolveReport:
     warnings: list[str] = field(default_factory=list)
     outliers: Outliers | None = None  # --outliers K: the rows at fault
     verdict: Verdict | None = None  # consistent, inconsistent or undecided
+    problem: Problem | None = None  # the model as loaded for the solve (all its rows)
 
     def __post_init__(self) -> None:
         if self.verdict is None:  # (no decision sought: the solve's own word)
@@ -246,28 +231,27 @@ class SolveRequest:
 
 def solve_report(request: SolveRequest, progress: Progress | None = None) -> SolveReport:
     """Load and solve the request's model, with the report's optional sections."""
-    elaborated, prog = load_model(request.model, request.formulation, inputs=request.inputs)
+    problem = Problem.load(request.model, request.formulation, request.inputs)
     if request.outliers > 0:
-        run = outlier_report(request, elaborated, prog, progress)
+        run = outlier_report(request, problem, progress)
         if request.shave:
             run.extra.skipped.append("shaving: not with --outliers (it shaves towards inner "
                                      "bounds, which are not computed there)")
         return run
-    return report_on(request, prog, elaborated, progress)
+    return report_on(request, problem, progress)
 
 
-def outlier_report(request: SolveRequest, elaborated: Model, prog: Program,
+def outlier_report(request: SolveRequest, problem: Problem,
                    progress: Progress | None = None) -> SolveReport:
     """`solve --outliers K` (outliers/solve.py). No inner bounds: they would be values
     taken by vectors that satisfy every row, not by S_K."""
-    model, formulation, k = request.model, request.formulation, request.outliers
+    model, k, elaborated, prog = request.model, request.outliers, problem.model, problem.program
     tol, max_sweeps, settings = request.tol, request.max_sweeps, request.settings
     if not elaborated.tables:
         raise CalError(f"{model}: --outliers needs data rows, and the model has no table")
-    given = request.inputs
+    given = problem.inputs
     first = elaborated.tables[0].name
-    # every program below on this one's domains (S_K is over them)
-    loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
+    loader = problem.pinned_loader()  # every program below on this one's domains (S_K's)
     proofs = prove_outliers(given, loader, k, elaborated, prog, settings, progress=progress)
     proven = [Row(p.row.table, p.row.file, p.row.line, p.row.row) for p in proofs]
     if proven:  # S_K lies in S_{K - len(proven)} of the other rows
@@ -300,20 +284,20 @@ def outlier_report(request: SolveRequest, elaborated: Model, prog: Program,
                     proven=len(proven))
     return SolveReport(prog, res, extra, "tight", None,
                        solve_warnings(prog, res, None, settings.routine_max_primitives), rows,
-                       of_outliers(res, kept, k))
+                       of_outliers(res, kept, k), problem)
 
 
-def report_on(request: SolveRequest, prog: Program, elaborated: Model | None = None,
+def report_on(request: SolveRequest, problem: Problem,
               progress: Progress | None = None) -> SolveReport:
-    """`solve_report` on a program already loaded from the request's model (the elaborated
-    model, when given, names the data rows of the warnings)."""
+    """`solve_report` on the request's model loaded already."""
     r, settings = request, request.settings
+    prog, elaborated = problem.program, problem.model
     res = solve(prog, r.strategy, tol=r.tol, max_sweeps=r.max_sweeps, settings=settings,
                 progress=progress)
     extra = Extras()
     if res.status == "contracted" and r.inner is not False:
         sections.inner(extra, prog, res, bool(r.inner) or bool(r.shave), settings)
-    effort = effort_for(r, prog, elaborated) if r.strategy == "tight" else None
+    effort = effort_for(r, problem) if r.strategy == "tight" else None
     res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
                           _told(progress))
     if res.status == "contracted":
@@ -329,27 +313,26 @@ def report_on(request: SolveRequest, prog: Program, elaborated: Model | None = N
             sections.least_squares(extra, prog, res)
     found = None
     if res.status == "infeasible" and r.diagnose:
-        found = conflict(r.model, r.formulation, r.inputs)
+        found = conflict(problem)
     return SolveReport(prog, res, extra, r.strategy, found,
                        solve_warnings(prog, res, elaborated, settings.routine_max_primitives),
-                       verdict=verdict)
+                       verdict=verdict, problem=problem)
 
 
-def effort_for(request: SolveRequest, prog: Program, elaborated: Model | None) -> Effort:
+def effort_for(request: SolveRequest, problem: Problem) -> Effort:
     """What the verdict may spend (strategy/verdict.py): the program without some data rows,
     on this one's domains (a proof about other rows must hold on the same box)."""
-    model, formulation, given = request.model, request.formulation, request.inputs
+    given, elaborated, prog = problem.inputs, problem.model, problem.program
     load = None
-    if elaborated is not None and len(elaborated.tables) == 1:
-        loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
+    if len(elaborated.tables) == 1:
+        loader = problem.pinned_loader()
         first = elaborated.tables[0].name
 
         def load(ids: list[int]) -> Program:
-            assert elaborated is not None
             return loader(excluding(given, data_rows(elaborated, prog, ids), first))[1]
 
     return Effort(elaborated, load, request.settings, request.tol, request.max_sweeps,
-                  f"calibc solve {model} (with the same options)")
+                  f"calibc solve {request.model} (with the same options)")
 
 
 def _told(progress: Progress | None) -> Any:
@@ -360,14 +343,15 @@ def _told(progress: Progress | None) -> Any:
     return lambda label: progress(label, None, time.perf_counter() - start)
 
 
-def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str = "matrix",
-              inputs: Inputs | None = None) -> tuple[Model, Ranges, dict[str, set[int]]]:
+def residuals(problem: Problem, prog: Program,
+              sol: Solution) -> tuple[Model, Ranges, dict[str, set[int]]]:
     """The ranges of measured minus predicted over the solve's box (`sol` of `prog`) of every
     row the solve used and of those `--exclude` left out (the model read again without
-    them: it shows whether they are outliers of the result); and those left out, by table."""
-    inputs = inputs or Inputs()
+    them, when some were: it shows whether they are outliers of the result); and those left
+    out, by table."""
+    inputs = problem.inputs
     kept = {t: Selection(sel.ranges) for t, sel in inputs.rows.items()}
-    elaborated, every = load_model(model, formulation, inputs=replace(inputs, rows=kept))
+    elaborated, every = problem.loader()(replace(inputs, rows=kept))
     names = {"": elaborated.tables[0].name} if elaborated.tables else {}
     left_out = {names.get(t, t): set(sel.excluded) for t, sel in inputs.rows.items()}
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in independents(prog)}
@@ -381,8 +365,9 @@ def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
     if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
         raise CalError("the result holds no guaranteed box to export (calibc solve --json "
                        "writes one; an infeasible solve has none)")
-    if fmt == "cal":
-        return domains_cal(data)
+    kind = EXPORTS[fmt]
+    if not kind.reads_robots:
+        return kind.write(Exported(data))
     source = model or data.get("model")
     if not source:
         raise CalError("the result does not name its model: give it with --model")
@@ -392,10 +377,7 @@ def export(data: dict, fmt: str, model: str | Path | None = None) -> str:
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise CalError(f"the result's parameters are malformed ({err!r})") from None
     tables, units = robot_tables(source, box)
-    if fmt == "json":
-        return dumps(export_json(data, tables, units, units_of(tables, units)), indent=2) + "\n"
-    if not tables:
+    if kind.needs_robot and not tables:
         raise CalError(f"{source} has no robot: a {fmt} export needs one (--format json "
                        "writes its parameters)")
-    return dh_table(data, tables, units) if fmt == "dh-table" else urdf(str(source), tables,
-                                                                         units)
+    return kind.write(Exported(data, str(source), tables, units))

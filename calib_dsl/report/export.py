@@ -19,7 +19,6 @@ from typing import Any
 
 from calib_dsl.studies.robot_frames import FrameRow, RobotTable
 
-FORMATS = ("dh-table", "urdf", "json", "cal")
 NOTE = ("value: the midpoint of the guaranteed enclosure; half_width: rounded up, so that "
         "every value consistent with the data lies within value +- half_width")
 

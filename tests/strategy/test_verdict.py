@@ -254,6 +254,7 @@ def test_the_proof_effort_never_refutes_the_truth(tmp_path, robot, seed, monkeyp
     from dataclasses import replace
 
     from calib_dsl.pipeline import SolveRequest, effort_for, load_model, solve
+    from calib_dsl.problem import Problem
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy import verdict
 
@@ -261,7 +262,8 @@ def test_the_proof_effort_never_refutes_the_truth(tmp_path, robot, seed, monkeyp
     model = arm(tmp_path / f"s{seed}", robot, seed)
     elaborated, prog = load_model(model)
     res = solve(prog)
-    effort = replace(effort_for(SolveRequest(model), prog, elaborated),
+    problem = Problem(str(model), "matrix", Inputs(), elaborated, prog)
+    effort = replace(effort_for(SolveRequest(model), problem),
                      settings=replace(DEFAULT, verdict_outlier_bounds=0.0, verdict_share=10.0,
                                       verdict_outlier_rows=2))
     ended, said = verdict.decide(prog, res, False, effort)
