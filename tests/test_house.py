@@ -64,3 +64,16 @@ def test_the_checks_see_a_violation():
     func = next(n for n in ast.walk(bad) if isinstance(n, ast.FunctionDef))
     assert parameters(func) == 9 > MOST_PARAMETERS
     assert "calib_dsl.lp.bounds" in BELOW and "calib_dsl.pipeline" not in BELOW
+
+
+def test_the_words_are_their_text():
+    """The enums of the results are str-valued: equal to their text, written as it in the
+    JSON (so the documents do not change), and printed as it."""
+    from calib_dsl.ir.status import Consistency, SlotKind, Status, Stop
+    from calib_dsl.report.strict_json import dumps
+
+    for enum in (Status, Stop, Consistency, SlotKind):
+        for member in enum:
+            assert member == member.value and f"{member}" == member.value
+            assert dumps({"x": member}) == dumps({"x": member.value})
+    assert Status("infeasible") is Status.INFEASIBLE and Stop("fixed point") is Stop.FIXED_POINT

@@ -31,6 +31,7 @@ import numpy as np
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status, Stop
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.outliers.classify import classify
 from calib_dsl.outliers.conflict import ranked_ids
@@ -38,8 +39,8 @@ from calib_dsl.outliers.dropping import dropping, relax_owned
 from calib_dsl.progress import Meter, Progress, labelled
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import OutlierSettings, Settings
-from calib_dsl.strategy.contractor import Work
+from calib_dsl.settings import LPSettings, OutlierSettings, Settings
+from calib_dsl.strategy.contractor import Composable, FixPoint, Outcome, Work
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
 
@@ -106,7 +107,7 @@ def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
         sol = solve_tight(part, tol=tol, max_sweeps=max_sweeps, settings=settings,
                           progress=labelled(progress, label))
         work = work + sol.work
-        if sol.status == "infeasible":
+        if sol.status == Status.INFEASIBLE:
             continue
         left_out.append(frozenset(rows))
         names = {part.slots.names[i]: i for i in part.slots.declared}
@@ -152,37 +153,52 @@ def groups(k: int, most: int = OUTLIERS.most_sets) -> int:
     return m
 
 
+@dataclass(frozen=True)
+class OutlierRound(Composable):
+    """A round of certified LPs over the relaxation that lets at most k data rows fail (of
+    `may_fail` only, if given: every other is known to hold on S_k): the box narrowed, or
+    proven to hold no vector of S_k; unchanged where there is nothing to linearize over (an
+    unbounded unknown)."""
+
+    prog: Program
+    k: int
+    lp: LPSettings
+    may_fail: set[int] | None = None
+    name: str = "outlier LPs"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        made = relax_owned(self.prog, lo, hi)
+        if made is None:
+            return Outcome(lo, hi, Stop.NONE)
+        rel = dropping(*made, self.k, self.may_fail)
+        lower, upper = lp_bounds(rel, np.eye(rel.main), self.lp)
+        ind = independents(self.prog)
+        new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
+        if np.any(new_lo > new_hi):  # certified bounds that cross: S_K is empty
+            rows = "row" if self.k == 1 else "rows"
+            emptied = Emptied(f"the unknowns (with at most {self.k} outlier {rows})", None,
+                              None)
+            return Outcome(lo, hi, Stop.EMPTY, Work(lp_rounds=1), emptied)
+        lo, hi = lo.copy(), hi.copy()
+        lo[ind], hi[ind] = new_lo, new_hi
+        return Outcome(lo, hi, Stop.NONE, Work(lp_rounds=1))
+
+
 def outlier_box(prog: Program, k: int, settings: Settings, meter: Meter | None = None,
                 box: tuple[np.ndarray, np.ndarray] | None = None,
                 may_fail: set[int] | None = None) -> OutlierBox:
     """Rounds of certified LPs over the relaxations that let at most k data rows fail (of
-    `may_fail` only, if given: every other is known to hold on S_k), from `box` (the
-    program's domains if None)."""
+    `may_fail` only, if given), from `box` (the program's domains if None), to their fixed
+    point: until no unknown narrows by settings.outliers.gain of its width."""
     start = time.perf_counter()
-    ind = independents(prog)
     lo, hi = ((prog.slots.lo.copy(), prog.slots.hi.copy()) if box is None
               else (box[0].copy(), box[1].copy()))
-    rounds, o = 0, settings.outliers
-    lp_settings = replace(settings.lp, iterations=o.lp_iterations)
-    while rounds < o.max_rounds:
-        made = relax_owned(prog, lo, hi)
-        if made is None:  # an unbounded unknown: nothing to linearize over
-            break
-        lp = dropping(*made, k, may_fail)
-        lower, upper = lp_bounds(lp, np.eye(lp.main), lp_settings)
-        rounds += 1
-        new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
-        if np.any(new_lo > new_hi):  # certified bounds that cross: S_K is empty
-            return OutlierBox(lo, hi, True, rounds, time.perf_counter() - start)
-        old = hi[ind] - lo[ind]
-        lo[ind], hi[ind] = new_lo, new_hi
-        if meter is not None:
-            meter(f"outlier LP round {rounds}", lo, hi)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            gained = np.where(old > 0, 1.0 - (new_hi - new_lo) / old, 0.0)
-        if not np.any(gained > o.gain):
-            break
-    return OutlierBox(lo, hi, False, rounds, time.perf_counter() - start)
+    o = settings.outliers
+    one = OutlierRound(prog, k, replace(settings.lp, iterations=o.lp_iterations), may_fail)
+    out = FixPoint(one, o.gain, o.max_rounds, progress=meter,
+                   label="outlier LP round").contract(lo, hi)
+    return OutlierBox(out.lo, out.hi, out.empty, out.work.lp_rounds,
+                      time.perf_counter() - start)
 
 
 @dataclass(frozen=True)
@@ -215,7 +231,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     if meter is not None:
         meter("sets of rows", blocks.lo, blocks.hi)
     if blocks.certain(k):  # the hull is the tight solve without them: nothing more to gain
-        sol = Solution("tight", blocks.lo, blocks.hi, "sets of rows",
+        sol = Solution("tight", blocks.lo, blocks.hi, Stop.SETS_OF_ROWS,
                        time.perf_counter() - start, blocks.work)
         return WithOutliers(sol, blocks.certain(k), [])
     may_fail = blocks.may_fail()
@@ -228,7 +244,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
         return _none(prog, k, box, work, start, found.certain)
     possible = [r for r in found.possible if r in may_fail]
     if not found.certain or len(found.certain) < k:
-        sol = Solution("tight", box.lo, box.hi, "outlier LPs", time.perf_counter() - start,
+        sol = Solution("tight", box.lo, box.hi, Stop.OUTLIER_LPS, time.perf_counter() - start,
                        work)
         return WithOutliers(sol, found.certain, possible)
     rest = without(found.certain)
@@ -236,7 +252,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
                         progress=progress)
     work = work + inner.work
     lo, hi = _intersect(prog, box, rest, inner)
-    if inner.status == "infeasible" or np.any(lo > hi):
+    if inner.status == Status.INFEASIBLE or np.any(lo > hi):
         return _none(prog, k, box, work, start, found.certain)
     sol = Solution("tight", lo, hi, inner.stop, time.perf_counter() - start, work,
                    split=inner.split, combinations=inner.combinations)
@@ -272,6 +288,6 @@ def _none(prog: Program, k: int, box: OutlierBox, work: Work, start: float,
     """Proven: no vector satisfies all data rows but at most k."""
     rows = "row" if k == 1 else "rows"
     emptied = Emptied(f"the unknowns (with at most {k} outlier {rows})", None, None)
-    sol = Solution("tight", box.lo, box.hi, "empty", time.perf_counter() - start, work,
+    sol = Solution("tight", box.lo, box.hi, Stop.EMPTY, time.perf_counter() - start, work,
                    emptied)
     return WithOutliers(sol, certain, [])

@@ -25,6 +25,7 @@ from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.group import make_groups
 from calib_dsl.ir.primitives import Primitive, Slots
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import SlotKind
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 
@@ -152,7 +153,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
         pivots.append(int(slots[p]))
         out.free += [int(slots[k]) for k in range(len(slots)) if k != p and coef[k] != 0.0]
     for p in pivots:  # computed now: a temporary, no longer an unknown
-        kinds[p] = "temp"
+        kinds[p] = SlotKind.TEMP
     _name_new_temporaries(names, out.old_slots)
     depth = 1 + max(step for _, _, step in prims)
     first = len(prog.primitives)

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Stop
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.progress import Meter
@@ -47,14 +48,14 @@ from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import LPSettings, Settings
-from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.strategy.contractor import Composable, Outcome, Work
 from calib_dsl.strategy.history import History
 
 SECOND_ORDER = FAMILY  # LinearRelaxation.family of quadratic.relax_quadratic's
 
 
 @dataclass(frozen=True)
-class LPRounds:
+class LPRounds(Composable):
     """The rounds of LPs from a box (a contractor). `certs` holds the multipliers and bases
     of the LPs solved (updated in place: a split's pieces start from the whole box's). With
     `cells` the rounds start with the errors as LP columns (a box near its end); the slots
@@ -91,6 +92,9 @@ class LPRounds:
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
+
+    def with_budget(self, sweeps: int) -> LPRounds:
+        return replace(self, max_sweeps=sweeps)
 
 
 @dataclass
@@ -159,7 +163,7 @@ class _Rounds:
     def run(self) -> Outcome:
         while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
             if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
-                self.stop = "max sweeps"
+                self.stop = Stop.MAX_SWEEPS
                 break
             this = self.relaxation()
             if this is None:
@@ -247,7 +251,7 @@ class _Rounds:
             k = int(np.flatnonzero(new_lo > new_hi)[0])
             self.emptied = Emptied(self.spec.prog.slots.names[int(ind[k])], None,
                                    "the linear relaxation of all constraints together")
-            self.stop = "empty"
+            self.stop = Stop.EMPTY
             self.work = self.work + Work(lp_rounds=int(this.fresh))
             return None
         gains = _gains(self.hi[ind] - self.lo[ind], new_hi - new_lo)

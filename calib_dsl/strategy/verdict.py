@@ -27,12 +27,13 @@ from calib_dsl.analysis.readings import Readings
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Consistency
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, far_rows
 from calib_dsl.strategy.solution import Solution
 
-CONSISTENT, INCONSISTENT, UNDECIDED = "consistent", "inconsistent", "undecided"
+CONSISTENT, INCONSISTENT, UNDECIDED = Consistency
 LSQ_EVALUATIONS = 100  # of the least-squares fit from the result's middle (near the solutions)
 EXIT_CODES = {CONSISTENT: 0, INCONSISTENT: 1, UNDECIDED: 4}  # docs/decisions/verdicts.md
 
@@ -41,7 +42,7 @@ EXIT_CODES = {CONSISTENT: 0, INCONSISTENT: 1, UNDECIDED: 4}  # docs/decisions/ve
 class Verdict:
     """How a solve ended, what decided it, and the effort spent beyond the solve."""
 
-    verdict: str  # CONSISTENT | INCONSISTENT | UNDECIDED
+    verdict: Consistency  # CONSISTENT | INCONSISTENT | UNDECIDED
     reason: str  # one line: what proved it, or what was tried
     seconds: float = 0.0  # spent deciding (not the solve's, nor the inner bounds')
     budget: float | None = None  # what it was allowed (None: no effort was needed)
