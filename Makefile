@@ -32,7 +32,7 @@ test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest
 
 lint: install
-	$(BIN)/ruff check calib_dsl tests bench
+	$(BIN)/ruff check calib_dsl tests bench scripts
 	$(BIN)/mypy calib_dsl
 
 # bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
