@@ -38,7 +38,7 @@ report-screenshot: install
 	cp build/artefacts/report-ur10.png docs/figures/report.png
 
 lint: install
-	$(BIN)/ruff check calib_dsl tests bench
+	$(BIN)/ruff check calib_dsl tests bench scripts
 	$(BIN)/mypy calib_dsl
 
 # bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a

@@ -34,6 +34,7 @@ SEEDS = (101, 202, 303, 404, 505)
 
 def case(model: Path, data: Path | None, runs: int, consts: dict[str, str] | None = None,
          rows: str | None = None) -> dict[str, Any]:
+    from calib_dsl import sections
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load, solve
@@ -47,9 +48,9 @@ def case(model: Path, data: Path | None, runs: int, consts: dict[str, str] | Non
         prog = load(model, inputs=inputs)
         extra = Extras()
         sol = solve(prog)
-        extra.inner_bounds(prog, sol)
+        sections.inner(extra, prog, sol)
         inner = extra.inner
-        shaved = extra.shave(prog, sol)  # as `calibc solve` does by default
+        shaved = sections.shaved(extra, prog, sol)  # as `calibc solve` does by default
         solves.append(sol.seconds)
         inners.append(inner.seconds)
         shaves.append(extra.shaved.seconds if extra.shaved is not None else 0.0)
@@ -81,7 +82,7 @@ def line(label: str, r: dict[str, Any]) -> str:
 
 
 def report(runs: int, draws: int) -> str:
-    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.studies.simulate import simulate
 
     out = [SECTION, "",
            f"{datetime.date.today()}, {machine()['cpu']}: outer/inner = the result's width (the "
@@ -113,7 +114,7 @@ def report(runs: int, draws: int) -> str:
             extras.append(f"`{file}` {min(share):.0%}-{max(share):.0%}")
         shaved = [f"{label} {r['shave']:.1f} s on a {r['solve']:.1f} s solve"
                   for label, r in shaved_cases]
-        out += ["", "*worst unshaved*: the worst ratio before shaving (strategy/shave.py: "
+        out += ["", "*worst unshaved*: the worst ratio before shaving (inner/shave.py: "
                 "the unknowns over 1.05 times their inner interval get each end's gap "
                 "contracted as a slice of its own, within 30 % of the solve's time, as `calibc "
                 "solve` does by default). Where a ratio stays above 1, the gap is the outer "

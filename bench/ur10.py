@@ -2,7 +2,7 @@
 linearized yardstick, written into docs/benchmarks.md (its section "Real data").
 
 The yardstick is the LP over the model linearized at the least-squares estimate of the same
-rows (analysis/reference.py: the same domains, each measured value within its bound): not
+rows (studies/reference.py: the same domains, each measured value within its bound): not
 rigorous, but what the data hold to first order. Each case runs `calibc solve` in fresh
 processes (median wall time and peak memory of `--runs` runs) and reports, per parameter,
 calibc's width over the yardstick's.

@@ -1,5 +1,5 @@
 """The yardstick of any benchmark table: the linearized hull at the data's least-squares
-estimate (analysis/reference.py: the LP over the model linearized there, the same domains,
+estimate (studies/reference.py: the LP over the model linearized there, the same domains,
 each measured value within its bound). Not rigorous: what the data hold to first order. It
 can under- or over-state the true hull where the estimate's largest residual exceeds the
 bound; the certified outer/inner of a result is the honest measure beside it.
@@ -18,9 +18,9 @@ from typing import Any
 def yardstick(model: Path, inputs: Any) -> dict[str, tuple[float, float, float]]:
     """name: (domain width, yardstick width, least-squares value), for `model` loaded with
     `inputs` (an elaborate.elaborator.Inputs)."""
-    from calib_dsl.analysis.reference import yardstick as hull_at_estimate
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
+    from calib_dsl.studies.reference import yardstick as hull_at_estimate
 
     prog = load(model, inputs=inputs)
     hull = hull_at_estimate(prog)

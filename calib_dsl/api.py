@@ -24,22 +24,21 @@ from typing import Any
 import numpy as np
 
 from calib_dsl import pipeline
-from calib_dsl.analysis.advice import Advice, advise
-from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import MinError
-from calib_dsl.analysis.outlier_rows import Outliers
-from calib_dsl.analysis.predict import Prediction
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import RowRange, Selection, parse_numbers, parse_ranges
 from calib_dsl.elaborate.values import Values
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.ir.model import Model
-from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import Conflict
+from calib_dsl.outliers.rows import Outliers
+from calib_dsl.problem import Problem
 from calib_dsl.progress import Progress
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.strategy.solution import Solution
+from calib_dsl.studies.advice import Advice, advise
+from calib_dsl.studies.predict import Prediction
 
 __all__ = ["CalError", "Inconsistent", "Listing", "Parameter", "Problem", "Result",
            "identify", "listing", "load", "min_error", "predict", "solve"]
@@ -51,26 +50,6 @@ Rows = str | Sequence[int]  # "1..100:2, 200.." or row numbers (1: the first aft
 
 class Inconsistent(Exception):
     """The data and the model were proven inconsistent where a result needs them not to be."""
-
-
-@dataclass(frozen=True, eq=False)  # (its program's arrays have no single truth value)
-class Problem:
-    """A model loaded: parsed, elaborated with its inputs, compiled."""
-
-    path: str
-    formulation: str
-    inputs: Inputs
-    model: Model  # the elaborated model: its tables, consts, DAG
-    program: Program  # the flat program the solvers work on
-
-    @property
-    def unknowns(self) -> list[str]:
-        """The declared unknowns (params, then vars, as declared), as results list them."""
-        return list(self.program.slots.declared_names)
-
-    @property
-    def consts(self) -> dict[str, Fraction]:
-        return dict(self.model.consts)
 
 
 def load(model: str | Path, data: Source | None = None, *,
@@ -87,8 +66,7 @@ def load(model: str | Path, data: Source | None = None, *,
     inputs = Inputs({t: _source(t, s) for t, s in sources.items()},
                     _selections(rows, exclude),
                     {n: _const_text(v) for n, v in (defines or {}).items()}, unroll)
-    elaborated, prog = pipeline.load_model(model, formulation, inputs=inputs)
-    return Problem(str(model), formulation, inputs, elaborated, prog)
+    return Problem.load(model, formulation, inputs)
 
 
 def _source(table: str, source: Source) -> str | Path | Values:
@@ -190,7 +168,7 @@ class Result:
     # the solver's own result (boxes over all slots)
     solution: Solution = field(repr=False, compare=False)
     _report: pipeline.SolveReport = field(repr=False, compare=False)
-    # the unknowns whose ends were shaved towards their inner bounds (strategy/shave.py)
+    # the unknowns whose ends were shaved towards their inner bounds (inner/shave.py)
     shaved: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> Parameter:
@@ -225,14 +203,13 @@ def solve(problem: Problem, strategy: str = "tight", *, tol: float = 1e-5,
     consistent with all data rows but at most K; `shave` N as --shave; `progress` as in
     calib_dsl/progress.py)."""
     prog = problem.program
+    asked = pipeline.SolveRequest(problem.path, problem.formulation, problem.inputs, strategy,
+                                  tol, max_sweeps, identify, lsq, inner, diagnose, outliers,
+                                  shave)
     if outliers > 0:
-        run = pipeline.outlier_report(problem.model, prog, problem.path, outliers,
-                                      problem.formulation, problem.inputs, tol, max_sweeps,
-                                      identify, progress)
+        run = pipeline.outlier_report(asked, problem, progress)
     else:
-        run = pipeline.report_on(prog, problem.path, problem.formulation, problem.inputs,
-                                 strategy, tol, max_sweeps, identify, lsq, inner, diagnose,
-                                 progress, problem.model, shave)
+        run = pipeline.report_on(asked, problem, progress)
     res, extra = run.res, run.extra
     unident = extra.not_identifiable()
     params = tuple(_parameter(r, extra, unident) for r in parameter_rows(prog, res))

@@ -202,7 +202,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     """Contract every unknown of MODEL to an interval proven to hold all its solutions."""
     from calib_dsl.handover.command import from_result
     from calib_dsl.handover.provenance import provenance
-    from calib_dsl.pipeline import solve_report
+    from calib_dsl.pipeline import SolveRequest, solve_report
     from calib_dsl.report.progress_line import progress_line
 
     inputs = _inputs(data, rows, exclude, defines, unroll)
@@ -211,17 +211,16 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
         return
     outputs.plot_ready(plot_path)
     with progress_line("solving", quiet) as progress:
-        run = solve_report(model, formulation, inputs, strategy, tol=tol,
-                           max_sweeps=max_sweeps, identify=identify, lsq=lsq, inner=inner,
-                           diagnose=diagnose, progress=progress, outliers=outliers,
-                           shave=shave)
+        asked = SolveRequest(model, formulation, inputs, strategy, tol, max_sweeps, identify,
+                             lsq, inner, diagnose, outliers, shave)
+        run = solve_report(asked, progress)
     for line in run.stderr_lines():  # the warnings, and a verdict left undecided
         click.echo(line, err=True)
     if json_path != "-":
         click.echo(run.text(every))
     result = {**run.as_json(), "provenance": provenance(run.prog, main.argv)}
     if (residuals or plot_path or report_path) and run.res.status == "contracted":
-        result["residuals"] = outputs.residuals(model, run.prog, run.res, formulation, inputs,
+        result["residuals"] = outputs.residuals(run,
                                                 quiet=json_path == "-")
     outputs.json_out(json_path, result)
     outputs.plotted(result, plot_path)
@@ -255,8 +254,8 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
             unroll: bool) -> None:
     """Which parameters of MODEL the measurements can determine, which move with which, and
     a well-conditioned subset to calibrate (judged against the data's error bounds)."""
-    from calib_dsl.analysis.advice import advice_json, advise, render
     from calib_dsl.report.strict_json import dumps
+    from calib_dsl.studies.advice import advice_json, advise, render
 
     info = advise(_load(model, formulation, _inputs(data, rows, exclude, defines, unroll)))
     click.echo(dumps(advice_json(info), indent=2) if as_json else render(info))

@@ -17,8 +17,8 @@ import click
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.plot.figure import CHOICES as PLOT_KINDS
-from calib_dsl.report.export import FORMATS as EXPORT_FORMATS
 from calib_dsl.report.export_point import POINTS as EXPORT_POINTS
+from calib_dsl.report.exports import EXPORTS
 
 PLOT = click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
                     help="Also draw the result's figures into this file (.png, .svg or .pdf; "
@@ -57,10 +57,10 @@ def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def campaign_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """simulate's --poses, --repeats, --systematic, --noise, handed to `fn` as one
-    `campaign` (analysis/campaign.py)."""
+    `campaign` (studies/campaign.py)."""
     from functools import wraps
 
-    from calib_dsl.analysis.campaign import POSES, Campaign
+    from calib_dsl.studies.campaign import POSES, Campaign
 
     @wraps(fn)
     def run(*args: Any, poses: str, repeats: int, systematic: float, noise: bool,
@@ -105,13 +105,13 @@ def plotted(result: dict[str, Any], plot_path: str | None) -> None:
             click.echo(f"calibc: drew {', '.join(kinds)} in {plot_path}", err=True)
 
 
-def residuals(model: str, prog: Any, res: Any, formulation: str, inputs: Any,
-              quiet: bool) -> dict[str, Any]:
-    """The solve JSON's `residuals`; its summary printed unless `quiet`."""
+def residuals(run: Any, quiet: bool) -> dict[str, Any]:
+    """The solve JSON's `residuals` (`run`: the SolveReport); its summary printed unless
+    `quiet`."""
     from calib_dsl.pipeline import residuals as ranges
     from calib_dsl.report.residuals import render_residuals, residuals_json
 
-    found = residuals_json(*ranges(model, prog, res, formulation, inputs))
+    found = residuals_json(*ranges(run.problem, run.prog, run.res))
     if not quiet:
         click.echo(render_residuals(found))
     return found
@@ -186,7 +186,7 @@ def plot(result: str, output: str, kind: str) -> None:
 
 @click.command()
 @click.argument("result", type=click.Path(dir_okay=False))
-@click.option("--format", "fmt", type=click.Choice(EXPORT_FORMATS), required=True,
+@click.option("--format", "fmt", type=click.Choice(tuple(EXPORTS)), required=True,
               help="dh-table, urdf, ur-kinematics (ROS ur_description), json: values with "
                    "guaranteed half-widths for a controller; cell: where the robot stands "
                    "in the measurement set-up; cal: the result as the next run's domains.")

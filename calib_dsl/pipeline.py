@@ -7,26 +7,26 @@
 
 from __future__ import annotations
 
-import gc
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from calib_dsl.analysis.conflict import Conflict, find_conflict
+from calib_dsl import sections
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
-from calib_dsl.analysis.outlier_rows import Outliers, Row, data_rows, excluding
-from calib_dsl.analysis.predict import Prediction, predict
-from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
-from calib_dsl.compile.group import compile_model
-from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import Conflict, find_conflict
+from calib_dsl.outliers.proof import prove_outliers
+from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
+from calib_dsl.outliers.solve import solve_outliers
+from calib_dsl.problem import Problem, load_model
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
@@ -39,11 +39,10 @@ from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
-from calib_dsl.strategy.outlier_proof import pinned, prove_outliers
-from calib_dsl.strategy.outliers import solve_outliers
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
+from calib_dsl.studies.predict import Prediction, predict
 
 
 def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
@@ -51,23 +50,6 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
     """Parse, elaborate and compile a `.cal` model (with `data` replacing its first table's
     file; `inputs`: files by table, rows, const values, as on the command line)."""
     return load_model(model, formulation, data, inputs)[1]
-
-
-def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
-               inputs: Inputs | None = None, centre: bool = True) -> tuple[Model, Program]:
-    """`load`, with the elaborated model too (its tables and consts); `centre=False` leaves
-    `lsq +- w` domains unbounded (for a caller that gives them another program's)."""
-    # The DAG's nodes live as long as the program: the garbage collector would only rescan
-    # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
-    gc.disable()
-    try:
-        elaborated = elaborate(model, formulation=formulation, data=data, inputs=inputs)
-        prog = compile_model(elaborated)
-    finally:
-        gc.enable()
-    if centre:
-        centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
-    return elaborated, prog
 
 
 def min_error(model: str | Path, name: str, formulation: str = "matrix",
@@ -149,15 +131,19 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
     fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
     if fine is not None:
         return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
-                            data=fine[0], center=fine[1].center)
+                            data=(fine[0], fine[1].center))
     data = relax(prog, sol.lo, sol.hi, max_cell_columns=DEFAULT.max_cell_columns)
-    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows, data=data)
+    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
+                        data=None if data is None else (data, None))
 
 
-def conflict(model: str | Path, formulation: str = "matrix",
+def conflict(model: str | Path | Problem, formulation: str = "matrix",
              inputs: Inputs | None = None) -> Conflict | None:
     """For data proven inconsistent: the worst rows without which the rest is proven
-    consistent (None when the model has no table)."""
+    consistent (None when the model has no table). `model`: its file, or the problem
+    loaded already (then `formulation` and `inputs` are its own)."""
+    if isinstance(model, Problem):
+        return find_conflict(model.inputs, model.loader())
     return find_conflict(inputs or Inputs(), lambda i: load_model(model, formulation, inputs=i))
 
 
@@ -174,6 +160,7 @@ class SolveReport:
     warnings: list[str] = field(default_factory=list)
     outliers: Outliers | None = None  # --outliers K: the rows at fault
     verdict: Verdict | None = None  # consistent, inconsistent or undecided
+    problem: Problem | None = None  # the model as loaded for the solve (all its rows)
 
     def __post_init__(self) -> None:
         if self.verdict is None:  # (no decision sought: the solve's own word)
@@ -216,39 +203,53 @@ class SolveReport:
         return "\n".join(out)
 
 
-def solve_report(model: str | Path, formulation: str = "matrix", inputs: Inputs | None = None,
-                 strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
-                 identify: bool = True, lsq: bool = False, inner: bool | None = None,
-                 diagnose: bool = True, progress: Progress | None = None,
-                 outliers: int = 0, shave: int | None = None) -> SolveReport:
-    """Load and solve `model`, with the report's optional sections (the command line's
-    `calibc solve`, and each job of `calibc batch`); with `outliers` K > 0, an enclosure of
-    every parameter vector that satisfies all data rows but at most K (outlier_report)."""
-    elaborated, prog = load_model(model, formulation, inputs=inputs)
-    if outliers > 0:
-        run = outlier_report(elaborated, prog, model, outliers, formulation, inputs, tol,
-                             max_sweeps, identify, progress)
-        if shave:
+@dataclass(frozen=True)
+class SolveRequest:
+    """What `calibc solve` (and each `calibc batch` job) asks: the model and its inputs, the
+    strategy and its limits, the report's optional sections (`inner`: True, False, or None
+    for the default, on after tight; `shave`: how many of the loosest unknowns are shaved
+    towards their inner bounds, settings.shave_unknowns if None; `outliers` K > 0: every
+    parameter vector that satisfies all data rows but at most K), and the settings."""
+
+    model: str | Path
+    formulation: str = "matrix"
+    inputs: Inputs = field(default_factory=Inputs)
+    strategy: str = "tight"
+    tol: float = 1e-5
+    max_sweeps: int = 1000
+    identify: bool = True
+    lsq: bool = False
+    inner: bool | None = None
+    diagnose: bool = True
+    outliers: int = 0
+    shave: int | None = None
+    settings: Settings = DEFAULT
+
+
+def solve_report(request: SolveRequest, progress: Progress | None = None) -> SolveReport:
+    """Load and solve the request's model, with the report's optional sections."""
+    problem = Problem.load(request.model, request.formulation, request.inputs)
+    if request.outliers > 0:
+        run = outlier_report(request, problem, progress)
+        if request.shave:
             run.extra.skipped.append("shaving: not with --outliers (it shaves towards inner "
                                      "bounds, which are not computed there)")
         return run
-    return report_on(prog, model, formulation, inputs, strategy, tol, max_sweeps, identify,
-                     lsq, inner, diagnose, progress, elaborated, shave)
+    return report_on(request, problem, progress)
 
 
-def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
-                   formulation: str = "matrix", inputs: Inputs | None = None,
-                   tol: float = 1e-5, max_sweeps: int = 1000, identify: bool = True,
+def outlier_report(request: SolveRequest, problem: Problem,
                    progress: Progress | None = None) -> SolveReport:
-    """`solve --outliers K` (strategy/outliers.py). No inner bounds: they would be values
+    """`solve --outliers K` (outliers/solve.py). No inner bounds: they would be values
     taken by vectors that satisfy every row, not by S_K."""
+    model, k, elaborated, prog = request.model, request.outliers, problem.model, problem.program
+    tol, max_sweeps, settings = request.tol, request.max_sweeps, request.settings
     if not elaborated.tables:
         raise CalError(f"{model}: --outliers needs data rows, and the model has no table")
-    given = inputs or Inputs()
+    given = problem.inputs
     first = elaborated.tables[0].name
-    # every program below on this one's domains (S_K is over them)
-    loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
-    proofs = prove_outliers(given, loader, k, elaborated, prog, progress=progress)
+    loader = problem.pinned_loader()  # every program below on this one's domains (S_K's)
+    proofs = prove_outliers(given, loader, k, elaborated, prog, settings, progress=progress)
     proven = [Row(p.row.table, p.row.file, p.row.line, p.row.row) for p in proofs]
     if proven:  # S_K lies in S_{K - len(proven)} of the other rows
         given = excluding(given, proven, first)
@@ -261,80 +262,74 @@ def outlier_report(elaborated: Model, prog: Program, model: str | Path, k: int,
     more: list[Row] = []
     kept: Program | None = prog  # all rows but at most k: the certain outliers out
     if left == 0:
-        res = solve(prog, tol=tol, max_sweeps=max_sweeps, progress=progress)
+        res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
         found_more = find_conflict(given, loader) if res.status == "infeasible" else None
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
     else:
         found = solve_outliers(prog, left, without, tol=tol, max_sweeps=max_sweeps,
-                               progress=progress)
+                               settings=settings, progress=progress)
         res, certain, possible = found.solution, found.certain, found.possible
         kept = without(certain) if 0 < len(certain) <= left else prog
     extra = Extras()
-    if res.status == "contracted" and identify:
-        extra.identify(prog, res, use_lp=True)
+    if res.status == "contracted" and request.identify:
+        sections.identify(extra, prog, res, True, settings)
     rows = Outliers(k, sorted(proven + more + data_rows(elaborated, prog, certain),
                               key=lambda r: (r.table, r.row)),
                     [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
                     proven=len(proven))
-    return SolveReport(prog, res, extra, "tight", None, solve_warnings(prog, res), rows,
-                       of_outliers(res, kept, k))
+    return SolveReport(prog, res, extra, "tight", None,
+                       solve_warnings(prog, res, None, settings.routine_max_primitives), rows,
+                       of_outliers(res, kept, k), problem)
 
 
-def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
-              inputs: Inputs | None = None, strategy: str = "tight", tol: float = 1e-5,
-              max_sweeps: int = 1000, identify: bool = True, lsq: bool = False,
-              inner: bool | None = None, diagnose: bool = True,
-              progress: Progress | None = None, elaborated: Model | None = None,
-              shave: int | None = None) -> SolveReport:
-    """`solve_report` on a program already loaded from `model` (with these inputs; the
-    elaborated model, when given, names the data rows of the warnings). `inner`: True or
-    False, or None for the default (on after tight, at every size). `shave`: how many
-    of the loosest unknowns are shaved towards their inner bounds (settings.shave_unknowns
-    if None)."""
-    res = solve(prog, strategy, tol=tol, max_sweeps=max_sweeps, progress=progress)
+def report_on(request: SolveRequest, problem: Problem,
+              progress: Progress | None = None) -> SolveReport:
+    """`solve_report` on the request's model loaded already."""
+    r, settings = request, request.settings
+    prog, elaborated = problem.program, problem.model
+    res = solve(prog, r.strategy, tol=r.tol, max_sweeps=r.max_sweeps, settings=settings,
+                progress=progress)
     extra = Extras()
-    if res.status == "contracted" and inner is not False:
-        extra.inner_bounds(prog, res, asked=bool(inner) or bool(shave))
-    effort = (effort_for(model, formulation, inputs, prog, elaborated, tol, max_sweeps)
-              if strategy == "tight" else None)
+    if res.status == "contracted" and r.inner is not False:
+        sections.inner(extra, prog, res, bool(r.inner) or bool(r.shave), settings)
+    effort = effort_for(r, problem) if r.strategy == "tight" else None
     res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
                           _told(progress))
     if res.status == "contracted":
-        if inner is not False:
-            if strategy == "tight" or shave:  # (hc4 is propagation alone, unless asked)
-                res = extra.shave(prog, res, shave, tol, max_sweeps)
-        elif shave:
+        if r.inner is not False:
+            if r.strategy == "tight" or r.shave:  # (hc4 is propagation alone, unless asked)
+                res = sections.shaved(extra, prog, res, r.shave, settings, r.tol, r.max_sweeps)
+        elif r.shave:
             extra.skipped.append("shaving: not without the inner bounds it shaves towards "
                                  "(--no-inner)")
-        if identify:
-            extra.identify(prog, res, use_lp=strategy == "tight")
-        if lsq:
-            extra.least_squares(prog, res)
+        if r.identify:
+            sections.identify(extra, prog, res, r.strategy == "tight", settings)
+        if r.lsq:
+            sections.least_squares(extra, prog, res)
     found = None
-    if res.status == "infeasible" and diagnose:
-        found = conflict(model, formulation, inputs)
-    return SolveReport(prog, res, extra, strategy, found,
-                       solve_warnings(prog, res, elaborated), verdict=verdict)
+    if res.status == "infeasible" and r.diagnose:
+        found = conflict(problem)
+    return SolveReport(prog, res, extra, r.strategy, found,
+                       solve_warnings(prog, res, elaborated, settings.routine_max_primitives),
+                       verdict=verdict, problem=problem)
 
 
-def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,
-            elaborated: Model | None, tol: float, max_sweeps: int) -> Effort:
+def effort_for(request: SolveRequest, problem: Problem) -> Effort:
     """What the verdict may spend (strategy/verdict.py): the program without some data rows,
     on this one's domains (a proof about other rows must hold on the same box)."""
-    given = inputs or Inputs()
+    given, elaborated, prog = problem.inputs, problem.model, problem.program
     load = None
-    if elaborated is not None and len(elaborated.tables) == 1:
-        loader = pinned(lambda i: load_model(model, formulation, inputs=i, centre=False), prog)
+    if len(elaborated.tables) == 1:
+        loader = problem.pinned_loader()
         first = elaborated.tables[0].name
 
         def load(ids: list[int]) -> Program:
-            assert elaborated is not None
             return loader(excluding(given, data_rows(elaborated, prog, ids), first))[1]
 
-    return Effort(elaborated, load, DEFAULT, tol, max_sweeps,
-                  f"calibc solve {model} (with the same options)")
+    return Effort(elaborated, load, request.settings, request.tol, request.max_sweeps,
+                  f"calibc solve {request.model} (with the same options)")
 
 
 def _told(progress: Progress | None) -> Any:
@@ -345,14 +340,15 @@ def _told(progress: Progress | None) -> Any:
     return lambda label: progress(label, None, time.perf_counter() - start)
 
 
-def residuals(model: str | Path, prog: Program, sol: Solution, formulation: str = "matrix",
-              inputs: Inputs | None = None) -> tuple[Model, Ranges, dict[str, set[int]]]:
+def residuals(problem: Problem, prog: Program,
+              sol: Solution) -> tuple[Model, Ranges, dict[str, set[int]]]:
     """The ranges of measured minus predicted over the solve's box (`sol` of `prog`) of every
     row the solve used and of those `--exclude` left out (the model read again without
-    them: it shows whether they are outliers of the result); and those left out, by table."""
-    inputs = inputs or Inputs()
+    them, when some were: it shows whether they are outliers of the result); and those left
+    out, by table."""
+    inputs = problem.inputs
     kept = {t: Selection(sel.ranges) for t, sel in inputs.rows.items()}
-    elaborated, every = load_model(model, formulation, inputs=replace(inputs, rows=kept))
+    elaborated, every = problem.loader()(replace(inputs, rows=kept))
     names = {"": elaborated.tables[0].name} if elaborated.tables else {}
     left_out = {names.get(t, t): set(sel.excluded) for t, sel in inputs.rows.items()}
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in independents(prog)}

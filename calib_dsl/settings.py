@@ -1,16 +1,72 @@
 """Every tuning constant of the solver, named once, with why it has its value.
 
-A strategy receives one frozen `Settings` (`DEFAULT` unless the caller asks otherwise) and
-hands the parts its contractors need down to them. These are choices of speed against
-tightness; none of them can make a result unsound (soundness rests on outward rounding, which
-has no knobs). Input limits that guard against runaway models live with the front end and
-the elaborator, not here.
+A strategy receives one frozen `Settings` from its caller and hands the parts its contractors
+need down to them; the constants of one concern form a group of their own (`LPSettings`,
+`OutlierSettings`). Only the pipeline, the API and the command line read `DEFAULT`: below
+them every function takes its caller's settings (tests/test_house.py). These are choices of
+speed against tightness; none of them can make a result unsound (soundness rests on outward
+rounding, which has no knobs). Input limits that guard against runaway models live with the
+front end and the elaborator, not here.
 """
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class LPSettings:
+    """HiGHS and the certified bounds over its LPs (lp/)."""
+
+    workers: int = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
+    # Per objective in a first-order round: a degenerate LP near the fixed point can crawl.
+    # The pivot limit stops it the same way on every machine (results do not depend on
+    # load); the time limit is a backstop.
+    iterations: int = 1000
+    seconds: float = 1.0
+    # Above this many rows an LP starts from a subset and adds the rows its optimum violates
+    # (row generation), at most rows_added per pass: a tall LP (9000 rows, 33 columns) is
+    # far faster so.
+    rows_at_once: int = 2000
+    rows_added: int = 500
+    # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
+    # primal. Each objective starts from the last one's optimum, which a new cost leaves
+    # primal feasible, so the primal simplex needs fewer pivots than the dual. With few
+    # columns the dual stays faster, and on LPs that hold all their rows
+    # (docs/decisions/06).
+    tall_simplex: int = 4
+    tall_primal_columns: int = 64
+    scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
+    probes: int = 4  # at most this many probe LPs before the objectives are shared out
+    # Above this many matrix entries (or for a sparse matrix and few objectives), certified
+    # bounds work row by row of the multipliers on the sparse matrix, not on a dense copy.
+    dense_entries: int = 4_000_000
+
+
+@dataclass(frozen=True)
+class OutlierSettings:
+    """Solves with at most K rows at fault (outliers/solve.py, outliers/proof.py)."""
+
+    # Rounds of LPs over the relaxations that let at most K rows fail: a round that narrows
+    # no unknown by `gain` of its width ends them; LP pivots per objective (a stopped LP
+    # still certifies a weaker bound).
+    gain: float = 0.01
+    max_rounds: int = 40
+    lp_iterations: int = 5000
+    most_sets: int = 4  # tight solves of sets of rows at most, unless K + 1 are needed
+    # With suspects in groups of their own, the sets at most (k = 1: four suspects): with the
+    # rows at fault alone, the sets that leave one out are consistent and the others refuted,
+    # which names exactly those rows (docs/decisions/16).
+    most_suspect_sets: int = 8
+    suspect_residual: float = 1.0  # a least-squares residual above this many bounds: a suspect
+    deal_seed: int = 0  # the shuffle that deals the other rows into groups (fixed: results repeat)
+    extra_suspects: int = 3  # suspects beyond k (as many as most_suspect_sets allows)
+    # Rows proven outliers before any LP (proof.py): candidates tried beyond K (a candidate
+    # may fail to be proven), and the least residual (in error bounds) of a candidate: a row
+    # the least-squares fit satisfies is none.
+    extra_candidates: int = 2
+    min_residual: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -114,14 +170,14 @@ class Settings:
     # for the change of unknowns; `calibc identify` always does.
     routine_max_primitives: int = 50_000
 
-    # -- identifiability advice (analysis/advice.py; in error bounds over the whole domain) ---
+    # -- identifiability advice (studies/advice.py; in error bounds over the whole domain) ---
     seen: float = 1e-4  # a direction fainter than this is below the data's rounding: unseen
     well_seen: float = 1.0  # a parameter adding less than one bound is left to the others
     subset_cond: float = 1e3  # the suggested subset's condition number at most
     leads: float = 0.5  # share of the largest component that leads a weak direction
     absorbs: float = 0.05  # share of the largest coefficient that names an absorbing parameter
 
-    # -- shaving (strategy/shave.py) ---------------------------------------------------------
+    # -- shaving (inner/shave.py) ---------------------------------------------------------
     # After the inner bounds, the unknowns whose result is wider than shave_above times their
     # inner interval (at most shave_unknowns, the loosest first) have each end's gap
     # contracted as a slice of its own, by at most shave_rounds fine rounds of LPs; an end
@@ -161,29 +217,9 @@ class Settings:
     piece_processes: int = min(2, os.cpu_count() or 1)
 
     # -- LPs (lp/) -----------------------------------------------------------------------------
-    lp_workers: int = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
-    # Per objective in a first-order round: a degenerate LP near the fixed point can crawl.
-    # The pivot limit stops it the same way on every machine (results do not depend on
-    # load); the time limit is a backstop.
-    lp_iterations: int = 1000
-    lp_seconds: float = 1.0
-    # Above this many rows an LP starts from a subset and adds the rows its optimum violates
-    # (row generation), at most rows_added per pass: a tall LP (9000 rows, 33 columns) is
-    # far faster so.
-    rows_at_once: int = 2000
-    rows_added: int = 500
-    # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
-    # primal. Each objective starts from the last one's optimum, which a new cost leaves
-    # primal feasible, so the primal simplex needs fewer pivots than the dual. With few
-    # columns the dual stays faster, and on LPs that hold all their rows
-    # (docs/decisions/06).
-    tall_simplex: int = 4
-    tall_primal_columns: int = 64
-    lp_scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
-    probes: int = 4  # at most this many probe LPs before the objectives are shared out
-    # Above this many matrix entries (or for a sparse matrix and few objectives), certified
-    # bounds work row by row of the multipliers on the sparse matrix, not on a dense copy.
-    dense_entries: int = 4_000_000
+    lp: LPSettings = LPSettings()
+    # -- outliers (outliers/) -------------------------------------------------------------------
+    outliers: OutlierSettings = OutlierSettings()
 
     # -- planning a campaign (plan/) -------------------------------------------------------
     # The domains counted as information in the classical designs, in units where a uniform
@@ -207,7 +243,7 @@ class Settings:
 
     @property
     def piece_lp_threads(self) -> int:
-        return max(1, self.lp_workers // self.piece_processes)
+        return max(1, self.lp.workers // self.piece_processes)
 
 
 DEFAULT = Settings()

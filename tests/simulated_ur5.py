@@ -8,7 +8,7 @@ import csv
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from calib_dsl.analysis.simulate import simulate
+from calib_dsl.studies.simulate import simulate
 
 ROBOT = (Path(__file__).resolve().parent.parent / "models" / "robots" / "ur5.cal").as_posix()
 

@@ -269,7 +269,7 @@ def _one_job(tmp_path: Path, untimed, model: str, key: str) -> tuple[Job, dict]:
 def test_a_job_that_shaves_is_what_solve_shave_gives(tmp_path, untimed):
     """`shave = 3` in a job: the line is `calibc solve --shave 3 --json`'s document, with the
     same shaved ends (no time budget: the same result on every worker)."""
-    from tests.strategy.test_shave import write_circle
+    from tests.inner.test_shave import write_circle
 
     write_circle(tmp_path)
     job, line = _one_job(tmp_path, untimed, "circle.cal", "shave = 3")

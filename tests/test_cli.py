@@ -371,12 +371,12 @@ def test_unwritable_output_is_a_user_error(tmp_path, args):
 
 
 def test_internal_error_exit_3(monkeypatch):
-    import calib_dsl.pipeline
+    import calib_dsl.problem
 
     def boom(model):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(calib_dsl.pipeline, "compile_model", boom)
+    monkeypatch.setattr(calib_dsl.problem, "compile_model", boom)
     monkeypatch.delenv("CALIBC_DEBUG", raising=False)
     res = run("compile", PAPER_CSE)
     assert res.exit_code == 3

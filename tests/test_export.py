@@ -17,12 +17,12 @@ import pytest
 from click.testing import CliRunner
 
 from calib_dsl import cli
-from calib_dsl.analysis.kinematics import chain, dh_matrix, rx90_frames
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.pipeline import load, solve
 from calib_dsl.report.as_json import result_json
 from calib_dsl.report.export import domains_cal
 from calib_dsl.report.export_point import export_point
+from calib_dsl.studies.kinematics import chain, dh_matrix, rx90_frames
 
 ROOT = Path(__file__).resolve().parents[1]
 RX90 = ROOT / "models" / "rx90_lengths.cal"

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from calib_dsl.cli import main
-from tests.strategy.test_shave import write_circle
+from tests.inner.test_shave import write_circle
 
 ROOT = Path(__file__).resolve().parents[1]
 ARM = ROOT / "models" / "examples" / "planar_arm.cal"

@@ -121,11 +121,11 @@ def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
     """Few rows whose noise fills the error bound (1 mm against priors of 5 mm): first-order
     rounds stall with a large remainder, the fine second-order rounds contract, and the
     truth stays inside (the same priors as the real data's)."""
-    from calib_dsl.analysis.simulate import simulate
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
     from calib_dsl.strategy.tight import solve_tight
+    from calib_dsl.studies.simulate import simulate
 
     table = tmp_path / "sim.csv"
     simulate(_noisy_simulation_model(tmp_path, 1.0), 12, seed, out_csv=table)
@@ -148,12 +148,12 @@ def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
 def test_the_public_data_within_1_2_of_the_yardstick():
     """Every 15th row at e = 1.0 mm: every parameter's width within 1.2x of the linearized
     yardstick's (the LP over the model linearized at the least-squares estimate)."""
-    from calib_dsl.analysis.reference import yardstick
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
     from calib_dsl.strategy.tight import solve_tight
+    from calib_dsl.studies.reference import yardstick
 
     inputs = Inputs(data={"m": UR10}, rows={"m": Selection(parse_ranges("1..1495:15"), ())},
                     consts={"e": "1.0"})
@@ -175,12 +175,12 @@ def test_the_readings_rounds_on_many_public_rows():
     width; rounds with those errors as LP columns follow and narrow d4 (the parameter the
     data pin down best) by 4 % or more, every parameter ending within 1.25x the yardstick's
     width (1.27x for d4 without them)."""
-    from calib_dsl.analysis.reference import yardstick
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents
     from calib_dsl.strategy.tight import solve_tight
+    from calib_dsl.studies.reference import yardstick
 
     inputs = Inputs(data={"m": UR10}, rows={"m": Selection(parse_ranges("1..1495:3"), ())},
                     consts={"e": "1.0"})
@@ -222,11 +222,11 @@ def test_thousands_of_rows_get_the_second_order_rounds(tmp_path):
     rounds and one first-order round on all rows), its error systematic: the fine
     second-order rounds run (on the working set), the check sees every row, and the truth
     lies inside."""
-    from calib_dsl.analysis.campaign import Campaign
-    from calib_dsl.analysis.simulate import simulate
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.pipeline import load
     from calib_dsl.strategy.tight import solve_tight
+    from calib_dsl.studies.campaign import Campaign
+    from calib_dsl.studies.simulate import simulate
 
     table = tmp_path / "sim.csv"
     simulate(_noisy_simulation_model(tmp_path, 0.1), 2100, 3, out_csv=table,

@@ -1,3 +1,3 @@
-"""Analyses beside the solve: identifiability, least squares, reference hulls, kinematics,
-simulation.
-"""
+"""What the solver relies on beside its contractors: identifiability (rank, combinations),
+least squares and priors about it, Chebyshev fits, points proven to be solutions, the
+smallest consistent error bound, residual ranges and leverage."""

@@ -156,16 +156,19 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     found = np.concatenate(owners_of) if owners else None
     a, b = (np.concatenate(c).reshape(len(s), k) for c in (clo, chi))
     lo, hi = lo.reshape(len(lo), k), hi.reshape(len(hi), k)
-    return [_verdict(s, a[:, i], b[:, i], tlo, thi, computed, lo[:, i], hi[:, i], found,
+    return [_verdict(s, (a[:, i], b[:, i]), (tlo, thi), computed, (lo[:, i], hi[:, i]), found,
                      bool(in_domain[i])) for i in range(k)]
 
 
-def _verdict(s: np.ndarray, a: np.ndarray, b: np.ndarray, tlo: np.ndarray, thi: np.ndarray,
-             computed: np.ndarray, lo: np.ndarray, hi: np.ndarray, owners: np.ndarray | None,
+def _verdict(s: np.ndarray, side: tuple[np.ndarray, np.ndarray],
+             target: tuple[np.ndarray, np.ndarray], computed: np.ndarray,
+             at: tuple[np.ndarray, np.ndarray], owners: np.ndarray | None,
              in_domain: bool) -> PointCheck:
     """One point's check: each row's computed side [a, b] against the other side (the exact
-    interval's inside [tlo, thi] of a measured or bounded slot; a computed slot's value)."""
-    tlo, thi = tlo.copy(), thi.copy()
+    interval's inside [tlo, thi] of a measured or bounded slot; a computed slot's value, in
+    the point's slots [lo, hi])."""
+    (a, b), (lo, hi) = side, at
+    tlo, thi = target[0].copy(), target[1].copy()
     tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
     with np.errstate(invalid="ignore"):
         excess = np.maximum(np.maximum(b - thi, tlo - a), 0.0)

@@ -17,7 +17,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import constraint_jacobian
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import Settings
 
 
 @dataclass
@@ -32,10 +32,12 @@ class Identifiability:
     weakest: list[tuple[float, dict[str, float]]] = field(default_factory=list)
 
 
-def analyse(prog: Program, design: bool = False) -> Identifiability:
+def analyse(prog: Program, design: bool = False,
+            rank_tol: float = Settings.rank_tol) -> Identifiability:
     """The analysis at the nominal values; with `design`, at the middle of each finite search
     domain instead (the geometry the robot was designed with, e.g. alpha3 = 0, where a true
-    value may break a symmetry by a hair and leave a direction identifiable in name only)."""
+    value may break a symmetry by a hair and leave a direction identifiable in name only).
+    `rank_tol`: singular values below it times the largest are structural zeros."""
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point = _nominal(prog, ind, names, design)
@@ -49,12 +51,12 @@ def analyse(prog: Program, design: bool = False) -> Identifiability:
     s_full = np.zeros(len(names))
     s_full[: len(s)] = s
     top = s_full.max() if len(s_full) else 0.0
-    rank = int(np.sum(s_full > DEFAULT.rank_tol * top)) if top > 0 else 0
+    rank = int(np.sum(s_full > rank_tol * top)) if top > 0 else 0
     null = vt[rank:].T  # (n, n - rank), in scaled coordinates
     touched = np.linalg.norm(null, axis=1) > 1e-6 if null.size else np.zeros(len(names), bool)
     ident = [n for n, t in zip(names, touched, strict=True) if not t]
     groups = _groups(names, null, touched, scale)
-    nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > DEFAULT.rank_tol * top][:3]
+    nonzero = [int(k) for k in np.argsort(s_full) if s_full[k] > rank_tol * top][:3]
     weakest = [(float(s_full[k]), _direction(names, vt[k], scale)) for k in nonzero]
     return Identifiability(names, rank, s_full, ident, groups, weakest)
 
@@ -73,13 +75,13 @@ def finite_jacobian(js: np.ndarray, where: str) -> np.ndarray:
     return js
 
 
-def analyse_design(prog: Program) -> Identifiability | None:
+def analyse_design(prog: Program, rank_tol: float = Settings.rank_tol) -> Identifiability | None:
     """analyse(prog, design=True), or None where there is no analysis to make (no nominal
     values or finite domains, a Jacobian without finite values): for the solvers, which then
     go on without it."""
     try:
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            return analyse(prog, design=True)  # a non-finite Jacobian raises in the SVD
+            return analyse(prog, True, rank_tol)  # a non-finite Jacobian raises in the SVD
     except (CalError, np.linalg.LinAlgError, ValueError):
         return None
 

@@ -207,7 +207,7 @@ def row_owners(prog: Program) -> list[tuple[str, int] | None]:
     p = 0.5 * (s.lo[ind] + s.hi[ind])
     lo, hi = s.lo.copy(), s.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = evaluation(prog, lo, hi, ind, p, point=True, owners=True)
+    ev = evaluation(prog, lo, hi, p, point=True, owners=True)
     rows = ev.run()
     if not rows:
         return []

@@ -96,7 +96,7 @@ class RowEnclosures:
 def row_enclosures(prog: Program, lo: np.ndarray, hi: np.ndarray,
                    ind: np.ndarray, owners: bool = False) -> RowEnclosures:
     center = 0.5 * (lo[ind] + hi[ind])
-    ev = evaluation(prog, lo, hi, ind, center, owners=owners)
+    ev = evaluation(prog, lo, hi, center, owners=owners)
     rows = ev.run()
     if not rows:
         return RowEnclosures(np.zeros(0), np.zeros(0), ev)

@@ -15,7 +15,7 @@ from typing import Any
 from calib_dsl.batch.jobs import Job
 from calib_dsl.elaborate.options import inputs_from_options
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.pipeline import solve_report
+from calib_dsl.pipeline import SolveRequest, solve_report
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -38,7 +38,6 @@ def run_job(job: Job) -> dict[str, Any]:
 def solve_job(job: Job) -> dict[str, Any]:
     """What `calibc solve` writes with --json for the job's arguments (`job.argv()`)."""
     inputs = inputs_from_options(job.data, job.rows, job.exclude, job.defines)
-    return solve_report(job.model, job.formulation, inputs, job.strategy, tol=job.tol,
-                        max_sweeps=job.max_sweeps, identify=job.identify, lsq=job.lsq,
-                        inner=job.inner, diagnose=job.diagnose,
-                        outliers=job.outliers, shave=job.shave).as_json()
+    return solve_report(SolveRequest(job.model, job.formulation, inputs, job.strategy, job.tol,
+                                     job.max_sweeps, job.identify, job.lsq, job.inner,
+                                     job.diagnose, job.outliers, job.shave)).as_json()

@@ -25,6 +25,7 @@ from calib_dsl.frontend.diagnostics import Loc
 from calib_dsl.ir.dag import TERNARY, Dag
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.primitives import Primitive, PrimitiveArrays, Slots, format_const
+from calib_dsl.ir.status import SlotKind
 
 
 def decompose(model: Model) -> tuple[Slots, list[Primitive]]:
@@ -139,7 +140,7 @@ def _make_slots(dag: Dag, g: DagArrays, live: np.ndarray, rep: np.ndarray, caps:
     m = len(known) + len(in_order)
     lo, hi = np.full(m, -INF), np.full(m, INF)
     names = [""] * m
-    kinds = ["temp"] * m
+    kinds: list[str] = [SlotKind.TEMP] * m
     origin: list[Loc | None] = [None] * m
     slot_of = np.full(g.n, -1, dtype=np.int64)
     slot_of[live_idx] = slot_of_rep[reps]
@@ -151,13 +152,13 @@ def _make_slots(dag: Dag, g: DagArrays, live: np.ndarray, rep: np.ndarray, caps:
     for v in reversed(declared):  # first declared name wins the slot's name
         s = slot_of[v.node]
         _narrow(lo, hi, origin, s, v.lo, v.hi, v.loc)
-        names[s], kinds[s] = v.name, v.kind
+        names[s], kinds[s] = v.name, SlotKind(v.kind)
     for i in consts.tolist():  # constants: the slot is that value
         node = dag.nodes[i]
         s = int(slot_of[i])
         _narrow(lo, hi, origin, s, node.data[0], node.data[1], const_loc.get(i))
-        if kinds[s] == "temp":
-            kinds[s], names[s] = "const", format_const(node.data[0], node.data[1])
+        if kinds[s] == SlotKind.TEMP:
+            kinds[s], names[s] = SlotKind.CONST, format_const(node.data[0], node.data[1])
     for node, clo, chi, loc in caps:
         _narrow(lo, hi, origin, slot_of[node], clo, chi, loc)
     decl_slots = [int(slot_of[v.node]) for v in declared]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Callable
 from fractions import Fraction
 
 import numpy as np
@@ -284,17 +285,10 @@ class Expressions(Context):
             args = [self.scalar(self.value(a, scope), a.loc, f"an argument of {e.func}")
                     for a in e.args]
             return self.function(e.func, args, e.loc)
-        if e.func == "rows":
-            check_arity(e, 1, "function")
-            table = self.entity(e.args[0], scope)
-            if not isinstance(table, TableRef):
-                raise CalError("rows(t) takes a table", e.args[0].loc)
-            return Fraction(table.rows)
-        if e.func == "dot":
-            check_arity(e, 2, "function")
-            return self._dot(self.value(e.args[0], scope), self.value(e.args[1], scope), e.loc)
-        if e.func in ("euler_xyz", "compose"):
-            return self._rotation(e, scope)
+        special = SPECIAL_CALLS.get(e.func)
+        if special is not None:
+            check_arity(e, SPECIAL[e.func], "function")
+            return special(self, e, scope)
         macro = self.lookup(e.func, e.loc, scope)
         if isinstance(macro, RobotDef):
             raise CalError(f"robot '{e.func}' gives the coordinates of a tool point: write "
@@ -309,6 +303,16 @@ class Expressions(Context):
             return x * x if name == "sqr" else abs(x)
         return self._op(name, tuple(self.node(a, loc) for a in args), loc)
 
+    def _rows(self, e: ast.Call, scope: Scope) -> Value:
+        """rows(t): the number of rows of table t."""
+        table = self.entity(e.args[0], scope)
+        if not isinstance(table, TableRef):
+            raise CalError("rows(t) takes a table", e.args[0].loc)
+        return Fraction(table.rows)
+
+    def _dot_call(self, e: ast.Call, scope: Scope) -> Value:
+        return self._dot(self.value(e.args[0], scope), self.value(e.args[1], scope), e.loc)
+
     def _dot(self, u: Value, v: Value, loc: Loc) -> Scalar:
         if not (isinstance(u, tuple) and isinstance(v, tuple)):
             raise CalError(f"dot(u, v) takes two vectors, not {kind_of(u)} and {kind_of(v)}", loc)
@@ -320,7 +324,6 @@ class Expressions(Context):
     def _rotation(self, e: ast.Call, scope: Scope) -> tuple[int, ...]:
         """euler_xyz(rx, ry, rz): the matrix Rx Ry Rz; compose(A, B): the product A B (3x3
         matrices as 9-vectors, row by row)."""
-        check_arity(e, SPECIAL[e.func], "function")
         values = [self.value(a, scope) for a in e.args]
         if e.func == "euler_xyz":
             angles = [self.node(self.scalar(v, a.loc, "an angle of euler_xyz"), a.loc)
@@ -419,3 +422,13 @@ class Expressions(Context):
             raise CalError(f"{OP_NAMES.get(op, op)} of these constants has no value (an "
                            "argument is outside the function's domain)", loc)
         return n
+
+
+# The built-in functions of vectors (scope.py's SPECIAL: name -> arity), by name: a new one
+# is a method of Expressions taking the call and its scope, and an entry here and there.
+SPECIAL_CALLS: dict[str, Callable[[Expressions, ast.Call, Scope], Value]] = {
+    "rows": Expressions._rows,
+    "dot": Expressions._dot_call,
+    "euler_xyz": Expressions._rotation,
+    "compose": Expressions._rotation,
+}

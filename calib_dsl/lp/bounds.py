@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl import settings
 from calib_dsl.lp.certify import Certificates, box_bounds, box_max_up, certified_max, tighten
 from calib_dsl.lp.highs import (
     DUAL_SIMPLEX,
@@ -32,15 +31,13 @@ from calib_dsl.lp.highs import (
     starting_rows,
 )
 from calib_dsl.relax.relaxation import LinearRelaxation
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import LPSettings
 
 
-def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
-              skip: np.ndarray | None = None, iterations: int = DEFAULT.lp_iterations,
-              seconds: float = DEFAULT.lp_seconds, solver: str = "simplex",
+def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings | None = None,
+              skip: np.ndarray | None = None, solver: str = "simplex",
               certificates: Certificates | None = None,
-              probes: bool = False, own_bases: bool = True,
-              threads: int = DEFAULT.lp_workers) -> tuple[np.ndarray, np.ndarray]:
+              probes: bool = False, own_bases: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each objective row c.p over the relaxation.
 
     Each worker thread loads one HiGHS model and re-solves it for its share of the objectives
@@ -48,8 +45,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     separate cores. Where the LP finds the relaxation infeasible and its dual ray proves it
     (`_farkas`), the share's bound is -inf: the bounds cross. Where the LP fails otherwise,
     the bound falls back to the box's own bound on c.p: never wrong, just not tighter.
-    Objectives flagged in `skip` get the box bound without an LP. `iterations` and
-    `seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
+    Objectives flagged in `skip` get the box bound without an LP. `lp.iterations` and
+    `lp.seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
     HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
     starts afresh each time but costs the same few dozen iterations on any objective, which
     pays on a large LP whose objectives are far apart (their multipliers certify all the same).
@@ -58,23 +55,24 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     box bounds at once (_probe_points): worth it far from the solution only. With `own_bases`
     (and `certificates`), the simplex starts each objective from that objective's last basis
     kept there; without, from the optimum of the objective its worker solved before.
-    `threads`: how many workers (each with its own HiGHS model) share the objectives.
+    `lp.workers`: how many workers (each with its own HiGHS model) share the objectives.
     """
+    lp = lp or LPSettings()
     lower, upper, signed = box_bounds(rel, objectives)
     tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
-    workers = max(1, min(threads, len(tasks)))
-    points = _probe_points(rel, tasks, iterations, seconds) if probes and workers > 1 else []
+    workers = max(1, min(lp.workers, len(tasks)))
+    points = _probe_points(rel, tasks, lp) if probes and workers > 1 else []
     # both signs of an objective in the same share: the second starts from the first's optimum
     share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
     shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]
     if workers == 1:
-        results = [_solve_share(rel, shares[0], iterations, seconds, solver, certificates,
+        results = [_solve_share(rel, shares[0], lp, solver, certificates,
                                 own_bases=own_bases)]
     else:
         with ThreadPoolExecutor(workers) as pool:
-            results = list(pool.map(lambda share: _solve_share(rel, share, iterations, seconds,
-                                                                    solver, certificates,
-                                                                    points, own_bases),
+            results = list(pool.map(lambda share: _solve_share(rel, share, lp, solver,
+                                                                    certificates, points,
+                                                                    own_bases),
                                     shares))
     for share in results:
         for i, sign, bound, y, basis, point in share:
@@ -85,8 +83,7 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray,
     return lower, upper
 
 
-def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.lp_iterations,
-                 seconds: float = DEFAULT.lp_seconds,
+def _solve_share(rel: LinearRelaxation, share: list, lp: LPSettings,
                  solver: str = "simplex",
                  certificates: Certificates | None = None,
                  probes: list[tuple[np.ndarray, tuple | None]] | None = None,
@@ -101,18 +98,17 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
     if not share:
         return []
     m, n = rel.A.shape
-    rows = np.arange(m) if m <= settings.DEFAULT.rows_at_once else _first_rows(rel, share,
-                                                                                certificates)
-    h = load(rel, rows, iterations)
+    rows = np.arange(m) if m <= lp.rows_at_once else _first_rows(rel, share, certificates)
+    h = load(rel, rows, lp.iterations, lp.scaling)
     # row generation re-solves after adding rows: the simplex goes on from its basis, an
     # interior point method would start over each time
     h.setOptionValue("solver", solver if len(rows) == m else "simplex")
-    primal = len(rows) < m and n >= settings.DEFAULT.tall_primal_columns
+    primal = len(rows) < m and n >= lp.tall_primal_columns
     if primal:
-        h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
+        h.setOptionValue("simplex_strategy", lp.tall_simplex)
     h.setOptionValue("run_crossover", "off")  # (ipm) a point inside is as good a certificate
     cols = np.arange(n, dtype=np.int32)
-    check = RowCheck(rel) if len(rows) < m else None
+    check = RowCheck(rel, lp.rows_added) if len(rows) < m else None
     out: list[tuple] = []
     # LP solutions found so far (feasible up to HiGHS's tolerance) and their bases, from the
     # probes on
@@ -131,7 +127,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
         if start is not None:
             set_basis(h, *start)
         # HiGHS's time limit counts all runs of the object: extend it per solve.
-        h.setOptionValue("time_limit", h.getRunTime() + seconds)
+        h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
         h.run()
         if solver == "ipm" and check is None and not optimal(h):
             # without crossover the interior point method can stop short on a degenerate LP
@@ -155,7 +151,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
             # that cross): the dual simplex finds it from there
             h.setOptionValue("simplex_strategy", DUAL_SIMPLEX)
             h.run()
-            h.setOptionValue("simplex_strategy", settings.DEFAULT.tall_simplex)
+            h.setOptionValue("simplex_strategy", lp.tall_simplex)
         if infeasible(h):
             y = _farkas(h, rel, rows)
             if y is not None:  # the relaxation is empty: so is the box (any bound is valid)
@@ -172,7 +168,7 @@ def _solve_share(rel: LinearRelaxation, share: list, iterations: int = DEFAULT.l
         if sol.dual_valid:
             y = np.zeros(m)
             y[rows] = -np.asarray(sol.row_dual)
-            out.append((i, sign, certified_max(rel, c, y), y, basis, point))
+            out.append((i, sign, certified_max(rel, c, y, lp.dense_entries), y, basis, point))
     return out
 
 
@@ -211,8 +207,8 @@ def _first_rows(rel: LinearRelaxation, share: list,
     return known if known is not None else starting_rows(rel)
 
 
-def _probe_points(rel: LinearRelaxation, tasks: list, iterations: int,
-                  seconds: float) -> list[tuple[np.ndarray, tuple | None]]:
+def _probe_points(rel: LinearRelaxation, tasks: list,
+                  lp: LPSettings) -> list[tuple[np.ndarray, tuple | None]]:
     """LP points that attain many of the box's own bounds at once, for every worker's
     `_reaching`: the optima of the sum of the objectives, of its opposite, then of sums with
     random signs (seeded: the same points on every run), while each probe adds an objective
@@ -220,17 +216,17 @@ def _probe_points(rel: LinearRelaxation, tasks: list, iterations: int,
     the solution (where many unknowns do not move) these serve all, for two to four LPs.
     Only points (and their bases, where an objective they reach starts next time): no bound
     depends on them (see `_reaching`)."""
-    if len(tasks) < 4 * settings.DEFAULT.probes or rel.A.shape[0] > settings.DEFAULT.rows_at_once:
+    if len(tasks) < 4 * lp.probes or rel.A.shape[0] > lp.rows_at_once:
         return []
-    h = load(rel, None, iterations)
-    h.setOptionValue("time_limit", seconds)
+    h = load(rel, None, lp.iterations, lp.scaling)
+    h.setOptionValue("time_limit", lp.seconds)
     n = rel.A.shape[1]
     cols = np.arange(n, dtype=np.int32)
     unsigned = np.array(list({i: sign * c for i, sign, c in tasks}.values()))
     rng = np.random.default_rng(0)
     points: list[tuple[np.ndarray, tuple | None]] = []
     reached = 0
-    for k in range(settings.DEFAULT.probes):
+    for k in range(lp.probes):
         signs = (rng.choice([-1.0, 1.0], len(unsigned)) if k >= 2
                  else np.full(len(unsigned), 1.0 if k == 0 else -1.0))
         c = signs @ unsigned

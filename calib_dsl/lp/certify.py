@@ -10,9 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl import settings
 from calib_dsl.lp.highs import BASIC, LOWER
 from calib_dsl.relax.relaxation import RHS_ABS, RHS_REL, LinearRelaxation, Rows, transpose_times
+from calib_dsl.settings import LPSettings
+
+DENSE = LPSettings.dense_entries  # (the declared default: callers pass their settings')
 
 
 def dot_up(x: np.ndarray, y: np.ndarray) -> float:
@@ -25,32 +27,35 @@ def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarra
     return float(_box_maxes_up(r_lo[None, :], r_hi[None, :], lo, hi)[0])
 
 
-def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray) -> float:
+def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray,
+                  dense_entries: int = DENSE) -> float:
     """A rigorous upper bound on max c.p over the relaxation, from a dual guess y.
 
     y_i > 0 multiplies the row's upper side A_i p <= b_i, y_i < 0 its lower side
     A_i p >= b_lo_i (both give y_i A_i p <= y_i rhs_i); any such y is a certificate.
     """
-    return float(certified_maxes(rel, c[None, :], y[None, :])[0])
+    return float(certified_maxes(rel, c[None, :], y[None, :], dense_entries)[0])
 
 
 
-def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray) -> np.ndarray:
+def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,
+                    dense_entries: int = DENSE) -> np.ndarray:
     """certified_max for each row of C (objectives) and Y (their multipliers) at once: a few
     matrix products instead of two sparse passes per objective. Each float dot product has
-    length at most 10^6, so RHS_REL covers its rounding in any order of summation."""
+    length at most 10^6, so RHS_REL covers its rounding in any order of summation.
+    `dense_entries`: the largest matrix multiplied as a dense copy (LPSettings)."""
     b = rel.b[None, :]
     b_lo = (rel.b_lo if rel.b_lo is not None else np.full(len(rel.b), -np.inf))[None, :]
     ok = np.isfinite(Y) & (((Y > 0) & np.isfinite(b)) | ((Y < 0) & np.isfinite(b_lo)))
     Y = np.where(ok, Y, 0.0)  # an unusable multiplier is dropped (0: the row is not used)
     rhs = np.where(Y > 0, b, np.where(Y < 0, b_lo, 0.0))
-    AY, absAY = _times(rel.A, Y)
+    AY, absAY = _times(rel.A, Y, dense_entries)
     r = C - AY
     err = RHS_REL * (np.abs(C) + absAY) + RHS_ABS  # rounding error of r, componentwise
     return _dots_up(Y, rhs) + _box_maxes_up(r - err, r + err, rel.lo, rel.hi)
 
 
-def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _times(A: Any, Y: np.ndarray, dense_entries: int) -> tuple[np.ndarray, np.ndarray]:
     """(Y A, |Y| |A|) for a CSR matrix A (Rows or scipy's) and rows of multipliers Y."""
     m, n = A.shape
     kept = A.__dict__.get("_dense") if isinstance(A, Rows) else None
@@ -60,7 +65,7 @@ def _times(A: Any, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     # when it is kept for the next objectives (a Rows: the LP's objectives are certified one
     # by one against the same matrix)
     reused = isinstance(A, Rows)
-    small = m * n <= settings.DEFAULT.dense_entries
+    small = m * n <= dense_entries
     if small and (reused or m * n * (1 + len(Y)) <= 4 * len(Y) * len(A.data)):
         at = np.repeat(np.arange(m), np.diff(A.indptr)) * n + np.asarray(A.indices)
         # a matrix with a repeated entry is left to the exact path (summing it would round)
@@ -115,7 +120,7 @@ class Certificates:
     # the simplex's final basis for each objective (row keys, row statuses, column keys,
     # column statuses): the next LP of the same objective starts from it; and what that
     # LP's rows and columns meant (its rows' compared slots, its cells, its count of unknowns:
-    # lp/starts.py), where the relaxation said
+    # inner/starts.py), where the relaxation said
     basis: dict[tuple[int, float], tuple] = field(default_factory=dict)
     meaning: dict[tuple[int, float], tuple] = field(default_factory=dict)
     # each objective's LP optimum, in the unknowns (unknowns_at), where the LP found one:
@@ -233,8 +238,8 @@ def _unit(rel: LinearRelaxation, j: int) -> float:
     return 1.0 if rel.scale is None else float(rel.scale[j])
 
 
-def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
-                  certs: Certificates) -> tuple[np.ndarray, np.ndarray]:
+def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray, certs: Certificates,
+                  dense_entries: int = DENSE) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each unit objective (a row of the identity) over `rel` from the
     multipliers kept in `certs` (the box's own bound where there are none)."""
     lower, upper, signed = box_bounds(rel, objectives)
@@ -246,7 +251,7 @@ def reused_bounds(rel: LinearRelaxation, objectives: np.ndarray,
         return lower, upper
     Y = np.array([mapped(*certs.y[(i, sign)], keys, 0.0) * (1.0 / _unit(rel, i))
                   for i, sign, _ in kept]).reshape(len(kept), len(keys))
-    bounds = certified_maxes(rel, np.array([c for _, _, c in kept]), Y)
+    bounds = certified_maxes(rel, np.array([c for _, _, c in kept]), Y, dense_entries)
     for (i, sign, _), bound in zip(kept, bounds, strict=True):
         tighten(lower, upper, i, sign, float(bound))
     return lower, upper

@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl import settings
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 LOWER, BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
@@ -73,11 +72,11 @@ def starting_rows(rel: LinearRelaxation) -> np.ndarray:
 
 
 class RowCheck:
-    """Which rows outside the LP a point violates."""
+    """Which rows outside the LP a point violates (the `most` most violated)."""
 
-    def __init__(self, rel: LinearRelaxation) -> None:
+    def __init__(self, rel: LinearRelaxation, most: int) -> None:
         A = rel.A
-        self.rel = rel
+        self.rel, self.most = rel, most
         self.row_of = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
         self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(A.shape[0], -np.inf)
 
@@ -91,7 +90,7 @@ class RowCheck:
             excess = np.maximum(ax - self.rel.b, self.b_lo - ax) - tol
         excess[rows] = 0.0
         bad = np.flatnonzero(excess > 0)
-        return bad[np.argsort(-excess[bad])[:settings.DEFAULT.rows_added]]
+        return bad[np.argsort(-excess[bad])[:self.most]]
 
 
 def add_rows(h: Any, rel: LinearRelaxation, rows: np.ndarray) -> None:
@@ -115,10 +114,10 @@ def _rows_of(A: Any) -> Rows:
 
 
 def load(rel: LinearRelaxation, rows: np.ndarray | None = None,
-          iterations: int = settings.DEFAULT.lp_iterations,
-          scaling: int | None = settings.DEFAULT.lp_scaling) -> Any:
-    """A HiGHS model of the relaxation, with only `rows` of its rows if given (`scaling`:
-    HiGHS's simplex_scale_strategy, None for its default)."""
+         iterations: int = MANY_PIVOTS, scaling: int | None = None) -> Any:
+    """A HiGHS model of the relaxation, with only `rows` of its rows if given (`iterations`:
+    simplex pivots per run; `scaling`: HiGHS's simplex_scale_strategy, None for its
+    default)."""
     import highspy
 
     h = _new_highs()

@@ -45,7 +45,7 @@ def simulated(model: str, configs: int | None, at: str | None, seed: int, output
         raise CalError("simulate: give either --configs N (drawn configurations) or --at "
                        "FILE (given ones)")
     if at is None:
-        from calib_dsl.analysis.simulate import simulate
+        from calib_dsl.studies.simulate import simulate
 
         assert configs is not None
         simulate(model, configs, seed, formulation=formulation, out_csv=Path(output),

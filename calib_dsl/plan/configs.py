@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.analysis.simulate import write_csv
 from calib_dsl.elaborate.tables import Dialect, read_csv
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 from calib_dsl.ir.model import Column, Model, Table
+from calib_dsl.studies.simulate import write_csv
 
 
 @dataclass(frozen=True, eq=False)

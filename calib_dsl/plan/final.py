@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.analysis.campaign import PLAIN
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.values import Values
 from calib_dsl.pipeline import load_model, solve
@@ -20,6 +19,7 @@ from calib_dsl.plan.configs import Configurations, table_of
 from calib_dsl.plan.measure import measured_at
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
+from calib_dsl.studies.campaign import PLAIN
 
 
 @dataclass(frozen=True)

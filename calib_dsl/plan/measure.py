@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.analysis.campaign import PLAIN, Campaign
-from calib_dsl.analysis.simulate import simulate_model, write_csv
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.plan.configs import Configurations, read_configurations, table_of
+from calib_dsl.studies.campaign import PLAIN, Campaign
+from calib_dsl.studies.simulate import simulate_model, write_csv
 
 
 def measured_at(model_path: str | Path, configs: Configurations, seed: int,

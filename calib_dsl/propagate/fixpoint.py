@@ -16,6 +16,7 @@ import numpy as np
 
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.rows import tiled_mask
+from calib_dsl.ir.status import Stop
 from calib_dsl.propagate.diagnose import Emptied, diagnose
 from calib_dsl.propagate.kernels import fast_sweep, kernels, sweep
 
@@ -43,7 +44,7 @@ def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     if np.any(box[0] > box[1]):
         s = int(np.flatnonzero(box[0] > box[1])[0])
         return _infeasible(box, 0, start, Emptied(prog.slots.names[s], prog.slots.origin[s], None))
-    sweeps, stop = 0, "max sweeps"
+    sweeps, stop = 0, Stop.MAX_SWEEPS
     steps = kernels(prog)
     stamp = np.zeros(len(box[0]), dtype=np.int64)  # the last sweep that moved each slot
     while sweeps < max_sweeps:
@@ -61,10 +62,10 @@ def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
             stamp[:] = sweeps  # (cannot happen) as if everything moved
         gain = _contraction(before, (box[0][watch], box[1][watch]))
         if gain == 0.0:
-            stop = "fixed point"
+            stop = Stop.FIXED_POINT
             break
         if gain < tol:
-            stop = "tolerance"
+            stop = Stop.TOLERANCE
             break
     return Result("contracted", box[0], box[1], sweeps, time.perf_counter() - start, stop)
 

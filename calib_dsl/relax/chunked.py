@@ -16,11 +16,12 @@ from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.gradients import Iv
+from calib_dsl.relax.layout import independents
 from calib_dsl.relax.ownership import row_owners
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import Settings
 
 Row = tuple[Iv, Iv, Iv, np.ndarray]  # what Evaluation.run gives per block of rows
-CHUNK_SLOTS = DEFAULT.chunk_slots  # (a module attribute: tests make chunks small)
+CHUNK_SLOTS = Settings.chunk_slots  # (a module attribute: tests make chunks small)
 
 
 class Evaluated:
@@ -100,16 +101,17 @@ class Chunked(Evaluated):
                 else np.zeros(0, dtype=np.int64))
 
 
-def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
-               center: np.ndarray, point: bool = False, mixed: bool = False,
-               owners: bool = False, max_slots: int | None = None,
+def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
+               point: bool = False, mixed: bool = False, owners: bool = False,
                rows: np.ndarray | None = None) -> Evaluated:
-    """An Evaluation of the program over [lo, hi] (see relax/evaluation.py), in chunks of
-    rows where the program is large and its rows were compiled once. With `owners`,
+    """An Evaluation of the program over [lo, hi] (see relax/evaluation.py), its unknowns
+    the program's independents (`center` their values), in chunks of CHUNK_SLOTS slots
+    where the program is large and its rows were compiled once. With `owners`,
     `data_rows()` then gives each constraint row's data row (relax/ownership.py). `rows`:
     only these rows of the loop compiled once (indices; a program without one: all rows),
     with the shared part's constraints."""
-    chunks = chunked(prog, CHUNK_SLOTS if max_slots is None else max_slots, rows)
+    ind = independents(prog)
+    chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return Whole(prog, ind, Evaluation(prog, lo, hi, ind, center, point=point,
                                            mixed=mixed))

@@ -58,7 +58,7 @@ def relax_evaluated(prog: Program, lo: np.ndarray, hi: np.ndarray, cell_variable
     if len(ind) == 0 or not (np.all(np.isfinite(plo)) and np.all(np.isfinite(phi))):
         return None
     center = 0.5 * (plo + phi)
-    ev = evaluation(prog, lo, hi, ind, center, mixed=True, owners=owners, rows=rows)
+    ev = evaluation(prog, lo, hi, center, mixed=True, owners=owners, rows=rows)
     done = ev.run()
     if not done:
         return None
@@ -162,7 +162,7 @@ def constraint_jacobian(prog: Program, point: np.ndarray, lo: np.ndarray | None 
     blo = prog.slots.lo.copy() if lo is None else lo.copy()
     bhi = prog.slots.hi.copy() if hi is None else hi.copy()
     blo[ind], bhi[ind] = point, point
-    rows = evaluation(prog, blo, bhi, ind, np.asarray(point, dtype=float), point=True).run()
+    rows = evaluation(prog, blo, bhi, np.asarray(point, dtype=float), point=True).run()
     if not rows:
         return np.zeros((0, len(ind)))
     return np.concatenate([0.5 * (r[1][0] + r[1][1]) for r in rows])

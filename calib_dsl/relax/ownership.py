@@ -1,5 +1,5 @@
 """Which data row (a configuration of a table: its cells, `Slots.cell_row`) each constraint
-row of the program depends on, for solving with outliers (strategy/outliers.py): a row that
+row of the program depends on, for solving with outliers (outliers/solve.py): a row that
 reads a cell of configuration k, or compares with one of its measured values, holds only if
 configuration k is no outlier.
 

@@ -29,7 +29,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.relax.models import Models
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import Expansion, expand
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import Settings
 
 FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 # LinearRelaxation.key_space of every second-order relaxation: a constraint row is known by
@@ -37,7 +37,7 @@ FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 KEY_SPACE = "expansion rows"
 
 
-def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = DEFAULT.prune,
+def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = Settings.prune,
                     mccormick: bool = False, rows: np.ndarray | None = None
                     ) -> tuple[LinearRelaxation, Expansion] | None:
     """Valid inequalities over the box in the columns (t, y) (of the loop's rows `rows`

@@ -147,13 +147,15 @@ def _joined(parts: list[_Part], mccormick: bool, prune: float
     # (the chunks' program is one: the same readings' columns, each chunk's own bounds)
     q, qrad = (np.concatenate([getattr(p, a) for p in parts]) for a in ("q", "qrad"))
     e = functools.reduce(widest, [p.e for p in parts])
-    return _relaxation(ex, np.flatnonzero(ok), q, qrad, np.concatenate([p.owner for p in parts]),
-                       e, len(ok), mccormick, prune)
+    return _relaxation(ex, ok, q, qrad, np.concatenate([p.owner for p in parts]), e, mccormick,
+                       prune)
 
 
-def _relaxation(ex: Expansion, keys: np.ndarray, q: np.ndarray, qrad: np.ndarray,
-                owner: np.ndarray, e: np.ndarray, nrows: int, mccormick: bool, prune: float
+def _relaxation(ex: Expansion, ok: np.ndarray, q: np.ndarray, qrad: np.ndarray,
+                owner: np.ndarray, e: np.ndarray, mccormick: bool, prune: float
                 ) -> tuple[LinearRelaxation, Expansion]:
+    """The relaxation of the expansion's rows where `ok` holds."""
+    keys, nrows = np.flatnonzero(ok), len(ok)
     m = ex.rows.models.take(keys)
     tlo, thi = ex.rows.lo[keys], ex.rows.hi[keys]
     keep, dropped = kept_products(m, tlo, thi, prune)

@@ -109,7 +109,7 @@ class LinearRelaxation:
     # what the remainders cost a bound (Certificates.remainder_cost).
     slack: np.ndarray | None = None
     # the slot each row compares with (its measured or bounded side), where known: what a row
-    # means in any LP over the same constraints (lp/starts.py)
+    # means in any LP over the same constraints (inner/starts.py)
     targets: np.ndarray | None = None
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:

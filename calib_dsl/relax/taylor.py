@@ -27,13 +27,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl import settings
 from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import Layout, independents, layout, row_key
 from calib_dsl.relax.models import SUPPORTED, Models, Pairs, add, apply, constant, up
+from calib_dsl.settings import Settings
 
-CHUNK_SLOTS = settings.DEFAULT.chunk_slots  # (a module attribute: tests make chunks small)
+# (module attributes, the settings' declared values: tests make chunks and memory small)
+CHUNK_SLOTS = Settings.chunk_slots
+MAX_TABLE_BYTES = Settings.max_table_bytes
 
 
 @dataclass
@@ -72,7 +74,7 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
     """Second-order models of every constraint row over the box [lo, hi] (the unknowns'
     entries; the other slots' entries give the constants' and the targets' ranges); of the
     loop's rows `rows` only, if given. None when a primitive has no model, an unknown is
-    unbounded, or the models would not fit in settings.DEFAULT.max_table_bytes. A large
+    unbounded, or the models would not fit in MAX_TABLE_BYTES (settings.max_table_bytes). A large
     program whose rows were compiled once is expanded a chunk of rows at a time
     (compile/chunks.py): the models live for one chunk; the rows' models are kept."""
     chunks = chunked(prog, CHUNK_SLOTS, rows)
@@ -117,7 +119,7 @@ def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
     pairs = Pairs.of(n)
     p = len(pairs.i)
     plan = _plan(prog, ind)
-    if plan.peak_bytes > settings.DEFAULT.max_table_bytes:
+    if plan.peak_bytes > MAX_TABLE_BYTES:
         return None
     center = 0.5 * plo + 0.5 * phi
     half = up(np.maximum(center - plo, phi - center))

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from calib_dsl.analysis.robot_frames import STANDARD_DH, Entry, FrameRow, RobotTable
+from calib_dsl.studies.robot_frames import STANDARD_DH, Entry, FrameRow, RobotTable
 
 CONVENTIONS = ("mdh", "dh")
 

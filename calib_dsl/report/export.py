@@ -18,10 +18,9 @@ from decimal import ROUND_CEILING, ROUND_FLOOR, Context, Decimal
 from fractions import Fraction
 from typing import Any
 
-from calib_dsl.analysis.robot_frames import FrameRow, RobotTable
 from calib_dsl.report.decimals import clean
+from calib_dsl.studies.robot_frames import FrameRow, RobotTable
 
-FORMATS = ("dh-table", "urdf", "cell", "ur-kinematics", "json", "cal")
 NOTE = ("value: the midpoint of the guaranteed enclosure; half_width: rounded up, so that "
         "every value consistent with the data lies within value +- half_width")
 

@@ -1,16 +1,15 @@
-"""`calibc export`: a solve's result (its JSON) in each format a controller or the next run
-takes, one function per format in `FORMATS` (the registry docs/design.md names). The
-robots are read from the model the result names; the values written are those of the
-exported point (report/export_point.py)."""
+"""The export formats by name (`calibc export --format NAME`, `solve --export-domains`): each
+an `Export` that writes a result's JSON, with the model's robots as frames where it reads
+them, at the exported point (report/export_point.py). A new format is a writer (export.py,
+urdf.py, ur_kinematics.py) and an entry here."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from calib_dsl.analysis.robot_frames import RobotTable, robot_tables
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.report.dh_convert import CONVENTIONS, converted
 from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
@@ -18,6 +17,42 @@ from calib_dsl.report.export_point import export_point
 from calib_dsl.report.strict_json import dumps
 from calib_dsl.report.ur_kinematics import ur_kinematics
 from calib_dsl.report.urdf import cell, urdf
+from calib_dsl.studies.robot_frames import RobotTable, robot_tables
+
+
+@dataclass(frozen=True)
+class Exported:
+    """What a writer reads: the result's JSON, and the model's robots as frames of
+    guaranteed entries (empty for a format that reads none) with their units, and the
+    parameter vector written."""
+
+    data: dict[str, Any]
+    model: str = ""
+    tables: list[RobotTable] = field(default_factory=list)
+    units: dict[str, str] = field(default_factory=dict)
+    point: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Export:
+    write: Callable[[Exported], str]
+    reads_robots: bool  # the model's robots are read for it (from the model file)
+    needs_robot: bool  # a model without a robot has nothing to write in it
+
+
+def _json(e: Exported) -> str:
+    return dumps(export_json(e.data, e.tables, e.units, units_of(e.tables, e.units), e.point),
+                 indent=2) + "\n"
+
+
+EXPORTS: dict[str, Export] = {
+    "dh-table": Export(lambda e: dh_table(e.data, e.tables, e.units), True, True),
+    "urdf": Export(lambda e: urdf(e.model, e.tables, e.units), True, True),
+    "cell": Export(lambda e: cell(e.model, e.tables, e.units), True, True),
+    "ur-kinematics": Export(lambda e: ur_kinematics(e.model, e.tables, e.units), True, True),
+    "json": Export(_json, True, False),
+    "cal": Export(lambda e: domains_cal(e.data), False, False),
+}
 
 
 @dataclass(frozen=True)
@@ -25,33 +60,19 @@ class Request:
     fmt: str
     model: str | Path | None = None  # default: the model the result names
     point: str = "midpoint"  # midpoint | lsq | centre
-    convention: str | None = None  # dh-table: the joints in mdh or dh (default: the model's)
-
-
-Writer = Callable[[dict[str, Any], list[RobotTable], dict[str, str], dict[str, float]], str]
-
-FORMATS: dict[str, Writer] = {
-    "dh-table": lambda data, tables, units, point: dh_table(data, tables, units),
-    "urdf": lambda data, tables, units, point: urdf(str(data.get("model")), tables, units),
-    "cell": lambda data, tables, units, point: cell(str(data.get("model")), tables, units),
-    "ur-kinematics": lambda data, tables, units, point: ur_kinematics(
-        str(data.get("model")), tables, units),
-    "json": lambda data, tables, units, point: dumps(
-        export_json(data, tables, units, units_of(tables, units), point), indent=2) + "\n",
-}
+    convention: str | None = None  # the joints in mdh or dh (default: the model's)
 
 
 def export(data: dict[str, Any], request: Request) -> str:
-    """The result of a solve (its JSON, `data`) in the format asked: `cal` (search domains
-    for the next run), or a format of FORMATS (values with their guaranteed half-widths)."""
+    """The result of a solve (its JSON, `data`) in the format asked."""
     if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
         raise CalError("the result holds no guaranteed box to export (calibc solve --json "
                        "writes one; an infeasible solve has none)")
-    if request.fmt == "cal":
-        return domains_cal(data)
-    if request.fmt not in FORMATS:
-        raise CalError(f"unknown export format '{request.fmt}' (one of cal, "
-                       f"{', '.join(FORMATS)})")
+    kind = EXPORTS.get(request.fmt)
+    if kind is None:
+        raise CalError(f"unknown export format '{request.fmt}' (one of {', '.join(EXPORTS)})")
+    if not kind.reads_robots:
+        return kind.write(Exported(data))
     if request.convention is not None and request.convention not in CONVENTIONS:
         raise CalError(f"unknown convention '{request.convention}' (mdh or dh)")
     source = request.model or data.get("model")
@@ -66,7 +87,7 @@ def export(data: dict[str, Any], request: Request) -> str:
     tables, units = robot_tables(source, box, point)
     if request.convention is not None:
         tables = [converted(t, request.convention) for t in tables]
-    if not tables and request.fmt != "json":
+    if kind.needs_robot and not tables:
         raise CalError(f"{source} has no robot: a {request.fmt} export needs one (--format "
                        "json writes its parameters)")
-    return FORMATS[request.fmt](data, tables, units, point)
+    return kind.write(Exported(data, str(source), tables, units, point))

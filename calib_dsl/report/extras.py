@@ -1,24 +1,14 @@
-"""Optional sections of a solve's report: identifiability, a least-squares estimate,
-certified inner bounds, and the result shaved towards them."""
+"""Optional sections of a solve's report, as computed (calib_dsl/sections.py):
+identifiability, a least-squares estimate, certified inner bounds, and the result shaved
+towards them."""
 
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import replace
 from typing import Any
 
-import numpy as np
-
-from calib_dsl.analysis.identify import analyse, combination_enclosures
-from calib_dsl.analysis.inner import Inner, inner_bounds
-from calib_dsl.analysis.lsq import estimate
-from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.ir.program import Program
-from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT
-from calib_dsl.strategy.shave import Shaved, shave
-from calib_dsl.strategy.solution import Solution
+from calib_dsl.inner.bounds import Inner
+from calib_dsl.inner.shave import Shaved
 
 
 class Extras:
@@ -33,63 +23,6 @@ class Extras:
         self.shaved: Shaved | None = None
         self.seconds = 0.0
         self.skipped: list[str] = []  # a line each: a section not computed, and why
-
-    def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
-        start = time.perf_counter()
-        if len(prog.primitives) > DEFAULT.routine_max_primitives:
-            self.skipped.append(f"identifiability: not analysed in solve for a program of "
-                                f"{len(prog.primitives)} primitives (run `calibc identify`)")
-            return
-        try:
-            self.info = analyse(prog)
-        except CalError:  # no nominal values to linearize at: say nothing rather than guess
-            return
-        self.combinations = combination_enclosures(prog, self.info, res.lo, res.hi, use_lp,
-                                                   pieces=list(res.pieces),
-                                                   known=list(res.combinations))
-        self.seconds += time.perf_counter() - start
-
-    def least_squares(self, prog: Program, res: Solution) -> None:
-        start = time.perf_counter()
-        ind = independents(prog)
-        mid = 0.5 * (res.lo[ind] + res.hi[ind])
-        self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
-        self.seconds += time.perf_counter() - start
-
-    def inner_bounds(self, prog: Program, res: Solution, asked: bool = False) -> None:
-        """Certified inner bounds, at every size; unless `asked`, not after the hc4 strategy
-        (a quick look, whose loose enclosure takes the candidate points many corrections
-        each: the inner bounds cost 10-15x its solve)."""
-        if not asked and res.strategy == "hc4":
-            self.skipped.append("inner bounds: not computed by default after --strategy hc4 "
-                                "(--inner computes them)")
-            return
-        # the inner bounds only add to a result proven already: a numerical failure of
-        # theirs is reported as such, and never costs the user the result
-        try:
-            self.inner = inner_bounds(prog, res.lo, res.hi, res.starts)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
-            self.skipped.append(f"inner bounds: not computed ({type(err).__name__}: {err})")
-            return
-        self.seconds += self.inner.seconds
-
-    def shave(self, prog: Program, res: Solution, count: int | None = None,
-              tol: float = 1e-5, max_sweeps: int = 1000) -> Solution:
-        """`res` with the ends of its loosest unknowns contracted towards the inner bounds
-        (strategy/shave.py), or `res` itself: no inner bounds, or none worth it. `count`: the
-        loosest unknowns at most, whatever their ratio; if None, settings.shave_unknowns above
-        settings.shave_above within a time budget of settings.shave_share of the solve's."""
-        if self.inner is None or not self.inner.consistent or count == 0:
-            if count and self.inner is not None:
-                self.skipped.append("shaving: no certified inner bounds to shave towards")
-            return res
-        # (asked for a count: the loosest, whatever their ratio)
-        settings = (DEFAULT if count is None
-                    else replace(DEFAULT, shave_unknowns=count, shave_above=1.0))
-        budget = DEFAULT.shave_share * res.seconds if count is None else None
-        shaved, self.shaved = shave(prog, res, self.inner.lo, self.inner.hi, settings, budget,
-                                    tol, max_sweeps)
-        return shaved
 
     def inner_of(self, name: str) -> tuple[float, float] | None:
         """The certified inner interval of an unknown (None: none certified, or not asked)."""

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import BINDING, MinError
+from calib_dsl.outliers.conflict import Conflict
 
 
 def render_min_error(r: MinError) -> str:

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.analysis.predict import Prediction
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.studies.predict import Prediction
 
 
 def widths(p: Prediction) -> dict[str, float | None]:

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import hashlib
 
-from calib_dsl.analysis.robot_frames import RobotTable
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.report.decimals import clean
 from calib_dsl.report.dh_convert import converted
 from calib_dsl.report.urdf import frame_matrix, rpy_of, scales
+from calib_dsl.studies.robot_frames import RobotTable
 
 LINKS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 

@@ -24,10 +24,10 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from calib_dsl.analysis.robot_frames import FrameRow, RobotTable
 from calib_dsl.elaborate.units import factor
 from calib_dsl.report.decimals import clean
 from calib_dsl.report.export import plus_minus
+from calib_dsl.studies.robot_frames import FrameRow, RobotTable
 
 
 def scales(units: dict[str, str]) -> dict[str, float]:

@@ -3,27 +3,29 @@
 from __future__ import annotations
 
 from calib_dsl.analysis.leverage import heavy_rows
-from calib_dsl.analysis.outlier_rows import data_rows
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.rows import data_rows
 from calib_dsl.report.rows import narrowed, parameter_rows
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.solution import Solution
 
 
-def solve_warnings(prog: Program, res: Solution, model: Model | None = None) -> list[str]:
+def solve_warnings(prog: Program, res: Solution, model: Model | None = None,
+                   most_primitives: int = Settings.routine_max_primitives) -> list[str]:
     """What a user must not miss about a consistent result: no parameter narrowed, or some
     kept their whole search domain (the data did not narrow them), or a parameter that one
     data row carries (with the model: its rows named)."""
     if res.status == "infeasible":
         return []
-    return _domains(prog, res) + (_leverage(prog, res, model) if model is not None else [])
+    heavy = _leverage(prog, res, model, most_primitives) if model is not None else []
+    return _domains(prog, res) + heavy
 
 
-def _leverage(prog: Program, res: Solution, model: Model) -> list[str]:
+def _leverage(prog: Program, res: Solution, model: Model, most_primitives: int) -> list[str]:
     """A parameter whose estimate one data row carries: a fault there would move the result,
     not show as an inconsistency."""
-    if not model.tables or len(prog.primitives) > DEFAULT.routine_max_primitives:
+    if not model.tables or len(prog.primitives) > most_primitives:
         return []
     heavy = heavy_rows(prog, res.lo, res.hi)
     if not heavy:

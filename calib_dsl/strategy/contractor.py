@@ -2,20 +2,23 @@
 
 A contractor takes a box (lo, hi over the program's slots) and returns an `Outcome`: a box
 holding every solution of the given one, or the proof that there is none (`emptied`), with
-the work it did. Strategies compose them: `Sequence` applies its steps in order, each from
-the box the one before left, and stops at the first that proves the box empty (the way
-interval libraries compose contractors, e.g. IBEX's CtcCompo).
+the work it did. Strategies compose them as interval libraries do (IBEX, codac): `a & b`
+is a `Sequence` (IBEX's CtcCompo), which applies its steps in order, each from the box the
+one before left, and stops at the first that proves the box empty; `FixPoint(c, ratio)`
+(CtcFixPoint) applies c again while some unknown narrows by more than `ratio` of its width.
+`with_budget(sweeps)` is the same contractor allowed that many propagation sweeps.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass, is_dataclass, replace
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Stop
 from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import Result, propagate
@@ -63,6 +66,21 @@ class Contractor(Protocol):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome: ...
 
+    def with_budget(self, sweeps: int) -> Contractor: ...
+
+    def __and__(self, other: Contractor) -> Sequence: ...
+
+
+class Composable:
+    """What every contractor shares: `a & b`, the sequence a then b, and `with_budget`, which
+    a contractor that propagates overrides (one that does not spends no sweeps: itself)."""
+
+    def with_budget(self, sweeps: int) -> Contractor:
+        return self  # type: ignore[return-value]
+
+    def __and__(self, other: Contractor) -> Sequence:
+        return Sequence((self, other))  # type: ignore[arg-type]
+
 
 def from_propagation(res: Result) -> Outcome:
     """The outcome of one call of the propagator."""
@@ -73,7 +91,7 @@ def from_propagation(res: Result) -> Outcome:
 
 
 @dataclass(frozen=True)
-class Propagation:
+class Propagation(Composable):
     """Forward-backward propagation (hc4) to the fixed point, or until a sweep contracts
     every declared unknown by less than `tol`."""
 
@@ -86,9 +104,12 @@ class Propagation:
         return from_propagation(propagate(self.prog, tol=self.tol, max_sweeps=self.max_sweeps,
                                           lo=lo, hi=hi))
 
+    def with_budget(self, sweeps: int) -> Propagation:
+        return replace(self, max_sweeps=sweeps)
+
 
 @dataclass(frozen=True)
-class Sequence:
+class Sequence(Composable):
     """Each step from the box the one before left; the work of all of them. The outcome is
     the last step's, with the `stop` of the last step that propagated (a step that did not
     propagate says stop=""). With `max_sweeps`, the sweeps of all the steps together are
@@ -109,10 +130,9 @@ class Sequence:
             if self.max_sweeps is not None:
                 left = self.max_sweeps - work.sweeps
                 if left <= 0:
-                    stop = "max sweeps"
+                    stop = Stop.MAX_SWEEPS
                     break
-                if is_dataclass(step) and hasattr(step, "max_sweeps"):
-                    step = replace(step, max_sweeps=left)  # type: ignore[type-var]
+                step = step.with_budget(left)
             out = step.contract(out.lo, out.hi)
             work, stop = work + out.work, out.stop or stop
             if self.history is not None and not out.empty:
@@ -122,3 +142,48 @@ class Sequence:
             if self.progress is not None:
                 self.progress(step.name, out.lo, out.hi)
         return replace(out, work=work, stop=stop)
+
+    def with_budget(self, sweeps: int) -> Sequence:
+        return replace(self, max_sweeps=sweeps)
+
+    def __and__(self, other: Contractor) -> Sequence:
+        """This sequence with one more step (options kept), or a sequence of it and `other`
+        where this one reports (progress, history) or caps sweeps of its own."""
+        plain = self.max_sweeps is None and self.progress is None and self.history is None
+        return (replace(self, steps=(*self.steps, other)) if plain
+                else Sequence((self, other)))
+
+
+@dataclass(frozen=True)
+class FixPoint(Composable):
+    """`ctc` applied again from the box it left while some slot narrows by more than `ratio`
+    of its width (relative to the box before that application), at most `most` times; the
+    work of all of them. `progress` is told the box after each application, labelled
+    `label` and its number."""
+
+    ctc: Contractor
+    ratio: float
+    most: int
+    name: str = "fixed point"
+    progress: Meter | None = None
+    label: str = "round"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        out, work = Outcome(lo, hi, ""), Work()
+        for k in range(1, self.most + 1):
+            nxt = self.ctc.contract(out.lo, out.hi)
+            work = work + nxt.work
+            if nxt.empty:
+                return replace(nxt, work=work)
+            old = out.hi - out.lo
+            out = nxt
+            if self.progress is not None:
+                self.progress(f"{self.label} {k}", out.lo, out.hi)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                gained = np.where(old > 0, 1.0 - (out.hi - out.lo) / old, 0.0)
+            if not np.any(gained > self.ratio):
+                break
+        return replace(out, work=work)
+
+    def with_budget(self, sweeps: int) -> FixPoint:
+        return replace(self, ctc=self.ctc.with_budget(sweeps))

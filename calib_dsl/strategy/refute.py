@@ -28,12 +28,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calib_dsl.analysis.lsq import linearized
-from calib_dsl.analysis.outlier_rows import data_rows
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
+from calib_dsl.outliers.rows import data_rows
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings

@@ -25,8 +25,9 @@ from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.group import make_groups
 from calib_dsl.ir.primitives import Primitive, Slots
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import SlotKind
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 
 
 @dataclass
@@ -41,16 +42,17 @@ class Reparametrized:
     free: list[int] = field(default_factory=list)
 
 
-def along_combinations(prog: Program, s: Settings = DEFAULT) -> Reparametrized | None:
+def along_combinations(prog: Program, s: Settings | None = None) -> Reparametrized | None:
     """The program with one new unknown per identifiable combination of each group of
     parameters the data cannot separate (identify.py, at the middle of the search domains),
     each replacing one member (its pivot), which becomes computed from it. None when there
     is no such group, or no analysis (no finite domains, a Jacobian without finite values, a
     program over `routine_max_primitives`, where the analysis would cost more than it
     saves)."""
+    s = s or Settings()
     if len(prog.primitives) > s.routine_max_primitives:
         return None  # the analysis would cost more than it can save
-    info = analyse_design(prog)
+    info = analyse_design(prog, s.rank_tol)
     if info is None:
         return None
     slot_of = dict(zip(info.names, independents(prog).tolist(), strict=True))
@@ -67,7 +69,7 @@ def along_combinations(prog: Program, s: Settings = DEFAULT) -> Reparametrized |
     return _rewritten(prog, combos)
 
 
-def _echelon(rows: np.ndarray, snap: float = DEFAULT.snap) -> list[tuple[int, np.ndarray]]:
+def _echelon(rows: np.ndarray, snap: float) -> list[tuple[int, np.ndarray]]:
     """The combinations as rows with a pivot each (coefficient exactly 1, 0 in the other
     rows), by Gauss-Jordan elimination with partial pivoting; coefficients next to an integer
     snapped to it (any coefficients give an exact change of unknowns; simple ones keep it
@@ -151,7 +153,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
         pivots.append(int(slots[p]))
         out.free += [int(slots[k]) for k in range(len(slots)) if k != p and coef[k] != 0.0]
     for p in pivots:  # computed now: a temporary, no longer an unknown
-        kinds[p] = "temp"
+        kinds[p] = SlotKind.TEMP
     _name_new_temporaries(names, out.old_slots)
     depth = 1 + max(step for _, _, step in prims)
     first = len(prog.primitives)

@@ -28,12 +28,13 @@ A round is four named steps:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Stop
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.progress import Meter
@@ -46,15 +47,15 @@ from calib_dsl.relax.quadratic_readings import FAMILY as READINGS_FAMILY
 from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
-from calib_dsl.settings import Settings
-from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.settings import LPSettings, Settings
+from calib_dsl.strategy.contractor import Composable, Outcome, Work
 from calib_dsl.strategy.history import History
 
 SECOND_ORDER = FAMILY  # LinearRelaxation.family of quadratic.relax_quadratic's
 
 
 @dataclass(frozen=True)
-class LPRounds:
+class LPRounds(Composable):
     """The rounds of LPs from a box (a contractor). `certs` holds the multipliers and bases
     of the LPs solved (updated in place: a split's pieces start from the whole box's). With
     `cells` the rounds start with the errors as LP columns (a box near its end); the slots
@@ -70,7 +71,7 @@ class LPRounds:
     max_rounds: int
     second_order: bool = True
     cells: bool = False
-    threads: int | None = None  # LP threads (settings.lp_workers unless given)
+    threads: int | None = None  # LP threads (settings.lp.workers unless given)
     unsolved: np.ndarray | None = None
     history: History | None = None
     # the loop's rows whose constraints the relaxations take (all if None): a working set
@@ -80,7 +81,7 @@ class LPRounds:
     progress: Meter | None = None  # told the box after each round
     # straight to the fine second-order rounds, the readings' errors as LP columns where the
     # program has them (else every product tied by McCormick's inequalities): a slice of a
-    # solved box (strategy/shave.py) is already where first order has nothing left to give
+    # solved box (inner/shave.py) is already where first order has nothing left to give
     fine_start: bool = False
     # with fine_start, which fine rounds begin: "readings" (the readings' errors as LP
     # columns, McCormick's instead where the program has none), "mccormick" (every product
@@ -91,6 +92,9 @@ class LPRounds:
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return _Rounds(self, lo, hi).run()
+
+    def with_budget(self, sweeps: int) -> LPRounds:
+        return replace(self, max_sweeps=sweeps)
 
 
 @dataclass
@@ -159,7 +163,7 @@ class _Rounds:
     def run(self) -> Outcome:
         while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
             if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
-                self.stop = "max sweeps"
+                self.stop = Stop.MAX_SWEEPS
                 break
             this = self.relaxation()
             if this is None:
@@ -197,7 +201,8 @@ class _Rounds:
             if first is None:
                 return None
         wide = order2 and (first is None or first.curvature > s.wide)
-        quad = relax_quadratic(prog, self.lo, self.hi, rows=self.spec.rows) if wide else None
+        quad = (relax_quadratic(prog, self.lo, self.hi, s.prune, rows=self.spec.rows) if wide
+                else None)
         if quad is None and first is None:  # (cannot happen: a first round built them)
             return None
         this = _Round(first, quad, True)
@@ -225,13 +230,12 @@ class _Rounds:
         if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
             certs.box = (self.lo.copy(), self.hi.copy())
         self.skip = self.skip | self.never
-        threads = self.spec.threads or s.lp_workers
+        lp = replace(s.lp, workers=self.spec.threads or s.lp.workers)
         if this.quad is None:
-            return _bounds(this.target, n, self.skip, certs, this.fresh, threads=threads,
-                           iterations=s.lp_iterations, seconds=s.lp_seconds)
+            return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, threads=threads,
-                         iterations=s.wide_iterations, seconds=s.wide_seconds,
+        wide = replace(lp, iterations=s.wide_iterations, seconds=s.wide_seconds)
+        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, wide,
                          solver=s.wide_solver, probes=s.wide_probes,
                          own_bases=s.wide_own_bases)
         tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
@@ -247,7 +251,7 @@ class _Rounds:
             k = int(np.flatnonzero(new_lo > new_hi)[0])
             self.emptied = Emptied(self.spec.prog.slots.names[int(ind[k])], None,
                                    "the linear relaxation of all constraints together")
-            self.stop = "empty"
+            self.stop = Stop.EMPTY
             self.work = self.work + Work(lp_rounds=int(this.fresh))
             return None
         gains = _gains(self.hi[ind] - self.lo[ind], new_hi - new_lo)
@@ -388,14 +392,14 @@ class _Rounds:
 
 
 def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
-            fresh: bool, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
+            fresh: bool, lp: LPSettings, **lp_options: Any) -> tuple[np.ndarray, np.ndarray]:
     """Certified bounds on the relaxation's n main columns: from the multipliers kept in
     `certs` (a matrix product), and unless only those are asked for, from the LPs too (the
     tighter of each pair is kept, and the LPs' multipliers replace the old ones)."""
-    lo, hi = reused_bounds(rel, np.eye(n), certs)
+    lo, hi = reused_bounds(rel, np.eye(n), certs, lp.dense_entries)
     if not fresh:
         return lo, hi
-    tl, th = lp_bounds(rel, np.eye(n), skip=skip, certificates=certs, **lp_options)
+    tl, th = lp_bounds(rel, np.eye(n), lp, skip=skip, certificates=certs, **lp_options)
     return np.maximum(lo, tl), np.minimum(hi, th)
 
 
@@ -409,7 +413,7 @@ def _narrowed_bounds(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray, th: n
     for _ in range(s.narrowed_rounds):
         if np.any(tl > th):
             break  # no solution: the caller says so
-        lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs)
+        lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs, s.lp.dense_entries)
         lo, hi = np.maximum(lo, tl), np.minimum(hi, th)
         gain = _gains(th - tl, hi - lo).max(initial=0.0)
         tl, th = lo, hi

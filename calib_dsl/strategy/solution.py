@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.lp.starts import Starts
+from calib_dsl.inner.starts import Starts
+from calib_dsl.ir.status import Status
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
@@ -33,8 +34,8 @@ class Solution:
     starts: Starts | None = None
 
     @property
-    def status(self) -> str:
-        return "infeasible" if self.emptied is not None else "contracted"
+    def status(self) -> Status:
+        return Status.INFEASIBLE if self.emptied is not None else Status.CONTRACTED
 
     @property
     def sweeps(self) -> int:

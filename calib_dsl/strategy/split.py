@@ -11,7 +11,7 @@ piece's relaxation is narrower than the whole box's (`worth_splitting`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,13 +22,13 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.cluster import ClusterPieces, cluster_pieces
-from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
+from calib_dsl.strategy.contractor import Composable, Outcome, Propagation, Work
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.workers import Children
 
 
 @dataclass(frozen=True)
-class Split:
+class Split(Composable):
     """The split as a contractor: the box unchanged when nothing is worth cutting."""
 
     prog: Program
@@ -38,6 +38,9 @@ class Split:
     max_sweeps: int
     uncut: np.ndarray | None = None  # slots never cut (members left free by reparametrize)
     name: str = "split"
+
+    def with_budget(self, sweeps: int) -> Split:
+        return replace(self, max_sweeps=sweeps)
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         s = self.settings
@@ -77,12 +80,10 @@ def refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,
                  max_sweeps: int, s: Settings, certs: Certificates) -> Outcome:
     """One piece of a split box: propagation, then rounds of LPs of its own (starting from the
     whole box's last multipliers and bases), then propagation to the fixed point."""
-    steps = Sequence((
-        Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
-        LPRounds(prog, s, certs, tol, max_sweeps, s.split_rounds, second_order=False,
-                 cells=True, threads=s.piece_lp_threads),
-        Propagation(prog, tol, max_sweeps),
-    ))
+    steps = (Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)
+             & LPRounds(prog, s, certs, tol, max_sweeps, s.split_rounds, second_order=False,
+                        cells=True, threads=s.piece_lp_threads)
+             & Propagation(prog, tol, max_sweeps))
     return steps.contract(plo, phi)
 
 
@@ -115,7 +116,7 @@ def worth_splitting(prog: Program, lo: np.ndarray, hi: np.ndarray, s: Settings,
     nothing. The slots `uncut` are not candidates."""
     if not np.any(_left(prog, _cuttable(prog, uncut), lo, hi) > s.left_wide):
         return None  # nothing left wide: no need for the analysis (an SVD)
-    info = analyse_design(prog)
+    info = analyse_design(prog, s.rank_tol)
     if info is None:
         return None  # no nominal values, or a Jacobian without finite values there
     every = independents(prog)

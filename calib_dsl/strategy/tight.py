@@ -13,15 +13,16 @@ same solutions, a tighter relaxation.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from calib_dsl.inner.starts import from_certificates
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
-from calib_dsl.lp.starts import from_certificates
 from calib_dsl.progress import Meter, Progress
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.reparametrize import along_combinations, back, pivots
@@ -44,12 +45,13 @@ def solve_hc4(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
 
 
 def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
-                settings: Settings = DEFAULT, second_order: bool = True, split: bool = True,
+                settings: Settings | None = None, second_order: bool = True, split: bool = True,
                 combinations: bool = True, progress: Progress | None = None) -> Solution:
     """The tight strategy on `prog` (in unknowns along the identifiable combinations with
     `combinations`): a box of `prog`, with the bounds of each combination solved for, and
     the widths of `prog`'s declared unknowns after each step (its history). `progress` is
     told the box's total width after each step and each round of LPs."""
+    settings = settings or Settings()
     start = time.perf_counter()
     # (a program in new unknowns keeps the old slots at their indices: the same ones recorded)
     history = History(np.array(prog.slots.declared, dtype=np.int64), start)
@@ -61,8 +63,8 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
     uncut = np.array(rep.free, dtype=np.int64) if rep is not None else None
     meter = _meter(target, progress, start)
     certs = Certificates()
-    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut, meter,
-                        history, certs)
+    steps = tight_steps(target, tol, max_sweeps, settings, second_order, split, uncut,
+                        Watch(meter, history, certs))
     out = steps.contract(target.slots.lo.copy(), target.slots.hi.copy())
     starts = from_certificates(certs, independents(target),
                                pivots(rep) if rep is not None else None)
@@ -77,16 +79,24 @@ def solve_tight(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
                     out.emptied, out.split, pieces, combos, history, starts)
 
 
+@dataclass(frozen=True)
+class Watch:
+    """What the tight strategy's steps report to and leave behind: the progress meter, the
+    history (the box after each step and each round), and the certificates of the LPs
+    solved (filled in place; a split's pieces start from the whole box's)."""
+
+    progress: Meter | None = None
+    history: History | None = None
+    certs: Certificates = field(default_factory=Certificates)
+
+
 def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
                 second_order: bool = True, split: bool = True,
-                uncut: np.ndarray | None = None, progress: Meter | None = None,
-                history: History | None = None,
-                certs: Certificates | None = None) -> Sequence:
+                uncut: np.ndarray | None = None, watch: Watch | None = None) -> Sequence:
     """The tight strategy's contractors, in order. The rounds and the split share the
-    certificates of the LPs solved (`certs`, filled in place; a split's pieces start from
-    the whole box's); with `history`, the box after each step and each round is recorded
-    there."""
-    certs = certs if certs is not None else Certificates()
+    certificates of the LPs solved (`watch.certs`)."""
+    watch = watch or Watch()
+    certs, progress, history = watch.certs, watch.progress, watch.history
     steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
     # (on a working set of the rows, grown by the rows the optima violate: working.py)
     steps.append(WorkingRows(prog, s, certs, tol, max_sweeps, second_order, unsolved=uncut,

@@ -22,17 +22,18 @@ import numpy as np
 from calib_dsl.analysis.certify_point import check_point
 from calib_dsl.analysis.chebyshev import chebyshev, with_readings
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.inner import inner_bounds
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Consistency
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, far_rows
 from calib_dsl.strategy.solution import Solution
 
-CONSISTENT, INCONSISTENT, UNDECIDED = "consistent", "inconsistent", "undecided"
+CONSISTENT, INCONSISTENT, UNDECIDED = Consistency
 LSQ_EVALUATIONS = 100  # of the least-squares fit from the result's middle (near the solutions)
 EXIT_CODES = {CONSISTENT: 0, INCONSISTENT: 1, UNDECIDED: 4}  # docs/decisions/verdicts.md
 
@@ -41,7 +42,7 @@ EXIT_CODES = {CONSISTENT: 0, INCONSISTENT: 1, UNDECIDED: 4}  # docs/decisions/ve
 class Verdict:
     """How a solve ended, what decided it, and the effort spent beyond the solve."""
 
-    verdict: str  # CONSISTENT | INCONSISTENT | UNDECIDED
+    verdict: Consistency  # CONSISTENT | INCONSISTENT | UNDECIDED
     reason: str  # one line: what proved it, or what was tried
     seconds: float = 0.0  # spent deciding (not the solve's, nor the inner bounds')
     budget: float | None = None  # what it was allowed (None: no effort was needed)
@@ -123,7 +124,7 @@ class Effort:
 
     model: Model | None
     load: RowLoader | None
-    settings: Settings = DEFAULT
+    settings: Settings = Settings()
     tol: float = 1e-5
     max_sweeps: int = 1000
     command: str = "calibc solve MODEL"  # how the user ran the solve, for the next command
@@ -149,7 +150,7 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
                             "constraint (interval evaluation at the point)",
                             time.perf_counter() - start, largest=largest)
     if effort is None or effort.settings.verdict_share <= 0:
-        far = far_rows(prog, fit, DEFAULT) if fit is not None and effort else []
+        far = far_rows(prog, fit, effort.settings) if fit is not None and effort else []
         return res, _undecided(prog, res, largest, (), time.perf_counter() - start, None,
                                effort, far)
     budget = effort.settings.verdict_share * res.seconds

@@ -19,7 +19,7 @@ the working set only chooses which rows the LPs see.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,14 +30,14 @@ from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
-from calib_dsl.strategy.contractor import Outcome, Work
+from calib_dsl.strategy.contractor import Composable, Outcome, Work
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.relaxed_check import violated_rows
 from calib_dsl.strategy.rounds import LPRounds
 
 
 @dataclass(frozen=True)
-class WorkingRows:
+class WorkingRows(Composable):
     """The rounds on a working set of rows, grown by the check (a contractor). `certs`: the
     solve's certificates, given to the rounds when the set holds every row."""
 
@@ -53,6 +53,9 @@ class WorkingRows:
     name: str = "rounds of LPs"
     max_rounds: int | None = None  # per pass (settings.max_rounds if None)
     fine_start: bool = False  # LPRounds.fine_start: a slice of a solved box (shave.py)
+
+    def with_budget(self, sweeps: int) -> WorkingRows:
+        return replace(self, max_sweeps=sweeps)
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         s, work = self.settings, Work()
@@ -105,7 +108,7 @@ class WorkingRows:
         found = violated_rows(self.prog, fine, outside)
         if not found:
             return np.zeros(0, dtype=np.int64)
-        per = max(1, self.settings.rows_added // len(found))
+        per = max(1, self.settings.lp.rows_added // len(found))
         picked = [_first_distinct(row[np.argsort(-excess)], per) for row, excess in found]
         return np.unique(np.concatenate(picked)).astype(np.int64)
 
@@ -132,7 +135,7 @@ class WorkingRows:
                 bad = (c.excess > 0) & ch.kept(c.slots) & (c.slots >= lay.shared)
                 row = (ch.slots(c.slots[bad]) - lay.shared) // max(lay.width, 1)
                 found[k].append((row, c.excess[bad]))
-        per = max(1, self.settings.rows_added // len(points))
+        per = max(1, self.settings.lp.rows_added // len(points))
         picked = []
         for parts in found:
             if parts:

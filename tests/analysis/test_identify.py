@@ -9,11 +9,11 @@ import pytest
 
 from calib_dsl.analysis.identify import analyse, combination_enclosures, format_combination, render
 from calib_dsl.analysis.lsq import estimate
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
+from calib_dsl.studies.simulate import simulate
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 

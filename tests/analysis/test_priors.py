@@ -90,7 +90,7 @@ def test_an_estimate_started_on_a_sample_is_the_estimate_of_all_rows(tmp_path, m
     from pathlib import Path
 
     from calib_dsl.analysis import lsq
-    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.studies.simulate import simulate
 
     model = Path(__file__).resolve().parents[2] / "models" / "ur10_simulated.cal"
     table = tmp_path / "sim.csv"

@@ -13,11 +13,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.evaluate import evaluate
 from calib_dsl.elaborate import chains as robot
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
+from calib_dsl.studies.evaluate import evaluate
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"

@@ -11,12 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.evaluate import evaluate
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.chains import FORMULATIONS, Frame, forward_point, standard_dh, xyz_euler
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
 from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.studies.evaluate import evaluate
 
 
 # -- an independent reference: 4x4 matrices in numpy ---------------------------------------

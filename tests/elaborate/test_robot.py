@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.evaluate import evaluate
-from calib_dsl.analysis.kinematics import RX90_PARAMS, RX90_TOOL, forward, rx90_frames
 from calib_dsl.elaborate.chains import FORMULATIONS, Frame, forward_point
 from calib_dsl.ir.dag import Dag
+from calib_dsl.studies.evaluate import evaluate
+from calib_dsl.studies.kinematics import RX90_PARAMS, RX90_TOOL, forward, rx90_frames
 
 # A joint: (alpha, d, theta0, r0, prismatic); a None parameter is the structural constant 0.
 angle = st.one_of(st.none(), st.floats(-math.pi, math.pi))

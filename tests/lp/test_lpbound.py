@@ -10,7 +10,6 @@ Every comparison "bound >= c.x" is exact (fractions), never up to a tolerance.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import warnings
 from dataclasses import replace
@@ -23,7 +22,6 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linprog
 
-from calib_dsl import settings as tuning
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import (
     Certificates,
@@ -34,6 +32,7 @@ from calib_dsl.lp.certify import (
     reused_bounds,
 )
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows, transpose_times
+from calib_dsl.settings import LPSettings
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -41,18 +40,6 @@ SETTINGS = settings(max_examples=150, deadline=None,
 # strategy's wide rounds): the bounds are certified either way
 SOLVERS = st.sampled_from(["simplex", "ipm"])
 GAMMA = 1e-13  # generous float rounding budget of a short dot product (n * 2^-53, n < 100)
-
-
-@contextlib.contextmanager
-def tuned(**fields):
-    """The process-wide settings with some fields changed, for the LP internals that read
-    them (calib_dsl.tuning.DEFAULT), restored after."""
-    saved = tuning.DEFAULT
-    tuning.DEFAULT = replace(saved, **fields)
-    try:
-        yield
-    finally:
-        tuning.DEFAULT = saved
 
 
 # -- exact arithmetic ---------------------------------------------------------------------------
@@ -191,12 +178,11 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
     indptr = np.concatenate([[0], np.cumsum(2 * np.bincount(r, minlength=m))])
     halves = LinearRelaxation(Rows(np.repeat(A[r, k] / 2, 2), np.repeat(k, 2), indptr, A.shape),
                               b, lo, hi, n)
-    dense_limit = tuning.DEFAULT.dense_entries
+    dense_limit = LPSettings().dense_entries
     for limit, relax in ((dense_limit, rel), (0, rel), (dense_limit, halves)):
-        with tuned(dense_entries=limit):
-            for name, bound in zip(guesses, certified_maxes(relax, C, Y), strict=True):
-                assert not math.isnan(bound), name
-                assert bound == math.inf or fr(bound) >= best, (name, limit, float(best))
+        for name, bound in zip(guesses, certified_maxes(relax, C, Y, limit), strict=True):
+            assert not math.isnan(bound), name
+            assert bound == math.inf or fr(bound) >= best, (name, limit, float(best))
     if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
         # The exact dual gives the optimum itself, up to the rounding pad.
         bound = certified_max(rel, c, y_hat)
@@ -362,8 +348,8 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
     bounds, certs = {}, {}
     for workers in (1, 2):
         certs[workers] = Certificates()
-        bounds[workers] = lp_bounds(rel, np.eye(n), certificates=certs[workers], probes=True,
-                                    threads=workers)
+        bounds[workers] = lp_bounds(rel, np.eye(n), LPSettings(workers=workers),
+                                    certificates=certs[workers], probes=True)
     points = feasible_samples(rng, A, b, lo, hi, [x0], count=100)
     scale = 1.0 + np.maximum(np.abs(lo), np.abs(hi))
     for i in range(n):
@@ -375,8 +361,7 @@ def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
         for sign in (1.0, -1.0):
             assert (i, sign) in certs[2].basis
     tasks = box_bounds(rel, np.eye(n))[2]
-    probes = np.array([p for p, _ in _probe_points(rel, tasks, tuning.DEFAULT.lp_iterations,
-                                                   tuning.DEFAULT.lp_seconds)])
+    probes = np.array([p for p, _ in _probe_points(rel, tasks, LPSettings())])
     assert len(probes) >= 2
     assert np.all(probes[:, unseen].max(axis=0) == hi[unseen])
     assert np.all(probes[:, unseen].min(axis=0) == lo[unseen])
@@ -751,11 +736,10 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver,
     lo, hi = np.full(n, -3.0), np.full(n, 3.0)
     rel = LinearRelaxation(rows_of(A), b, lo, hi, n, b_lo=b_lo)
     objectives = np.vstack([np.eye(n), rng.normal(size=(2, n))])
-    with tuned(rows_at_once=10**9):
-        full = lp_bounds(rel, objectives)
-    with tuned(rows_at_once=4, rows_added=int(rng.integers(1, 6)),  # many small passes
-               tall_primal_columns=1 if primal else 10**9):
-        gen = lp_bounds(rel, objectives, solver=solver)
+    full = lp_bounds(rel, objectives, LPSettings(rows_at_once=10**9))
+    small = LPSettings(rows_at_once=4, rows_added=int(rng.integers(1, 6)),  # many small passes
+                       tall_primal_columns=1 if primal else 10**9)
+    gen = lp_bounds(rel, objectives, small, solver=solver)
     scale = 1e-7 * (1 + np.abs(objectives).sum(axis=1) * 3)
     assert np.all(np.abs(gen[0] - full[0]) <= scale), (gen[0], full[0])
     assert np.all(np.abs(gen[1] - full[1]) <= scale), (gen[1], full[1])
@@ -780,15 +764,12 @@ def test_row_generation_from_the_last_rounds_binding_rows(seed, n, m, primal):
     keys = np.sort(rng.choice(10 * m, size=m, replace=False))
     rel.keys, rel.scale, rel.family, rel.col_keys = keys, np.ones(n), "f", np.arange(n)
     certs = Certificates()
-    small = dict(rows_at_once=4, rows_added=int(rng.integers(1, 6)),
-                 tall_primal_columns=1 if primal else 10**9)
-    with tuned(**small):
-        lp_bounds(rel, np.eye(n), certificates=certs)
+    small = LPSettings(rows_at_once=4, rows_added=int(rng.integers(1, 6)),
+                       tall_primal_columns=1 if primal else 10**9)
+    lp_bounds(rel, np.eye(n), small, certificates=certs)
     later, x1 = nearby_lp(rng, rel, x0, keys)
-    with tuned(rows_at_once=10**9):
-        full = lp_bounds(later, np.eye(n))
-    with tuned(**small):
-        gen = lp_bounds(later, np.eye(n), certificates=certs)
+    full = lp_bounds(later, np.eye(n), LPSettings(rows_at_once=10**9))
+    gen = lp_bounds(later, np.eye(n), small, certificates=certs)
     span = 1e-7 * (1 + np.abs(later.lo) + np.abs(later.hi))
     assert np.all(np.abs(gen[0] - full[0]) <= span), (gen[0], full[0])
     assert np.all(np.abs(gen[1] - full[1]) <= span), (gen[1], full[1])
@@ -815,29 +796,28 @@ def test_row_generation_starts_where_the_same_objectives_bound(monkeypatch):
     monkeypatch.setattr(bounds, "load", lambda r, rows=None, *a, **k: (
         loaded.append(None if rows is None else np.array(rows)), real_load(r, rows, *a, **k))[1])
     certs = Certificates()
-    with tuned(rows_at_once=4):
-        first = lp_bounds(rel, np.eye(3), certificates=certs, threads=1)
-        assert np.array_equal(loaded[-1], starting_rows(rel))
-        again = lp_bounds(rel, np.eye(3), certificates=certs, threads=1)
-        assert np.array_equal(loaded[-1], [0, 1, 2])  # the rows that bound x_j from above
-        assert np.array_equal(first[1], again[1]) and np.all(again[1] <= 1.0 + 3 / m)
-        other = replace(rel, family="g")
-        lp_bounds(other, np.eye(3), certificates=certs.copy(), threads=1)
-        assert np.array_equal(loaded[-1], starting_rows(rel))
-        # another family whose keys mean the same rows (LinearRelaxation.key_space) starts
-        # from them; a different key space, or none, does not
-        spaced = Certificates()
-        lp_bounds(replace(rel, key_space="s"), np.eye(3), certificates=spaced, threads=1)
-        for space, rows in (("s", [0, 1, 2]), ("t", starting_rows(rel)),
-                            ("", starting_rows(rel))):
-            lp_bounds(replace(rel, family="g", key_space=space), np.eye(3),
-                      certificates=spaced.copy(), threads=1)
-            assert np.array_equal(loaded[-1], rows), space
+    tall = LPSettings(rows_at_once=4, workers=1)
+    first = lp_bounds(rel, np.eye(3), tall, certificates=certs)
+    assert np.array_equal(loaded[-1], starting_rows(rel))
+    again = lp_bounds(rel, np.eye(3), tall, certificates=certs)
+    assert np.array_equal(loaded[-1], [0, 1, 2])  # the rows that bound x_j from above
+    assert np.array_equal(first[1], again[1]) and np.all(again[1] <= 1.0 + 3 / m)
+    other = replace(rel, family="g")
+    lp_bounds(other, np.eye(3), tall, certificates=certs.copy())
+    assert np.array_equal(loaded[-1], starting_rows(rel))
+    # another family whose keys mean the same rows (LinearRelaxation.key_space) starts
+    # from them; a different key space, or none, does not
+    spaced = Certificates()
+    lp_bounds(replace(rel, key_space="s"), np.eye(3), tall, certificates=spaced)
+    for space, rows in (("s", [0, 1, 2]), ("t", starting_rows(rel)),
+                        ("", starting_rows(rel))):
+        lp_bounds(replace(rel, family="g", key_space=space), np.eye(3), tall,
+                  certificates=spaced.copy())
+        assert np.array_equal(loaded[-1], rows), space
 
 
-def _with_row_generation(rel, objectives):
-    with tuned(rows_at_once=4):
-        return lp_bounds(rel, objectives)
+def _with_row_generation(rel, objectives, **more):
+    return lp_bounds(rel, objectives, LPSettings(rows_at_once=4, **more))
 
 
 def test_row_generation_finds_a_bounding_row_left_out_at_the_start():
@@ -861,8 +841,7 @@ def test_row_generation_on_an_infeasible_tall_lp(primal_from):
     b = np.full(m, 1.0)
     A[13, 0], b[13] = -1.0, -2.0  # ... and x >= 2 in a row left out at the start
     rel = rel_of(A, b, np.array([-10.0]), np.array([10.0]))
-    with tuned(tall_primal_columns=primal_from):
-        lower, upper = _with_row_generation(rel, np.eye(1))
+    lower, upper = _with_row_generation(rel, np.eye(1), tall_primal_columns=primal_from)
     # no point to contain: bounds that cross, the proof of infeasibility (the primal simplex,
     # which tall LPs with many columns run, ends there without it: the dual simplex finds it)
     assert lower[0] > upper[0], (lower, upper)

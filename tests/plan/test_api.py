@@ -16,7 +16,7 @@ ARM = ROOT / "models" / "examples" / "planar_arm.cal"
 
 def test_plan_sweep_and_simulate_at(tmp_path):
     cand = tmp_path / "c.csv"
-    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.studies.simulate import simulate
 
     simulate(ARM, 80, 4, out_csv=cand)
     p = plan.plan(ARM, cand, 4, defines={"e": 0.01}, seed=3)

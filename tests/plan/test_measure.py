@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.analysis.campaign import Campaign
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.plan.configs import read_configurations, table_of
 from calib_dsl.plan.measure import simulate_at
+from calib_dsl.studies.campaign import Campaign
 from tests.cli_run import run
 
 ROOT = Path(__file__).resolve().parents[2]

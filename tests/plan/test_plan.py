@@ -10,13 +10,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.plan.classical import d_optimal, information, log_widths, marginal_exchange
 from calib_dsl.plan.configs import draw_configurations, read_configurations, table_of
 from calib_dsl.plan.planner import Problem, given_rows, linear, plan, sweep
 from calib_dsl.plan.refine import hull_of, refine, rows_of, score
 from calib_dsl.settings import DEFAULT
+from calib_dsl.studies.simulate import simulate
 from tests.cli_run import run
 
 ROOT = Path(__file__).resolve().parents[2]

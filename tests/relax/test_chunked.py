@@ -4,6 +4,8 @@ follows the chunks), the same targets, sources, data rows and cell error bounds.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -39,6 +41,17 @@ def _rows(ev, out) -> dict[int, tuple]:
     return pieces
 
 
+@contextlib.contextmanager
+def chunk_slots(n: int):
+    """Chunks of about n slots while the block runs (a hypothesis test has no monkeypatch)."""
+    saved = chunked_module.CHUNK_SLOTS
+    chunked_module.CHUNK_SLOTS = n
+    try:
+        yield
+    finally:
+        chunked_module.CHUNK_SLOTS = saved
+
+
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(5, 14),
@@ -57,10 +70,10 @@ def test_chunks_give_the_whole_programs_rows(tmp_path_factory, seed, joints, row
     width = prog.rows.width
     small = prog.rows.shared + 2 * width  # two rows a chunk (the last may have one)
     assert len(chunked(prog, small)) == (rows + 1) // 2
-    whole = evaluation(prog, lo, hi, ind, center, point=point, mixed=not point, owners=True,
-                       max_slots=10**9)
-    parts = evaluation(prog, lo, hi, ind, center, point=point, mixed=not point, owners=True,
-                       max_slots=small)
+    with chunk_slots(10**9):
+        whole = evaluation(prog, lo, hi, center, point=point, mixed=not point, owners=True)
+    with chunk_slots(small):
+        parts = evaluation(prog, lo, hi, center, point=point, mixed=not point, owners=True)
     a, b = _rows(whole, whole.run()), _rows(parts, parts.run())
     same(a, b)
     assert np.array_equal(whole.e, parts.e)
@@ -103,10 +116,12 @@ def test_a_subset_of_rows(tmp_path):
     ind = independents(prog)
     lo, hi = prog.slots.lo, prog.slots.hi
     center = 0.5 * (lo[ind] + hi[ind])
-    whole = evaluation(prog, lo, hi, ind, center, owners=True, max_slots=10**9)
+    with chunk_slots(10**9):
+        whole = evaluation(prog, lo, hi, center, owners=True)
     whole_rows = _rows(whole, whole.run())
     pick = np.array([1, 4, 5, 9])
-    part = evaluation(prog, lo, hi, ind, center, owners=True, rows=pick, max_slots=10**9)
+    with chunk_slots(10**9):
+        part = evaluation(prog, lo, hi, center, owners=True, rows=pick)
     part_rows = _rows(part, part.run())
     lay = prog.rows
     ids = {int(r) * len(lay.tables) for r in pick}

@@ -31,7 +31,6 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.simulate import simulate_model, write_csv
 from calib_dsl.arith.projections import forward
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
@@ -42,6 +41,7 @@ from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import constraint_jacobian, relax
+from calib_dsl.studies.simulate import simulate_model, write_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 MARGIN = 1e-13  # float error of evaluating A x in the test (the relaxation's own pad is 1e-9)

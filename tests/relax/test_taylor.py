@@ -296,11 +296,7 @@ def test_no_models_beyond_the_memory_budget(monkeypatch) -> None:
     prog = compile_model(elaborate(ROOT / "models" / "examples" / "planar_arm.cal"))
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     assert taylor.expand(prog, lo, hi) is not None
-    from dataclasses import replace
-
-    from calib_dsl import settings as tuning
-
-    monkeypatch.setattr(tuning, "DEFAULT", replace(tuning.DEFAULT, max_table_bytes=1000.0))
+    monkeypatch.setattr(taylor, "MAX_TABLE_BYTES", 1000.0)
     assert taylor.expand(prog, lo, hi) is None
     assert relax_quadratic(prog, lo, hi) is None
 

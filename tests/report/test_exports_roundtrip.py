@@ -3,7 +3,7 @@ ur_description kinematics by PyYAML, the DH table (standard DH, converted from t
 modified DH) by a parser here; each one's forward kinematics equals the model's at the
 exported point to 1e-9 of the model's units, at random joint angles, for the shipped UR10
 model and the shipped UR5 model. The model's kinematics are composed here by hand from its
-own constants and the exported point (analysis/kinematics.py, modified DH), not from the
+own constants and the exported point (studies/kinematics.py, modified DH), not from the
 export's code."""
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.analysis.kinematics import chain, dh_matrix
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.report.export_point import export_point
+from calib_dsl.studies.kinematics import chain, dh_matrix
 from tests.cli_run import run
 
 ROOT = Path(__file__).resolve().parents[2]

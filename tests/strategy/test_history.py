@@ -11,7 +11,7 @@ from calib_dsl.pipeline import load, solve
 from calib_dsl.report.as_json import result_json
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.history import History
-from calib_dsl.strategy.tight import tight_steps
+from calib_dsl.strategy.tight import Watch, tight_steps
 
 ARM = Path(__file__).resolve().parents[2] / "models" / "examples" / "planar_arm.cal"
 
@@ -42,7 +42,7 @@ def test_recording_changes_no_bound():
     prog = load(ARM)
     boxes = []
     for history in (None, History(np.array(prog.slots.declared))):
-        steps = tight_steps(prog, 1e-5, 1000, DEFAULT, history=history)
+        steps = tight_steps(prog, 1e-5, 1000, DEFAULT, watch=Watch(history=history))
         out = steps.contract(prog.slots.lo.copy(), prog.slots.hi.copy())
         boxes.append((out.lo, out.hi))
     np.testing.assert_array_equal(boxes[0][0], boxes[1][0])

@@ -12,10 +12,10 @@ import pytest
 from click.testing import CliRunner
 
 from calib_dsl import cli
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.pipeline import load, solve
 from calib_dsl.progress import labelled
 from calib_dsl.report.progress_line import describe, progress_line
+from calib_dsl.studies.simulate import simulate
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 

@@ -60,8 +60,6 @@ def test_points_checked_together_get_each_its_own_excess(seed):
 
 
 def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp_path):
-    from calib_dsl.analysis.campaign import Campaign
-    from calib_dsl.analysis.simulate import simulate
     from calib_dsl.compile.chunks import loop_rows, start_rows
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.lp.certify import Certificates
@@ -70,6 +68,8 @@ def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy.relaxed_check import violated_rows
     from calib_dsl.strategy.rounds import LPRounds
+    from calib_dsl.studies.campaign import Campaign
+    from calib_dsl.studies.simulate import simulate
     from tests.test_ur10 import TRACKER, _noisy_simulation_model
 
     table = tmp_path / "sim.csv"

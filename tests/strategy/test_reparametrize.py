@@ -14,12 +14,14 @@ from strategy.test_tight import (
     arm_solved_twice,  # the sibling test module: an arm with parallel axes
 )
 
+from calib_dsl import sections
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.text import render_summary
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.reparametrize import _echelon, _sum_enclosure, along_combinations, back
 from calib_dsl.strategy.tight import solve_tight
 
@@ -100,7 +102,7 @@ def test_solve_reports_the_combination(sum_model) -> None:
     ((text, lo, hi),) = res.combinations
     assert text == "a + b" and lo <= 0.3 <= hi and hi - lo < 1e-4
     extra = Extras()
-    extra.identify(sum_model, res, use_lp=True)
+    sections.identify(extra, sum_model, res, use_lp=True)
     ((shown, a, b),) = extra.combinations  # the solve's bounds, intersected with the box's
     assert shown == "a + b" and lo <= a <= 0.3 <= b <= hi
     assert "guaranteed: a + b in [" in render_summary(sum_model, res, "tight", extra)
@@ -163,7 +165,7 @@ def test_echelon_spans_the_same_combinations(data, k, extra) -> None:
                                        min_size=k, max_size=k)))
     if np.linalg.matrix_rank(rows, tol=1e-6) < k or np.linalg.cond(rows) > 1e6:
         return
-    out = _echelon(rows)
+    out = _echelon(rows, Settings().snap)
     assert len(out) == k
     pivots = [p for p, _ in out]
     assert len(set(pivots)) == k

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.propagate.fixpoint import propagate
 from calib_dsl.strategy.tight import solve_tight
+from calib_dsl.studies.simulate import simulate
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 LENGTHS = ["r0", "d1", "r1", "d3", "r4", "b1x", "b1y", "b1z", "b2x", "b2y", "b2z",
@@ -92,7 +92,7 @@ def test_tight_within_ten_percent_of_the_hull(tmp_path: Path, formulation: str,
                                               seed: int) -> None:
     """Issue 5, Test A: 50 configurations, every width within 1.1x of the (linearized) hull,
     truth inside, on data that is not in the repository."""
-    from calib_dsl.analysis.reference import linearized_hull
+    from calib_dsl.studies.reference import linearized_hull
 
     data = _data(tmp_path, 50, seed)
     prog = compile_model(elaborate(MODELS / "rx90_lengths.cal", formulation=formulation,
@@ -119,8 +119,8 @@ def test_all_33_parameters_within_twice_the_hull_near_the_solution(
     truth (up to `shift` of its half-width, the truth still inside) so that nothing depends on
     a centred domain."""
     from calib_dsl.analysis.identify import analyse, combination_enclosures
-    from calib_dsl.analysis.reference import linearized_hull
     from calib_dsl.relax.layout import independents
+    from calib_dsl.studies.reference import linearized_hull
 
     data = tmp_path / "b.csv"
     simulate(MODELS / "rx90_recalibrate.cal", 50, seed, out_csv=data)

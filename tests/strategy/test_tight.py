@@ -32,7 +32,6 @@ from relax.test_linearize import (  # the sibling test module: its model generat
     truth_arrays,
 )
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import elaborate
 from calib_dsl.ir.dag import Dag
@@ -43,6 +42,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -265,8 +265,8 @@ def _plane_model(tmp_path: Path, curve: str) -> Program:
 
 
 def test_a_linear_model_stops_after_one_cell_round_at_the_hull(tmp_path):
-    from calib_dsl.analysis.reference import linearized_hull
     from calib_dsl.relax.linearize import relax
+    from calib_dsl.studies.reference import linearized_hull
 
     prog = _plane_model(tmp_path, "plane")
     rel = relax(prog, prog.slots.lo, prog.slots.hi, cell_variables=False)
@@ -560,6 +560,7 @@ def test_no_split_where_it_does_not_pay(tmp_path):
 
 @pytest.mark.slow
 def test_split_is_reported(tmp_path):
+    from calib_dsl import sections
     from calib_dsl.report.as_json import result_json
     from calib_dsl.report.extras import Extras
     from calib_dsl.report.text import render_summary
@@ -569,7 +570,7 @@ def test_split_is_reported(tmp_path):
         warnings.simplefilter("ignore", RuntimeWarning)
         res = solve_tight(sim.prog, combinations=False)
     extra = Extras()
-    extra.identify(sim.prog, res, use_lp=True)
+    sections.identify(extra, sim.prog, res, use_lp=True)
     text = render_summary(sim.prog, res, "tight", extra)
     assert f"split: {res.split[0]} (not identifiable alone)" in text
     assert "guaranteed: r2 + r3 in [" in text

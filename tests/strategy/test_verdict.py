@@ -19,9 +19,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from calib_dsl import cli
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.elaborate.elaborator import Inputs
-from calib_dsl.pipeline import min_error, solve_report
+from calib_dsl.pipeline import SolveRequest, min_error, solve_report
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 E = 1e-4  # the tool point's error bound (m): 0.1 mm
@@ -153,7 +153,7 @@ def test_bounds_below_the_smallest_are_proven_inconsistent(tmp_path, robot, seed
 @given(robot=robots, seed=st.integers(0, 10_000))
 def test_the_truth_within_its_bounds_is_never_called_inconsistent(tmp_path, robot, seed):
     model = arm(tmp_path / f"t{seed}", robot, seed)
-    run = solve_report(model)
+    run = solve_report(SolveRequest(model))
     assert run.verdict is not None and run.verdict.verdict == "consistent"
     assert run.exit_code == 0
     for name, value in robot.items():  # the truth is inside, and the table says so
@@ -276,7 +276,8 @@ def test_the_proof_effort_never_refutes_the_truth(tmp_path, robot, seed, monkeyp
     proves an inconsistency."""
     from dataclasses import replace
 
-    from calib_dsl.pipeline import effort_for, load_model, solve
+    from calib_dsl.pipeline import SolveRequest, effort_for, load_model, solve
+    from calib_dsl.problem import Problem
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy import verdict
 
@@ -284,7 +285,8 @@ def test_the_proof_effort_never_refutes_the_truth(tmp_path, robot, seed, monkeyp
     model = arm(tmp_path / f"s{seed}", robot, seed)
     elaborated, prog = load_model(model)
     res = solve(prog)
-    effort = replace(effort_for(model, "matrix", None, prog, elaborated, 1e-5, 1000),
+    problem = Problem(str(model), "matrix", Inputs(), elaborated, prog)
+    effort = replace(effort_for(SolveRequest(model), problem),
                      settings=replace(DEFAULT, verdict_outlier_bounds=0.0, verdict_share=10.0,
                                       verdict_outlier_rows=2))
     ended, said = verdict.decide(prog, res, False, effort)

@@ -84,10 +84,10 @@ def test_ur10_campaigns_of_several_sizes_hold_the_truth(tmp_path_factory, rows, 
     """The UR10 tracker model on simulated campaigns with a systematic error, a working set
     of 10 rows at the start (so the check and the rows it adds carry the result): the truth
     lies inside at a bound of the error's size."""
-    from calib_dsl.analysis.campaign import Campaign
-    from calib_dsl.analysis.simulate import simulate
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.pipeline import load
+    from calib_dsl.studies.campaign import Campaign
+    from calib_dsl.studies.simulate import simulate
     from tests.test_ur10 import TRACKER, _noisy_simulation_model, truth
 
     tmp = tmp_path_factory.mktemp("ur10")

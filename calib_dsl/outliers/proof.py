@@ -8,7 +8,7 @@ in S_K. Then S_K lies in S_{K-1} of the rows without r, and the next candidate i
 against K rows, and so on. With K rows proven, S_K lies in the solutions of the other rows:
 their tight solve encloses it, and no other row can fail for any vector of it.
 
-Candidates are the rows with the largest least-squares residuals (analysis/conflict.py); a
+Candidates are the rows with the largest least-squares residuals (outliers/conflict.py); a
 candidate that is not proven costs one solve (the first set's, or none when a set is proven
 consistent with it) and is passed over, and tried again after another row is proven (then
 with one set fewer, each larger: a row that no small set refutes may fail with every
@@ -23,19 +23,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from calib_dsl.analysis.chebyshev import proven_consistent
-from calib_dsl.analysis.conflict import DataRow, ranked_rows
 from calib_dsl.analysis.min_error import Loader
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import RowRange, Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.conflict import DataRow, ranked_rows
 from calib_dsl.progress import Progress, labelled
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.tight import solve_tight
-
-EXTRA_CANDIDATES = 2  # rows tried beyond K (a candidate may fail to be proven)
-MIN_RESIDUAL = 1.0  # in error bounds: a row the least-squares fit satisfies is no candidate
 
 
 @dataclass(frozen=True)
@@ -65,15 +62,17 @@ def pinned(load: Loader, prog: Program) -> Loader:
 
 
 def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Program,
-                   settings: Settings = DEFAULT,
+                   settings: Settings | None = None,
                    progress: Progress | None = None) -> list[Proof]:
     """The rows proven to fail for every vector of S_K, at most k, in the order proven
     (`load` must give programs on `prog`'s domains: `pinned`)."""
+    settings = settings or Settings()
     if k < 1 or len(model.tables) != 1 or _consistent(prog):
         return []  # a vector satisfies every row: no row fails for all of S_K
     table = model.tables[0]
+    least = settings.outliers.min_residual
     try:
-        ranked = [r for r in ranked_rows(model, prog) if r.residual > MIN_RESIDUAL]
+        ranked = [r for r in ranked_rows(model, prog) if r.residual > least]
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return []
     proven: list[Proof] = []
@@ -82,7 +81,7 @@ def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Pro
     while (left := k - len(proven)) > 0:
         # the first candidate not yet tried with left + 1 sets: a row passed over needs one
         # set fewer, each of more rows, once another row is proven
-        r = next((c for c in ranked[:k + EXTRA_CANDIDATES]
+        r = next((c for c in ranked[:k + settings.outliers.extra_candidates]
                   if c.row not in out and tried.get(c.row) != left + 1), None)
         if r is None:
             break

@@ -22,14 +22,14 @@ import numpy as np
 from calib_dsl.analysis.chebyshev import proven_consistent
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.analysis.min_error import Loader, row_owners
-from calib_dsl.analysis.outlier_rows import Row
-from calib_dsl.analysis.prior_faults import PriorFault, prior_faults
-from calib_dsl.analysis.unit_hints import unit_hints
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.prior_faults import PriorFault, prior_faults
+from calib_dsl.outliers.rows import Row
+from calib_dsl.outliers.unit_hints import unit_hints
 
 MAX_ROWS = 3  # rows left out at most
 

@@ -2,7 +2,7 @@
 solve's last LPs, keyed by what their rows and columns mean (the slot a row compares with, an
 unknown's slot, a measured cell) rather than by their places in the LP that made them.
 
-The inner bounds (analysis/inner.py) solve, for each end of each unknown, an LP over the
+The inner bounds (inner/bounds.py) solve, for each end of each unknown, an LP over the
 model linearized at a point, the joint readings' errors among its columns: the same rows and
 columns as the solve's last first-order LPs with the errors as columns, over another box. From
 the solve's final basis for the same end, HiGHS starts near the optimum and needs far fewer

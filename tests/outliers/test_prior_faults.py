@@ -1,4 +1,4 @@
-"""The priors at fault (analysis/prior_faults.py): data inconsistent only because a domain
+"""The priors at fault (outliers/prior_faults.py): data inconsistent only because a domain
 misses the truth name that domain, never rows; a gross row with right priors names the row."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Shaving (strategy/shave.py): the gap between an end of the result and the certified inner
+"""Shaving (inner/shave.py): the gap between an end of the result and the certified inner
 bound, contracted as a slice of its own. It must never cut a solution (every point that
 satisfies the rows stays inside; on random robots the truth stays inside), it must narrow
 where the gap is the relaxation's (points round a circle), and it keeps to its count and
@@ -15,12 +15,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.inner import inner_bounds
 from calib_dsl.cli import main
+from calib_dsl.inner.bounds import inner_bounds
+from calib_dsl.inner.shave import candidates, shave
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
-from calib_dsl.strategy.shave import candidates, shave
 from calib_dsl.strategy.tight import solve_tight
 from tests.relax.test_linearize import random_robot, robot_draws
 
@@ -186,7 +186,7 @@ def test_a_program_in_chunks_is_shaved_by_default_only_after_fine_rounds(tmp_pat
                                                                        monkeypatch):
     """A program relaxed in chunks of rows: by default (a budget) only where the solve ran
     fine rounds; asked (no budget), always."""
-    import calib_dsl.strategy.shave as module
+    import calib_dsl.inner.shave as module
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.elaborate.rows import Selection, parse_ranges
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.kinematics import (
+from calib_dsl.studies.kinematics import (
     RX90_PARAMS,
     RX90_TOOL,
     chain,

@@ -29,7 +29,7 @@ class Outliers:
     certain: list[Row]  # fail on the whole enclosure: outliers for every vector in it
     possible: list[Row]  # not proven to hold on the whole enclosure
     # the first `proven` certain rows were proven before any LP, each by disjoint sets of the
-    # other rows inconsistent with it (strategy/outlier_proof.py)
+    # other rows inconsistent with it (outliers/proof.py)
     proven: int = 0
 
     def as_json(self) -> dict[str, Any]:

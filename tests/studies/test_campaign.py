@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.campaign import POSES, Campaign, poses, systematic
-from calib_dsl.analysis.simulate import simulate_model
 from calib_dsl.frontend.diagnostics import CalError
-from tests.analysis.test_simulate import Q_COLS, rx90_sim_model
+from calib_dsl.studies.campaign import POSES, Campaign, poses, systematic
+from calib_dsl.studies.simulate import simulate_model
+from tests.studies.test_simulate import Q_COLS, rx90_sim_model
 
 ROOT = Path(__file__).resolve().parents[2]
 ANGLES = [(-math.pi, math.pi)] * 6
@@ -127,10 +127,10 @@ def test_the_truth_lies_inside_a_solve_of_systematic_data(tmp_path_factory, ampl
                                                           shape, seed, margin):
     """UR10 campaigns whose error is smooth and systematic (plus noise): solved at a bound
     at least the error's, every true parameter lies in the result."""
-    from calib_dsl.analysis.simulate import simulate
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.pipeline import load
     from calib_dsl.strategy.tight import solve_tight
+    from calib_dsl.studies.simulate import simulate
     from tests.test_ur10 import TRACKER, truth
 
     tmp = tmp_path_factory.mktemp("sys")

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.analysis.kinematics import RX90_PARAMS, RX90_TOOL, rx90_forward
-from calib_dsl.analysis.simulate import cell_name, simulate, simulate_model, write_csv
 from calib_dsl.elaborate.chains import Frame, forward_point
 from calib_dsl.frontend.diagnostics import CalError, Loc
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Column, Model, Table
+from calib_dsl.studies.kinematics import RX90_PARAMS, RX90_TOOL, rx90_forward
+from calib_dsl.studies.simulate import cell_name, simulate, simulate_model, write_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 TOL_Q, TOL_X = 1e-5, 1e-4
@@ -190,8 +190,8 @@ def test_rx90_model_end_to_end(tmp_path, formulation):
 
 # -- evaluate.py: the float evaluator the simulation runs on ----------------------------------
 def test_evaluate_every_op_against_math():
-    from calib_dsl.analysis.evaluate import evaluate
     from calib_dsl.ir.dag import ARITY
+    from calib_dsl.studies.evaluate import evaluate
 
     dag = Dag()
     x, y, z = (dag.var(n, -9.0, 9.0) for n in "xyz")
@@ -215,7 +215,7 @@ def test_evaluate_every_op_against_math():
 
 
 def test_evaluate_batches_and_missing_values():
-    from calib_dsl.analysis.evaluate import evaluate, values_by_name
+    from calib_dsl.studies.evaluate import evaluate, values_by_name
 
     dag = Dag()
     a, b = dag.var("a", 0, 1), dag.var("b", 0, 1)

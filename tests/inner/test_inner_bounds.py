@@ -17,12 +17,12 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from calib_dsl.analysis.certify_point import check_point, check_points, reading_slots
-from calib_dsl.analysis.inner import inner_bounds
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
+from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -198,7 +198,7 @@ def test_test_a_inner_reaches_the_outer_box():
 
 def _pivots(monkeypatch) -> list[int]:
     """The simplex iterations of every end's LP of the inner bounds, as they run."""
-    from calib_dsl.analysis import inner_lp as module
+    from calib_dsl.inner import lp as module
 
     counts: list[int] = []
     extreme = module.Solver.extreme
@@ -236,7 +236,7 @@ def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
     same inner intervals as with no start at all."""
     from dataclasses import replace
 
-    from calib_dsl.lp.starts import EndBasis
+    from calib_dsl.inner.starts import EndBasis
 
     prog = load(ROOT / "models" / "rx90_lengths.cal")
     sol = solve(prog)
@@ -261,7 +261,7 @@ def test_no_optimum_at_the_middle_falls_back_to_the_fit(monkeypatch):
     """Where the model linearized at the box's middle gives no LP optimum at all (a wide
     box's), the ends are sought again over the model linearized at the Chebyshev fit: Test A
     still within 1.05 of its result."""
-    from calib_dsl.analysis import inner_lp
+    from calib_dsl.inner import lp as inner_lp
 
     prog = load(ROOT / "models" / "rx90_lengths.cal")
     sol = solve(prog)
@@ -407,7 +407,7 @@ def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, monkeypatch):
     over the model linearized at the centre the corrections pull the ends well in; sought
     again from their own points they reach further (one inner interval 1.75 times as wide
     here), and every point still holds exactly."""
-    import calib_dsl.analysis.inner as inner_module
+    import calib_dsl.inner.bounds as inner_module
 
     rng = np.random.default_rng(1)
     angles = 0.3 + 2 * np.pi * np.arange(5) / 5
@@ -443,12 +443,12 @@ def test_a_point_off_the_circles_is_not_proven(tmp_path):
 
 
 def test_a_failure_of_the_inner_bounds_keeps_the_result(tmp_path, monkeypatch):
-    import calib_dsl.report.extras as extras
+    import calib_dsl.sections as sections
 
     def fails(*args, **kwargs):
         raise ValueError("no centre")
 
-    monkeypatch.setattr(extras, "inner_bounds", fails)
+    monkeypatch.setattr(sections, "inner_bounds", fails)
     res, data = _solve(tmp_path)
     assert res.exit_code == 0, res.output
     assert "inner bounds: not computed (ValueError: no centre)" in res.stdout
@@ -495,8 +495,8 @@ def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
     import subprocess
     import sys
 
-    code = ("import sys; from calib_dsl.pipeline import solve_report; "
-            f"r = solve_report({str(ROOT / 'models' / 'rx90_lengths.cal')!r}); "
+    code = ("import sys; from calib_dsl.pipeline import SolveRequest, solve_report; "
+            f"r = solve_report(SolveRequest({str(ROOT / 'models' / 'rx90_lengths.cal')!r})); "
             "assert r.extra.inner is not None and r.extra.inner.consistent, 'no inner bounds'; "
             "print('scipy.optimize' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)

@@ -59,14 +59,16 @@ class Prediction:
 
 def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str | Path,
             inputs: Inputs, formulation: str = "matrix", table: str | None = None,
-            at_rows: Selection | None = None, data: LinearRelaxation | None = None,
-            center: np.ndarray | None = None) -> Prediction:
+            at_rows: Selection | None = None,
+            data: tuple[LinearRelaxation, np.ndarray | None] | None = None) -> Prediction:
     """Boxes of the measurements of table `table` (the model's first) at the configurations
     of the file `at` (its rows `at_rows`, all by default), for every parameter vector in
     `box` (name: (lo, hi)); `inputs` as the calibration read the model (its consts). With
     `data`, the calibration's relaxation on that box (columns: the box's parameters, in its
-    order), the vectors consistent with the data; else every vector of the box. A
-    second-order relaxation's columns are t, p = center + scale t: give its `center`."""
+    order) and its center, the vectors consistent with the data; else every vector of the
+    box. A second-order relaxation's columns are t, p = center + scale t (a first-order
+    one's center: None)."""
+    relaxation, center = data if data is not None else (None, None)
     first = elaborate(model_path, formulation=formulation, inputs=inputs)
     t = _table(first, table)
     with tempfile.TemporaryDirectory(prefix="calibc-predict-") as tmp:
@@ -75,7 +77,7 @@ def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str
             data={**inputs.data, t.name: path},
             rows={t.name: at_rows} if at_rows is not None else {}, consts=inputs.consts))
     prog = compile_model(model)
-    return _enclose(prog, _table(model, t.name), box, present, str(at), data, center)
+    return _enclose(prog, _table(model, t.name), box, present, str(at), relaxation, center)
 
 
 def _table(model: Model, name: str | None) -> Table:
@@ -131,7 +133,7 @@ def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
     original = (lo.copy(), hi.copy())
     lo[measured_side], hi[measured_side] = 0.0, 0.0
     center = 0.5 * (lo[ind] + hi[ind])
-    ev = evaluation(prog, lo, hi, ind, center)
+    ev = evaluation(prog, lo, hi, center)
     rows = ev.run()
     targets = ev.targets()
     dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
@@ -151,13 +153,15 @@ def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
     plo, phi = np.full(len(dlo), -np.inf), np.full(len(dlo), np.inf)
     plo[use] = dlo[use] - hc + lin_lo - rad[use] - err
     phi[use] = dhi[use] - hc + lin_hi + rad[use] + err
-    return _arrange(prog, t, targets, plo, phi, original, measured_side, present, file)
+    return _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
 
 
-def _arrange(prog: Program, t: Table, targets: np.ndarray, plo: np.ndarray, phi: np.ndarray,
-             original: tuple[np.ndarray, np.ndarray], measured_side: np.ndarray,
-             present: set[str], file: str) -> Prediction:
-    """The rows' enclosures as a (configuration, measured column) table."""
+def _arrange(prog: Program, t: Table, targets: np.ndarray,
+             ranges: tuple[np.ndarray, np.ndarray], original: tuple[np.ndarray, np.ndarray],
+             measured_side: np.ndarray, present: set[str], file: str) -> Prediction:
+    """The rows' enclosures [plo, phi] (`ranges`) as a (configuration, measured column)
+    table."""
+    plo, phi = ranges
     s = prog.slots
     assert s.row_keys is not None and s.col_keys is not None
     sides = s.measured_sides or {}

@@ -14,7 +14,7 @@ solves. A row that no set still consistent leaves out holds on all of S_K, and a
 consistent set of K suspects proves them certain (`Blocks`). Then LPs alone, over
 relaxations made from the box (relax/evaluation.py recomputes every temporary's range from
 the unknowns' box), with the rows of each data row the sets left possible allowed to fail
-through the big-M columns of strategy/dropping.py. Each round relaxes on the box the last
+through the big-M columns of outliers/dropping.py. Each round relaxes on the box the last
 one left (a smaller box: smaller M, a tighter relaxation) until no unknown narrows by
 `gain`. Every bound is certified (lp/), so the box holds S_K whatever the LP solver did.
 """
@@ -25,35 +25,26 @@ import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calib_dsl.analysis.conflict import ranked_ids
-from calib_dsl.analysis.outliers import classify
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status, Stop
 from calib_dsl.lp.bounds import lp_bounds
+from calib_dsl.outliers.classify import classify
+from calib_dsl.outliers.conflict import ranked_ids
+from calib_dsl.outliers.dropping import dropping, relax_owned
 from calib_dsl.progress import Meter, Progress, labelled
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT, Settings
-from calib_dsl.strategy.contractor import Work
-from calib_dsl.strategy.dropping import dropping, relax_owned
+from calib_dsl.settings import LPSettings, OutlierSettings, Settings
+from calib_dsl.strategy.contractor import Composable, FixPoint, Outcome, Work
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
 
-GAIN = 0.01  # a round that narrows no unknown by 1 % of its width ends the loop
-MAX_ROUNDS = 40
-LP_ITERATIONS = 5000  # per objective; a stopped LP still certifies a (weaker) bound
-MOST_SETS = 4  # tight solves of sets of rows at most, unless K + 1 are needed (block_box)
-# With suspects in groups of their own, the sets at most (k = 1: four suspects): with the
-# rows at fault alone, the sets that leave one out are consistent and the others refuted,
-# which names exactly those rows (docs/decisions/16).
-MOST_SUSPECT_SETS = 8
-SUSPECT_RESIDUAL = 1.0  # a least-squares residual above this many bounds makes a suspect
-DEAL_SEED = 0  # the shuffle that deals the other rows into groups (fixed: results repeat)
-EXTRA_SUSPECTS = 3  # suspects beyond k (partition keeps as many as MOST_SUSPECT_SETS allows)
+OUTLIERS = OutlierSettings()  # (the declared defaults, for callers that pass none)
 
 
 @dataclass(frozen=True)
@@ -93,12 +84,13 @@ class Blocks:
 
 
 def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
-              tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
+              tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings | None = None,
               progress: Progress | None = None, suspects: Sequence[int] = ()) -> Blocks | None:
     """The hull of the tight solves of the sets of data rows that leave out k of the groups
     (`partition`: each suspect alone, the other rows dealt into m), over `prog`'s slots (the
     declared unknowns narrowed, matched by name), or None when every set is proven
     inconsistent (then no vector fails at most k rows)."""
+    settings = settings or Settings()
     ids = list(range(len(prog.slots.row_keys or [])))
     if len(ids) <= k:  # (every row may fail: no set is sure to hold)
         return Blocks(prog.slots.lo.copy(), prog.slots.hi.copy(), Work(), [frozenset(ids)],
@@ -107,7 +99,7 @@ def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
     lo, hi = np.full(len(ind), np.inf), np.full(len(ind), -np.inf)
     work = Work()
     left_out = []
-    sets = list(itertools.combinations(partition(ids, k, suspects), k))
+    sets = list(itertools.combinations(partition(ids, k, suspects, settings.outliers), k))
     for number, out in enumerate(sets, 1):
         rows = sorted(set().union(*out))
         part = without(rows)
@@ -115,7 +107,7 @@ def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
         sol = solve_tight(part, tol=tol, max_sweeps=max_sweeps, settings=settings,
                           progress=labelled(progress, label))
         work = work + sol.work
-        if sol.status == "infeasible":
+        if sol.status == Status.INFEASIBLE:
             continue
         left_out.append(frozenset(rows))
         names = {part.slots.names[i]: i for i in part.slots.declared}
@@ -133,25 +125,26 @@ def block_box(prog: Program, k: int, without: Callable[[list[int]], Program],
 
 
 def partition(ids: list[int], k: int, suspects: Sequence[int] = (),
-              most: int = MOST_SUSPECT_SETS) -> list[frozenset[int]]:
+              o: OutlierSettings = OUTLIERS) -> list[frozenset[int]]:
     """block_box's groups of the data rows `ids` (more than k): the first suspects each a
-    group of its own, as many as keep the sets (every choice of k groups) at `most`, and the
+    group of its own, as many as keep the sets (every choice of k groups) at
+    `o.most_suspect_sets`, and the
     other rows dealt in groups(k) groups in a fixed shuffled order. A suspect alone makes
     the sets that leave it out solve every other row, and those that keep it hold it: with
     the rows at fault alone, only their sets stay consistent. Shuffled, because campaigns
     repeat their poses in patterns: a round-robin group (every m-th row) can hold so much of
     what the rows at fault contradict that the rest fits them (docs/decisions/16)."""
-    m = groups(k)
+    m = groups(k, o.most_sets)
     alone = [r for r in dict.fromkeys(suspects) if r in set(ids)]
-    while alone and math.comb(len(alone) + m, k) > most:
+    while alone and math.comb(len(alone) + m, k) > o.most_suspect_sets:
         alone.pop()
     rest = np.array([r for r in ids if r not in set(alone)], dtype=np.int64)
-    rest = rest[np.random.default_rng(DEAL_SEED).permutation(len(rest))]
+    rest = rest[np.random.default_rng(o.deal_seed).permutation(len(rest))]
     pooled = [frozenset(rest[j::m].tolist()) for j in range(m)]
     return [frozenset([r]) for r in alone] + [g for g in pooled if g]
 
 
-def groups(k: int, most: int = MOST_SETS) -> int:
+def groups(k: int, most: int = OUTLIERS.most_sets) -> int:
     """How many groups block_box cuts the rows into for k outliers: the most whose sets
     (every choice of k groups left out) number at most `most`, and at least k + 1."""
     m = k + 1
@@ -160,37 +153,52 @@ def groups(k: int, most: int = MOST_SETS) -> int:
     return m
 
 
-def outlier_box(prog: Program, k: int, meter: Meter | None = None,
-                max_rounds: int = MAX_ROUNDS,
+@dataclass(frozen=True)
+class OutlierRound(Composable):
+    """A round of certified LPs over the relaxation that lets at most k data rows fail (of
+    `may_fail` only, if given: every other is known to hold on S_k): the box narrowed, or
+    proven to hold no vector of S_k; unchanged where there is nothing to linearize over (an
+    unbounded unknown)."""
+
+    prog: Program
+    k: int
+    lp: LPSettings
+    may_fail: set[int] | None = None
+    name: str = "outlier LPs"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        made = relax_owned(self.prog, lo, hi)
+        if made is None:
+            return Outcome(lo, hi, Stop.NONE)
+        rel = dropping(*made, self.k, self.may_fail)
+        lower, upper = lp_bounds(rel, np.eye(rel.main), self.lp)
+        ind = independents(self.prog)
+        new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
+        if np.any(new_lo > new_hi):  # certified bounds that cross: S_K is empty
+            rows = "row" if self.k == 1 else "rows"
+            emptied = Emptied(f"the unknowns (with at most {self.k} outlier {rows})", None,
+                              None)
+            return Outcome(lo, hi, Stop.EMPTY, Work(lp_rounds=1), emptied)
+        lo, hi = lo.copy(), hi.copy()
+        lo[ind], hi[ind] = new_lo, new_hi
+        return Outcome(lo, hi, Stop.NONE, Work(lp_rounds=1))
+
+
+def outlier_box(prog: Program, k: int, settings: Settings, meter: Meter | None = None,
                 box: tuple[np.ndarray, np.ndarray] | None = None,
                 may_fail: set[int] | None = None) -> OutlierBox:
     """Rounds of certified LPs over the relaxations that let at most k data rows fail (of
-    `may_fail` only, if given: every other is known to hold on S_k), from `box` (the
-    program's domains if None)."""
+    `may_fail` only, if given), from `box` (the program's domains if None), to their fixed
+    point: until no unknown narrows by settings.outliers.gain of its width."""
     start = time.perf_counter()
-    ind = independents(prog)
     lo, hi = ((prog.slots.lo.copy(), prog.slots.hi.copy()) if box is None
               else (box[0].copy(), box[1].copy()))
-    rounds = 0
-    while rounds < max_rounds:
-        made = relax_owned(prog, lo, hi)
-        if made is None:  # an unbounded unknown: nothing to linearize over
-            break
-        lp = dropping(*made, k, may_fail)
-        lower, upper = lp_bounds(lp, np.eye(lp.main), iterations=LP_ITERATIONS)
-        rounds += 1
-        new_lo, new_hi = np.maximum(lo[ind], lower), np.minimum(hi[ind], upper)
-        if np.any(new_lo > new_hi):  # certified bounds that cross: S_K is empty
-            return OutlierBox(lo, hi, True, rounds, time.perf_counter() - start)
-        old = hi[ind] - lo[ind]
-        lo[ind], hi[ind] = new_lo, new_hi
-        if meter is not None:
-            meter(f"outlier LP round {rounds}", lo, hi)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            gained = np.where(old > 0, 1.0 - (new_hi - new_lo) / old, 0.0)
-        if not np.any(gained > GAIN):
-            break
-    return OutlierBox(lo, hi, False, rounds, time.perf_counter() - start)
+    o = settings.outliers
+    one = OutlierRound(prog, k, replace(settings.lp, iterations=o.lp_iterations), may_fail)
+    out = FixPoint(one, o.gain, o.max_rounds, progress=meter,
+                   label="outlier LP round").contract(lo, hi)
+    return OutlierBox(out.lo, out.hi, out.empty, out.work.lp_rounds,
+                      time.perf_counter() - start)
 
 
 @dataclass(frozen=True)
@@ -204,30 +212,31 @@ class WithOutliers:
 
 
 def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program],
-                   tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings = DEFAULT,
+                   tol: float = 1e-5, max_sweeps: int = 1000, settings: Settings | None = None,
                    progress: Progress | None = None) -> WithOutliers:
     """A box holding every vector of `prog`'s unknowns that satisfies all data rows but at
-    most k (outlier_box), its certain and possible outliers (analysis/outliers.py). When
+    most k (outlier_box), its certain and possible outliers (outliers/classify.py). When
     exactly k rows are certain outliers, every such vector fails them (they fail on the
     whole box), so it satisfies all the others: the tight solve of the program `without`
     those rows encloses it too, and the box is the intersection (and no other row can be an
     outlier of any such vector: none is possible)."""
+    settings = settings or Settings()
     start = time.perf_counter()
     meter = Meter.over(progress, independents(prog), prog.slots.lo, prog.slots.hi, start) \
         if progress is not None else None
     blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress,
-                       suspects(prog, k))
+                       suspects(prog, k, settings.outliers))
     if blocks is None:  # every set inconsistent: no vector fails at most k rows
         empty = OutlierBox(prog.slots.lo, prog.slots.hi, True, 0, time.perf_counter() - start)
         return _none(prog, k, empty, Work(), start, [])
     if meter is not None:
         meter("sets of rows", blocks.lo, blocks.hi)
     if blocks.certain(k):  # the hull is the tight solve without them: nothing more to gain
-        sol = Solution("tight", blocks.lo, blocks.hi, "sets of rows",
+        sol = Solution("tight", blocks.lo, blocks.hi, Stop.SETS_OF_ROWS,
                        time.perf_counter() - start, blocks.work)
         return WithOutliers(sol, blocks.certain(k), [])
     may_fail = blocks.may_fail()
-    box = outlier_box(prog, k, meter, box=(blocks.lo, blocks.hi), may_fail=may_fail)
+    box = outlier_box(prog, k, settings, meter, box=(blocks.lo, blocks.hi), may_fail=may_fail)
     work = blocks.work + Work(lp_rounds=box.rounds)
     if box.empty:
         return _none(prog, k, box, work, start, [])
@@ -236,7 +245,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
         return _none(prog, k, box, work, start, found.certain)
     possible = [r for r in found.possible if r in may_fail]
     if not found.certain or len(found.certain) < k:
-        sol = Solution("tight", box.lo, box.hi, "outlier LPs", time.perf_counter() - start,
+        sol = Solution("tight", box.lo, box.hi, Stop.OUTLIER_LPS, time.perf_counter() - start,
                        work)
         return WithOutliers(sol, found.certain, possible)
     rest = without(found.certain)
@@ -244,22 +253,22 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
                         progress=progress)
     work = work + inner.work
     lo, hi = _intersect(prog, box, rest, inner)
-    if inner.status == "infeasible" or np.any(lo > hi):
+    if inner.status == Status.INFEASIBLE or np.any(lo > hi):
         return _none(prog, k, box, work, start, found.certain)
     sol = Solution("tight", lo, hi, inner.stop, time.perf_counter() - start, work,
                    split=inner.split, combinations=inner.combinations)
     return WithOutliers(sol, found.certain, [])
 
 
-def suspects(prog: Program, k: int) -> list[int]:
-    """The data rows (ids) whose least-squares residual exceeds SUSPECT_RESIDUAL bounds, the
-    worst first, at most k + EXTRA_SUSPECTS (none when the estimate fails: then every group
+def suspects(prog: Program, k: int, o: OutlierSettings = OUTLIERS) -> list[int]:
+    """The data rows (ids) whose least-squares residual exceeds o.suspect_residual bounds, the
+    worst first, at most k + o.extra_suspects (none when the estimate fails: then every group
     is dealt)."""
     try:
         ranked = ranked_ids(prog)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return []
-    return [i for i, r in ranked if r > SUSPECT_RESIDUAL][:k + EXTRA_SUSPECTS]
+    return [i for i, r in ranked if r > o.suspect_residual][:k + o.extra_suspects]
 
 
 def _intersect(prog: Program, box: OutlierBox, rest: Program,
@@ -280,6 +289,6 @@ def _none(prog: Program, k: int, box: OutlierBox, work: Work, start: float,
     """Proven: no vector satisfies all data rows but at most k."""
     rows = "row" if k == 1 else "rows"
     emptied = Emptied(f"the unknowns (with at most {k} outlier {rows})", None, None)
-    sol = Solution("tight", box.lo, box.hi, "empty", time.perf_counter() - start, work,
+    sol = Solution("tight", box.lo, box.hi, Stop.EMPTY, time.perf_counter() - start, work,
                    emptied)
     return WithOutliers(sol, certain, [])

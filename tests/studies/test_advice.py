@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calib_dsl.analysis.advice import COND_MAX, SEEN, advise, render
 from calib_dsl.pipeline import load
+from calib_dsl.studies.advice import COND_MAX, SEEN, advise, render
 
 ROOT = Path(__file__).resolve().parents[2]
 ALL = ROOT / "models" / "ur10_all.cal"

@@ -1,13 +1,13 @@
-"""Warm starts keyed by meaning (lp/starts.py): a basis found on one LP read onto another whose
+"""Warm starts keyed by meaning (inner/starts.py): a basis found on one LP read onto another whose
 rows and columns are the same quantities in another order, some missing, some new."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from calib_dsl.inner.starts import from_certificates
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.lp.highs import BASIC, LOWER
-from calib_dsl.lp.starts import from_certificates
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
 
 UPPER = 2  # HiGHS's kUpper

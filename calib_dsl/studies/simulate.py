@@ -24,13 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.analysis.campaign import PLAIN, Campaign, poses, systematic
-from calib_dsl.analysis.evaluate import Array, Evaluator
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
 from calib_dsl.progress import Progress
+from calib_dsl.studies.campaign import PLAIN, Campaign, poses, systematic
+from calib_dsl.studies.evaluate import Array, Evaluator
 
 # A constraint that does not define a cell must hold at the true values, up to float error:
 # otherwise the data would be inconsistent and calibration would answer "infeasible".

@@ -1,6 +1,6 @@
 """Shaving: the gap between a result's end and a value certified taken, contracted as a slice.
 
-The inner bounds (analysis/inner.py) certify values a <= b that an unknown p takes at
+The inner bounds (inner/bounds.py) certify values a <= b that an unknown p takes at
 solutions, inside the result [lo, hi]. Every solution with p < a lies in the slice of the box
 with p in [lo, a], and that slice is contracted on its own: propagation, then fine
 second-order rounds of LPs (the readings' errors as LP columns where the program has them).
@@ -31,7 +31,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.taylor import CHUNK_SLOTS
-from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.working import WorkingRows
@@ -47,7 +47,7 @@ class Shaved:
 
 
 def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.ndarray,
-          s: Settings = DEFAULT, budget: float | None = None, tol: float = 1e-5,
+          s: Settings | None = None, budget: float | None = None, tol: float = 1e-5,
           max_sweeps: int = 1000) -> tuple[Solution, Shaved | None]:
     """`sol` with the ends of its loosest unknowns shaved towards [inside_lo, inside_hi]
     (certified inner intervals over `independents(prog)`, nan where none), and what was
@@ -56,6 +56,7 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
     first always starts, unless the budget is 0), so how many are shaved then depends on
     the machine; nor once the solve's and shaving's sweeps together reach `max_sweeps`. The
     solution's work stays the solve's: shaving's is in `Shaved`."""
+    s = s or Settings()
     ind = independents(prog)
     order = candidates(sol.lo[ind], sol.hi[ind], inside_lo, inside_hi, s)
     if not order or (budget is not None and sol.work.fine_rounds == 0
@@ -70,7 +71,7 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
         if left <= 0 or _over(budget, time.perf_counter() - start, len(shaved)):
             break
         shaved.append(slot)
-        out = _slice(prog, lo, hi, slot, side, value, s, tol, left)  # from the box so far
+        out = _slice(prog, (lo, hi), (slot, side, value), s, tol, left)  # from the box so far
         work = work + out.work
         # (a sound contraction of the slice keeps `value`'s solution, so its end is beyond
         # value; an empty slice would prove every solution on the other side of it)
@@ -113,9 +114,10 @@ def _over(budget: float | None, spent: float, done: int) -> bool:
 
 
 def candidates(lo: np.ndarray, hi: np.ndarray, inside_lo: np.ndarray, inside_hi: np.ndarray,
-               s: Settings = DEFAULT) -> list[int]:
+               s: Settings | None = None) -> list[int]:
     """The unknowns (indices into the arrays) worth shaving: a certified inner interval, and
     a result wider than `shave_above` times it; the loosest first, `shave_unknowns` at most."""
+    s = s or Settings()
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = (hi - lo) / (inside_hi - inside_lo)
     ok = np.isfinite(inside_lo) & np.isfinite(inside_hi) & np.isfinite(lo) & np.isfinite(hi)
@@ -129,12 +131,14 @@ def _gap(lo: np.ndarray, hi: np.ndarray, slot: int, side: int, value: float) -> 
     return abs(value - (lo[slot], hi[slot])[side]) / (hi[slot] - lo[slot])
 
 
-def _slice(prog: Program, lo: np.ndarray, hi: np.ndarray, slot: int, side: int, value: float,
+def _slice(prog: Program, box: tuple[np.ndarray, np.ndarray], end: tuple[int, int, float],
            s: Settings, tol: float, max_sweeps: int) -> Outcome:
-    """The slice of [lo, hi] beyond `value` on one side of `slot` (side 0: [lo, value]),
-    contracted: propagation, then fine rounds of LPs over the slice alone (on a working set
-    of the rows, grown by the rows their optima violate: working.py)."""
-    plo, phi = lo.copy(), hi.copy()
+    """The slice of the box [lo, hi] beyond `value` on one side of `slot` (`end`: slot, side,
+    value; side 0: [lo, value]), contracted: propagation, then fine rounds of LPs over the
+    slice alone (on a working set of the rows, grown by the rows their optima violate:
+    working.py)."""
+    slot, side, value = end
+    plo, phi = box[0].copy(), box[1].copy()
     if side == 0:
         phi[slot] = value
     else:

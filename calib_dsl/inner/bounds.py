@@ -5,7 +5,7 @@ a and b are coordinates of parameter vectors that certify_point.py proves to sat
 constraint (interval evaluation at the point, outward rounding: floating point is never
 trusted). The candidates are the extremes of each unknown over the model linearized at the
 box's middle (one LP per end, the same LP re-solved with another objective, from the solve's
-final basis for that end where it kept one: lp/starts.py). A wave of them is checked in one
+final basis for that end where it kept one: inner/starts.py). A wave of them is checked in one
 pass; one that fails is pulled back towards a certified centre by what the check measured,
 else the rows it violates are tightened and its LP is solved again, and as a last resort it
 is pulled back by halves. An end that this left well short of its LP's optimum is sought
@@ -24,12 +24,12 @@ import numpy as np
 from calib_dsl.analysis.certify_point import PointCheck, check_point, check_points, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.inner_lp import LinearModel, Solver
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.lp import LinearModel, Solver
+from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.starts import Starts
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import LPSettings, Settings
 
 # A failed LP optimum is pulled back towards the centre only where that costs the end at
 # most this share of the unknown's width; else its LP is re-solved with the failed rows
@@ -97,11 +97,12 @@ class Inner:
 
 
 def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
-                 starts: Starts | None = None) -> Inner:
+                 starts: Starts | None = None, settings: Settings | None = None) -> Inner:
     """Certified inner intervals of the unknowns, searched within the outer box [lo, hi] (over
     the program's slots: the solve's result); each end's LP from the solve's final basis for
     that end where `starts` has one (the same rows and columns near the same optimum: far
     fewer pivots than from scratch)."""
+    settings = settings or Settings()
     start = time.perf_counter()
     ind = independents(prog)
     names = tuple(prog.slots.names[i] for i in ind)
@@ -112,7 +113,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind))
-    _search(prog, box, found, starts)
+    _search(prog, box, found, starts, settings.lp)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -149,7 +150,7 @@ class _Points:
 
 
 def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
-            starts: Starts | None) -> None:
+            starts: Starts | None, lp_settings: LPSettings) -> None:
     """The certified points: the box's middle if it is one; then both ends of every unknown
     that can move, over the model linearized at the middle, or at the Chebyshev fit where it
     cannot be linearized there or its LPs gave no point (a wide box: the middle's linear
@@ -163,7 +164,7 @@ def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
     free = np.flatnonzero(hi > lo)
     if not len(free):
         return
-    lp = LinearModel(prog, box, mid, free, starts)
+    lp = LinearModel(prog, box, mid, free, starts, lp_settings)
     if lp.finite:
         _extremes(prog, box, lp, found)
     if found.all:
@@ -172,7 +173,7 @@ def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
         found.add_centre(centre)
     found.fitted = True
     if found.centre is not None and not np.array_equal(found.centre.point, mid):
-        lp = LinearModel(prog, box, found.centre.point, free, starts)
+        lp = LinearModel(prog, box, found.centre.point, free, starts, lp_settings)
         if lp.finite:
             _extremes(prog, box, lp, found)
 
@@ -199,10 +200,10 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: LinearModel
     those that fell well short, over the model linearized at their own points (where the LP
     holds all its rows: above, each would be a cold LP generating its rows, which triples
     the inner bounds' time for a few per cent of width; docs/decisions/14)."""
-    solvers = lp.solvers(DEFAULT.lp_workers)
+    solvers = lp.solvers(lp.lp_settings.workers)
     with ThreadPoolExecutor(len(solvers)) as pool:
         short = _waves(prog, lp, solvers, pool, found)
-        if lp.rows <= DEFAULT.rows_at_once:
+        if lp.rows <= lp.lp_settings.rows_at_once:
             for w in pool.map(lambda end: _refined(prog, box, lp, *end),
                               short):
                 if w is not None:
@@ -359,7 +360,7 @@ def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], first: LinearMod
              sign: float, w: Witness) -> Witness | None:
     """The end again, over the model linearized at its certified point w: near the end, the
     linearization's remainder that held it back is small."""
-    lp = LinearModel(prog, box, w.point, first.free, first.starts)
+    lp = LinearModel(prog, box, w.point, first.free, first.starts, first.lp_settings)
     return _end(prog, lp, lp.solver, j, sign, w)[0] if lp.finite else None
 
 

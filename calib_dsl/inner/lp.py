@@ -1,7 +1,7 @@
-"""The inner bounds' LP (analysis/inner.py): the rows linearized at a point, the free
+"""The inner bounds' LP (inner/bounds.py): the rows linearized at a point, the free
 unknowns' steps and the joint readings' errors its columns, each row narrowed inside its
 bounds; and the HiGHS models that solve it for one end after another, each in its own
-thread, from the solve's final basis for that end where there is one (lp/starts.py).
+thread, from the solve's final basis for that end where there is one (inner/starts.py).
 """
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ import numpy as np
 from calib_dsl.analysis.certify_point import PointCheck
 from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import RowCheck, add_rows, load, optimal, set_basis
-from calib_dsl.lp.starts import Starts
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import LPSettings
 
 # Each row aims inside this share of its bound: room for the rounding and for the remainder of
 # the linearization at the LP's optimum, which is of this order near a thin solution set;
@@ -34,10 +34,13 @@ class LinearModel:
     objective and row bounds change from one end to the next."""
 
     def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
-                 free: np.ndarray, starts: Starts | None = None) -> None:
+                 free: np.ndarray, starts: Starts | None = None,
+                 lp: LPSettings | None = None) -> None:
+        lp = lp or LPSettings()
         lo, hi = box
         lin = linearized(prog, centre)
         self.centre, self.free, self.box, self.starts = centre, free, box, starts
+        self.lp_settings = lp
         self.scale = np.where(np.isfinite(hi - lo), hi - lo, 1.0)[free]
         with np.errstate(all="ignore"):
             dense = lin.jac[:, free] * self.scale
@@ -119,10 +122,11 @@ class Solver:
 
     def __init__(self, model: LinearModel) -> None:
         self.model, self.rel = model, model.rel
-        tall = model.rows > DEFAULT.rows_at_once
+        lp = model.lp_settings
+        tall = model.rows > lp.rows_at_once
         self.in_lp = (np.unique(np.linspace(0, model.rows - 1, 8 * model.n).astype(np.int64))
                       if tall else np.arange(model.rows))  # (a few rows per unknown)
-        self.h = load(self.rel, self.in_lp if tall else None)
+        self.h = load(self.rel, self.in_lp if tall else None, lp.iterations, lp.scaling)
         self.tightened = np.zeros(model.rows)
 
     def extreme(self, j: int, sign: float, tighten: np.ndarray,
@@ -151,7 +155,7 @@ class Solver:
             # HiGHS's own start
             h.clearSolver()
             h.run()
-        check = RowCheck(self.rel) if len(self.in_lp) < m.rows else None
+        check = RowCheck(self.rel, m.lp_settings.rows_added) if len(self.in_lp) < m.rows else None
         while check is not None and optimal(h) and len(self.in_lp) < m.rows:
             more = check.violated(np.asarray(h.getSolution().col_value), self.in_lp)
             if not len(more):

@@ -21,13 +21,13 @@ from calib_dsl.analysis.identify import finite_jacobian
 from calib_dsl.analysis.lsq import estimate, residuals
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import Settings
 
-SEEN = DEFAULT.seen
-WELL_SEEN = DEFAULT.well_seen
-COND_MAX = DEFAULT.subset_cond
-LEADS = DEFAULT.leads
-ABSORBED = DEFAULT.absorbs
+SEEN = Settings.seen
+WELL_SEEN = Settings.well_seen
+COND_MAX = Settings.subset_cond
+LEADS = Settings.leads
+ABSORBED = Settings.absorbs
 
 
 @dataclass(frozen=True)

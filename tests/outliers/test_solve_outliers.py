@@ -17,16 +17,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from calib_dsl.analysis.simulate import simulate
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
-from calib_dsl.pipeline import load, solve, solve_report
+from calib_dsl.outliers import solve as outliers
+from calib_dsl.outliers.solve import groups
+from calib_dsl.pipeline import SolveRequest, load, solve, solve_report
 from calib_dsl.propagate.diagnose import Emptied
-from calib_dsl.strategy import outliers
+from calib_dsl.settings import OutlierSettings
 from calib_dsl.strategy.contractor import Work
-from calib_dsl.strategy.outliers import MOST_SETS, groups
 from calib_dsl.strategy.solution import Solution
+from calib_dsl.studies.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -73,7 +74,7 @@ def test_the_enclosure_holds_the_exact_hull(seed, k, n):
         rows = zip(x.tolist(), v.tolist(), strict=True)
         (Path(tmp) / "d.csv").write_text("x,v\n" + "".join(f"{a!r},{b!r}\n" for a, b in rows))
         (Path(tmp) / "line.cal").write_text(LINE)
-        run = solve_report(Path(tmp) / "line.cal", outliers=k, identify=False)
+        run = solve_report(SolveRequest(Path(tmp) / "line.cal", outliers=k, identify=False))
     hull = _hull(x, v, k)
     if hull is None:
         return  # S_K is empty: any answer holds it
@@ -147,7 +148,7 @@ def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, 
         lines[row] = ",".join(cells)
         (tmp / "bad.csv").write_text("\n".join(lines) + "\n")
         inputs = Inputs(data={"": tmp / "bad.csv"})
-        run = solve_report(RX90, inputs=inputs, outliers=1, identify=False)
+        run = solve_report(SolveRequest(RX90, inputs=inputs, outliers=1, identify=False))
         ref_prog = load(RX90, inputs=Inputs(data={"": tmp / "bad.csv"},
                                             rows={"": Selection((), (row,))}))
         ref = solve(ref_prog)
@@ -174,8 +175,8 @@ def test_a_ur10_row_moved_by_a_centimetre_is_proven_an_outlier(tmp_path):
     cells[7] = repr(float(cells[7].replace(",", ".")) + 10.0).replace(".", ",")  # y + 1 cm
     lines[row] = ";".join(cells)
     (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
-    run = solve_report(UR10, inputs=Inputs(data={"": tmp_path / "bad.csv"}), outliers=1,
-                       identify=False)
+    bad = Inputs(data={"": tmp_path / "bad.csv"})
+    run = solve_report(SolveRequest(UR10, inputs=bad, outliers=1, identify=False))
     ref_prog = load(UR10, inputs=Inputs(data={"": tmp_path / "bad.csv"},
                                         rows={"": Selection((), (row,))}))
     ref = solve(ref_prog)
@@ -228,7 +229,7 @@ def test_a_row_passed_over_is_proven_once_another_row_is(tmp_path):
     rows = zip(x.tolist(), v.tolist(), strict=True)
     (tmp_path / "d.csv").write_text("x,v\n" + "".join(f"{a},{b}\n" for a, b in rows))
     (tmp_path / "line.cal").write_text(LINE)
-    run = solve_report(tmp_path / "line.cal", outliers=2, identify=False)
+    run = solve_report(SolveRequest(tmp_path / "line.cal", outliers=2, identify=False))
     assert run.outliers is not None
     assert sorted(r.row for r in run.outliers.certain) == [4, 9]
     assert run.outliers.proven == 2  # both by the proof, before the LPs
@@ -249,7 +250,7 @@ def test_groups_keep_the_sets_within_their_count():
     assert groups(1, 6) == 6 and groups(2, 6) == 4
     for k in range(1, 6):
         m = groups(k)
-        assert m >= k + 1 and (m == k + 1 or math.comb(m, k) <= MOST_SETS)
+        assert m >= k + 1 and (m == k + 1 or math.comb(m, k) <= OutlierSettings().most_sets)
 
 
 def _block_box_with(solve_set, prog, k, without, suspects):
@@ -302,7 +303,7 @@ def test_rows_that_exclude_each_other_are_both_possible_and_all_others_hold(tmp_
     (tmp_path / "d.csv").write_text("x,v\n" + "".join(f"{a},{b:.3f}\n" for a, b in zip(
         x, v, strict=True)))
     (tmp_path / "line.cal").write_text(LINE)
-    run = solve_report(tmp_path / "line.cal", outliers=1, identify=False)
+    run = solve_report(SolveRequest(tmp_path / "line.cal", outliers=1, identify=False))
     assert run.res.status == "contracted" and run.outliers is not None
     assert run.outliers.certain == []
     assert sorted(r.row for r in run.outliers.possible) == [5, 10]
@@ -323,10 +324,10 @@ def test_partition_puts_suspects_alone_and_keeps_the_sets_few(n, k, data):
     assert sorted(r for g in parts for r in g) == ids  # every row in exactly one group
     m = outliers.groups(k)
     j = max(s for s in range(len(suspects) + 1)
-            if s == 0 or math.comb(s + m, k) <= outliers.MOST_SUSPECT_SETS)
+            if s == 0 or math.comb(s + m, k) <= OutlierSettings().most_suspect_sets)
     assert parts[:j] == [frozenset([r]) for r in suspects[:j]]  # the worst first, alone
     assert len(parts) <= j + m  # the others in groups(k) groups (fewer if few rows)
-    assert math.comb(len(parts), k) <= max(outliers.MOST_SUSPECT_SETS, math.comb(m, k))
+    assert math.comb(len(parts), k) <= max(OutlierSettings().most_suspect_sets, math.comb(m, k))
 
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])

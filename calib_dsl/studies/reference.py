@@ -32,7 +32,7 @@ def linearized_hull(prog: Program,
     p = np.array(truth, dtype=float)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = evaluation(prog, lo, hi, ind, p)
+    ev = evaluation(prog, lo, hi, p)
     rel = inequalities(ev.run(), p, p, p, ev.e, cell_variables=True)
     domains = prog.domains or {}
     box = [domains.get(n, (-np.inf, np.inf)) for n in all_names]

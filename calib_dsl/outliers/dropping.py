@@ -14,7 +14,7 @@ rows satisfies the new rows with z the indicator of J (integer, sum <= K), and a
 LP with z continuous: its certified bounds (lp/, the z columns are nuisance columns like the
 cells') hold for every such vector. A row that depends on several data rows (MIXED) is left
 out (fewer rows: a relaxation still). Rows of data rows known to hold on the set (the sets of
-rows of strategy/outliers.py show which may fail) stay as they are.
+rows of outliers/solve.py show which may fail) stay as they are.
 """
 
 from __future__ import annotations

@@ -1,0 +1,89 @@
+"""The optional sections of a solve's report, computed: identifiability, a least-squares
+estimate, certified inner bounds, and the result shaved towards them. Each fills its part of
+an `Extras` (report/extras.py), which the report layer only renders."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from calib_dsl.analysis.identify import analyse, combination_enclosures
+from calib_dsl.analysis.lsq import estimate
+from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.inner.bounds import inner_bounds
+from calib_dsl.inner.shave import shave
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+from calib_dsl.report.extras import Extras
+from calib_dsl.settings import Settings
+from calib_dsl.strategy.solution import Solution
+
+
+def identify(extra: Extras, prog: Program, res: Solution, use_lp: bool,
+             settings: Settings | None = None) -> None:
+    settings = settings or Settings()
+    start = time.perf_counter()
+    if len(prog.primitives) > settings.routine_max_primitives:
+        extra.skipped.append(f"identifiability: not analysed in solve for a program of "
+                             f"{len(prog.primitives)} primitives (run `calibc identify`)")
+        return
+    try:
+        extra.info = analyse(prog, rank_tol=settings.rank_tol)
+    except CalError:  # no nominal values to linearize at: say nothing rather than guess
+        return
+    extra.combinations = combination_enclosures(prog, extra.info, res.lo, res.hi, use_lp,
+                                                pieces=list(res.pieces),
+                                                known=list(res.combinations))
+    extra.seconds += time.perf_counter() - start
+
+
+def least_squares(extra: Extras, prog: Program, res: Solution) -> None:
+    start = time.perf_counter()
+    ind = independents(prog)
+    mid = 0.5 * (res.lo[ind] + res.hi[ind])
+    extra.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
+    extra.seconds += time.perf_counter() - start
+
+
+def inner(extra: Extras, prog: Program, res: Solution, asked: bool = False,
+          settings: Settings | None = None) -> None:
+    """Certified inner bounds, at every size; unless `asked`, not after the hc4 strategy
+    (a quick look, whose loose enclosure takes the candidate points many corrections
+    each: the inner bounds cost 10-15x its solve)."""
+    settings = settings or Settings()
+    if not asked and res.strategy == "hc4":
+        extra.skipped.append("inner bounds: not computed by default after --strategy hc4 "
+                             "(--inner computes them)")
+        return
+    # the inner bounds only add to a result proven already: a numerical failure of
+    # theirs is reported as such, and never costs the user the result
+    try:
+        extra.inner = inner_bounds(prog, res.lo, res.hi, res.starts, settings)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+        extra.skipped.append(f"inner bounds: not computed ({type(err).__name__}: {err})")
+        return
+    extra.seconds += extra.inner.seconds
+
+
+def shaved(extra: Extras, prog: Program, res: Solution, count: int | None = None,
+           settings: Settings | None = None, tol: float = 1e-5,
+           max_sweeps: int = 1000) -> Solution:
+    """`res` with the ends of its loosest unknowns contracted towards the inner bounds
+    (inner/shave.py), or `res` itself: no inner bounds, or none worth it. `count`: the
+    loosest unknowns at most, whatever their ratio; if None, settings.shave_unknowns above
+    settings.shave_above within a time budget of settings.shave_share of the solve's."""
+    settings = settings or Settings()
+    if extra.inner is None or not extra.inner.consistent or count == 0:
+        if count and extra.inner is not None:
+            extra.skipped.append("shaving: no certified inner bounds to shave towards")
+        return res
+    # (asked for a count: the loosest, whatever their ratio)
+    chosen = (settings if count is None
+              else replace(settings, shave_unknowns=count, shave_above=1.0))
+    budget = settings.shave_share * res.seconds if count is None else None
+    out, extra.shaved = shave(prog, res, extra.inner.lo, extra.inner.hi, chosen, budget, tol,
+                              max_sweeps)
+    return out
