@@ -393,8 +393,8 @@ def simulate(model: str, configs: int | None, seed: int, output: str, quiet: boo
     from calib_dsl.report.progress_line import progress_line
 
     with progress_line("simulating", quiet) as progress:
-        n = plan_command.simulated(model, configs, at, seed, output, formulation, campaign,
-                                   consts, progress)
+        n = plan_command.simulated(plan_command.Simulation(
+            model, configs, at, seed, output, formulation, campaign, consts), progress)
     click.echo(f"wrote {n} configurations to {output}", err=output == "-")
 
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import wraps
 from typing import Any
 
@@ -35,12 +36,27 @@ def simulate_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return run
 
 
-def simulated(model: str, configs: int | None, at: str | None, seed: int, output: str,
-              formulation: str, campaign: Any, consts: dict[str, str],
-              progress: Any) -> int:
+@dataclass(frozen=True)
+class Simulation:
+    """What `calibc simulate` was asked: --configs N drawn, or the configurations of --at."""
+
+    model: str
+    configs: int | None
+    at: str | None
+    seed: int
+    output: str
+    formulation: str
+    campaign: Any
+    consts: dict[str, str]
+
+
+def simulated(asked: Simulation, progress: Any) -> int:
     """`calibc simulate`: drawn configurations or those of --at; the row count written."""
     from pathlib import Path
 
+    model, configs, at, seed = asked.model, asked.configs, asked.at, asked.seed
+    output, formulation, campaign, consts = (asked.output, asked.formulation, asked.campaign,
+                                             asked.consts)
     if (configs is None) == (at is None):
         raise CalError("simulate: give either --configs N (drawn configurations) or --at "
                        "FILE (given ones)")
