@@ -63,10 +63,10 @@ def calibc() -> list[str]:
 
 
 def _untimed(doc):
-    """A result document without its timings (every "seconds" key, at any depth), which
-    differ from run to run."""
+    """A result document without its timings (every "seconds" key, at any depth) and its
+    provenance (the command line, the date, the machine), which differ from run to run."""
     if isinstance(doc, dict):
-        return {k: _untimed(v) for k, v in doc.items() if k != "seconds"}
+        return {k: _untimed(v) for k, v in doc.items() if k not in ("seconds", "provenance")}
     if isinstance(doc, list):
         return [_untimed(v) for v in doc]
     return doc

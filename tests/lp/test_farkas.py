@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.settings import LPSettings
 
 NONE = np.zeros(0, dtype=np.int64)
 
@@ -28,7 +29,7 @@ def relaxation(A: np.ndarray, b_lo: np.ndarray, b: np.ndarray) -> LinearRelaxati
 
 
 def bounds(rel: LinearRelaxation) -> tuple[np.ndarray, np.ndarray]:
-    return lp_bounds(rel, np.eye(rel.A.shape[1]), threads=1)
+    return lp_bounds(rel, np.eye(rel.A.shape[1]), LPSettings(workers=1))
 
 
 def exact_row(a: np.ndarray, x: np.ndarray) -> Fraction:

@@ -315,7 +315,8 @@ def test_the_proof_effort_stops_at_its_budget(tmp_path, monkeypatch):
     attempts that had ended, so the fine rounds ran on whatever their cost)."""
     from dataclasses import replace
 
-    from calib_dsl.pipeline import effort_for, load_model, solve
+    from calib_dsl.pipeline import SolveRequest, effort_for, load_model, solve
+    from calib_dsl.problem import Problem
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy import verdict
 
@@ -323,7 +324,8 @@ def test_the_proof_effort_stops_at_its_budget(tmp_path, monkeypatch):
     model = arm(tmp_path, {"l1": 1.0, "l2": 0.5, "l3": 0.3, "o2": 0.01, "o3": -0.02}, 3)
     elaborated, prog = load_model(model)
     res = solve(prog)
-    effort = replace(effort_for(model, "matrix", None, prog, elaborated, 1e-5, 1000),
+    problem = Problem(str(model), "matrix", Inputs(), elaborated, prog)
+    effort = replace(effort_for(SolveRequest(model), problem),
                      settings=replace(DEFAULT, verdict_share=1e-9, verdict_outlier_bounds=0.0,
                                       verdict_outlier_rows=3))
     _, said = verdict.decide(prog, res, False, effort)
