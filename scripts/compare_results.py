@@ -5,7 +5,7 @@
 A refactoring must leave results bit for bit: each case below is solved by the code of
 BASE_REV (extracted with `git archive` into a temporary folder) and by the working tree, on
 the working tree's model files, and the two JSON documents must be equal once the fields
-that measure time are dropped. The base's results are cached by commit under
+that measure time (and the provenance: the command, the date, the machine) are dropped. The base's results are cached by commit under
 .cache/compare/, so a second run only solves the working tree (or the package under --code
 DIR, e.g. a `git archive` of a commit, while the tree changes). Cases whose data are absent
 (the public UR10 set, CALIBC_UR10 or /work/shared/data/ur10 by default) are skipped with
@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parent.parent
 UR10 = Path(os.environ.get("CALIBC_UR10", "/work/shared/data/ur10"))
 REAL = f"m={UR10 / 'measurements_joint_configurations.csv'}"
 FAULTY = ROOT / ".cache" / "compare" / "rx90_faulty.csv"
-TIMING = {"seconds", "budget"}  # measured time, and what is derived from it
+# measured time, what is derived from it, and where and when the command ran
+TIMING = {"seconds", "budget", "provenance"}
 
 # name -> arguments of `calibc solve` (model files relative to the repository)
 CASES: dict[str, list[str]] = {
