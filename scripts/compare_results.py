@@ -5,14 +5,14 @@
 A refactoring must leave results bit for bit: each case below is solved by the code of
 BASE_REV (extracted with `git archive` into a temporary folder) and by the working tree, on
 the working tree's model files, and the two JSON documents must be equal once the fields
-that measure time (and the provenance: the command, the date, the machine) are dropped.
-The base's results are cached by commit under .cache/compare/, so a second run only solves the working tree (or the package under --code
-DIR, e.g. a `git archive` of a commit, while the tree changes). Cases whose data are absent
-(the public UR10 set, CALIBC_UR10 or /work/shared/data/ur10 by default) are skipped with
-a note. Shaving runs a fixed number of ends (`--shave N`): by default how many ends it
-shaves depends on the machine's speed, which no comparison can hold fixed.
-Exit 0: all equal; 1: some differ (the paths that differ are printed).
-"""
+that measure time (and the provenance: the command, the date, the machine) are dropped. The
+base's results are cached by commit under .cache/compare/, so a second run only solves the
+working tree (or the package under --code DIR, e.g. a `git archive` of a commit, while the
+tree changes). Cases whose data are absent (the public UR10 set, CALIBC_UR10 or
+/work/shared/data/ur10 by default) are skipped with a note. Shaving runs a fixed number of
+ends (`--shave N`): by default how many ends it shaves depends on the machine's speed, which
+no comparison can hold fixed. Exit 0: all equal; 1: some differ (the paths that differ are
+printed)."""
 
 from __future__ import annotations
 
