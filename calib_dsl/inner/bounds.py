@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -95,6 +96,7 @@ class Inner:
     def points(self) -> int:
         return len(self.witnesses)
 
+    @cached_property
     def centre(self) -> Witness | None:
         """The certified point nearest the middle of the inner intervals (each unknown
         measured in its interval's width): a parameter vector proven consistent, for an

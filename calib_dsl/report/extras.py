@@ -36,7 +36,7 @@ class Extras:
         """An unknown's value at the certified centre (inner/bounds.py `Inner.centre`)."""
         if self.inner is None or name not in self.inner.names:
             return None
-        centre = self.inner.centre()
+        centre = self.inner.centre  # (found once, for every unknown)
         return None if centre is None else float(centre.point[self.inner.names.index(name)])
 
     def not_identifiable(self) -> set[str]:
