@@ -142,9 +142,9 @@ def conflict(model: str | Path | Problem, formulation: str = "matrix",
     """For data proven inconsistent: the worst rows without which the rest is proven
     consistent (None when the model has no table). `model`: its file, or the problem
     loaded already (then `formulation` and `inputs` are its own)."""
-    if isinstance(model, Problem):
-        return find_conflict(model.inputs, model.loader())
-    return find_conflict(inputs or Inputs(), lambda i: load_model(model, formulation, inputs=i))
+    problem = model if isinstance(model, Problem) else \
+        Problem.load(model, formulation, inputs or Inputs())
+    return find_conflict(problem.inputs, problem.loader())
 
 
 @dataclass

@@ -3,25 +3,31 @@ domains centred on the data's least-squares estimate, the only least squares a l
 
 Everything a solve reports about the same model and data works on this one `Problem`: the
 pipeline, the verdict's proofs, the conflict search, the solve with outliers and the
-residuals ask it for programs (`loader`, `pinned_loader`), and it gives itself for its own
-inputs instead of elaborating the model again. The same model with other inputs (some rows
-left out, a const set) is elaborated anew, once per set of inputs asked for.
+residuals ask it for the same model with other inputs (`derive`, `without_rows`,
+`with_const`, and the loaders over them), and it gives itself for its own inputs. Rows of
+its table left out are derived from the elaborated model where it allows
+(elaborate/subset.py: then the derived model is compiled, never elaborated); other inputs
+(rows added, a const set, another file) are elaborated anew. `on_domains` puts a program on
+another's domains (a proof about other rows must hold on the same box).
 """
 
 from __future__ import annotations
 
 import gc
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
 
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.elaborate.rows import Selection
+from calib_dsl.elaborate.subset import derivable, rows_of
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.proof import pinned
+from calib_dsl.outliers.rows import data_rows, excluding
 
 Loader = Callable[[Inputs], tuple[Model, Program]]
 
@@ -42,6 +48,29 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
     if centre:
         centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
     return elaborated, prog
+
+
+class _Unrolled(Exception):
+    """A derived model's template rows are no copies (never seen: its first were): the model
+    is elaborated anew instead of compiled unrolled."""
+
+
+def _unrolled() -> Model:
+    raise _Unrolled
+
+
+def _compiled(model: Model, centre: bool) -> Program | None:
+    """A derived model's program (None: elaborate anew, see _Unrolled)."""
+    gc.disable()
+    try:
+        prog = compile_model(model)
+    except _Unrolled:
+        return None
+    finally:
+        gc.enable()
+    if centre:
+        centre_on_least_squares(prog)
+    return prog
 
 
 @dataclass(frozen=True, eq=False)  # (its program's arrays have no single truth value)
@@ -74,17 +103,67 @@ class Problem:
         """Whether `inputs` are this problem's own (then it is what loading them gives)."""
         return _same(inputs, self.inputs)
 
+    def derive(self, inputs: Inputs, centre: bool = True) -> Problem:
+        """The same model with `inputs`: this problem for its own; its rows `inputs` keep
+        derived without elaborating where the model allows (`rows_of`); else loaded anew.
+        `centre=False` leaves `lsq +- w` domains unbounded (for `on_domains`)."""
+        if self.asks_for(inputs):
+            return self
+        keep = self._kept(inputs)
+        model = None if keep is None else rows_of(self.model, keep, _unrolled)
+        prog = None if model is None else _compiled(model, centre)
+        if model is None or prog is None:
+            model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre)
+        return Problem(self.path, self.formulation, inputs, model, prog)
+
+    def without_rows(self, ids: list[int]) -> Problem:
+        """The same without these data rows (ids of `Slots.row_keys`), as `--exclude`."""
+        first = self.model.tables[0].name
+        return self.derive(excluding(self.inputs, data_rows(self.model, self.program, ids),
+                                     first))
+
+    def with_const(self, **values: str) -> Problem:
+        """The same with these consts set (as `-D name=value`): elaborated anew, as a const
+        may fold into any node of the DAG."""
+        return self.derive(replace(self.inputs, consts={**self.inputs.consts, **values}))
+
+    def on_domains(self, prog: Program) -> Problem:
+        """This problem's program on `prog`'s domains of the declared unknowns (and its
+        declared and centred domains); a copy, this problem's program untouched."""
+        slots = replace(self.program.slots, lo=self.program.slots.lo.copy(),
+                        hi=self.program.slots.hi.copy())
+        other = replace(self.program, slots=slots)
+        pinned(lambda _: (self.model, other), prog)(self.inputs)
+        return replace(self, program=other)
+
     def loader(self) -> Loader:
-        """The model loaded with other inputs; this problem itself for its own."""
-        return self._reusing(lambda i: load_model(self.path, self.formulation, inputs=i))
+        """The model loaded with other inputs (`derive`); this problem itself for its own."""
+        return self._reusing(lambda i: _pair(self.derive(i)))
 
     def pinned_loader(self) -> Loader:
         """The model loaded with other inputs on this program's domains (a proof about other
         rows must hold on the same box: outliers/proof.py's `pinned`); this problem itself
         for its own inputs."""
-        return self._reusing(pinned(lambda i: load_model(self.path, self.formulation,
-                                                         inputs=i, centre=False),
-                                    self.program))
+        return self._reusing(lambda i: _pair(self.derive(i, centre=False)
+                                             .on_domains(self.program)))
+
+    def _kept(self, inputs: Inputs) -> list[int] | None:
+        """The model rows (k, 1-based) of this problem's that `inputs` keep, when they differ
+        from its own only in the selection of its table's rows and keep some of them (rows
+        left out, or a set of them named); None otherwise."""
+        if not derivable(self.model) or self.program.rows is None \
+                or inputs.unroll != self.inputs.unroll \
+                or not _same(inputs.data, self.inputs.data) \
+                or not _same(inputs.consts, self.inputs.consts):
+            return None
+        table = self.model.tables[0]
+        if set(inputs.rows) - {"", table.name}:
+            return None
+        gone = _left_out(_selection(self.inputs, table.name), _selection(inputs, table.name),
+                         table.numbers)
+        if gone is None:
+            return None
+        return [k for k, n in enumerate(table.numbers, 1) if n not in gone]
 
     def _reusing(self, load: Loader) -> Loader:
         """`load`, but this problem for its own inputs, and the last program loaded again for
@@ -103,7 +182,34 @@ class Problem:
         return run
 
 
-def _same(a: Inputs, b: Inputs) -> bool:
+def _pair(p: Problem) -> tuple[Model, Program]:
+    return p.model, p.program
+
+
+def _selection(inputs: Inputs, table: str) -> Selection | None:
+    """The command line's selection of the (one) table, as the elaborator reads it."""
+    return inputs.rows.get(table) or inputs.rows.get("")
+
+
+def _left_out(old: Selection | None, new: Selection | None,
+              numbers: list[int]) -> set[int] | None:
+    """The data row numbers of `numbers` (what `old` selects) that `new` leaves out, when
+    `new` selects a subset of them: `old`'s ranges with more rows excluded, or rows named
+    one by one (each among `numbers`); None otherwise."""
+    if new is None:
+        return None
+    have = set(numbers)
+    if new.ranges == (old.ranges if old is not None else ()):
+        before = set(old.excluded) if old is not None else set()
+        gone = set(new.excluded) - before
+        return gone if before <= set(new.excluded) and gone <= have else None
+    if new.excluded or not all(r.last == r.first for r in new.ranges):
+        return None
+    named = {r.first for r in new.ranges}
+    return have - named if named <= have else None
+
+
+def _same(a: object, b: object) -> bool:
     try:
         return bool(a == b)
     except (TypeError, ValueError):  # (cells given as arrays: compared by identity)

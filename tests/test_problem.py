@@ -1,18 +1,24 @@
 """A `calibc solve` elaborates its model once (calib_dsl/problem.py): every part of the report
 (the verdict, the conflict search, the solve with outliers, the residuals) asks the loaded
-problem for programs, which gives itself for its own inputs; the same model with other
-inputs (rows left out) is elaborated once per set of inputs."""
+problem for programs, which gives itself for its own inputs and derives the same model
+without some rows from the elaborated one (elaborate/subset.py) where the model allows:
+the derived program is the one elaborating anew would give, array for array."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
 import calib_dsl.problem as problem_module
 from calib_dsl.cli import main
-from calib_dsl.elaborate.elaborator import Inputs
+from calib_dsl.elaborate.elaborator import Elaborator, Inputs
+from calib_dsl.elaborate.subset import derivable
+from calib_dsl.outliers.proof import only
+from calib_dsl.outliers.rows import Row, excluding
+from calib_dsl.problem import Problem, load_model
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "models" / "examples" / "planar_arm.cal"
@@ -32,10 +38,6 @@ def elaborations(monkeypatch, args: list[str]) -> tuple[int, list[Inputs]]:
     out = CliRunner().invoke(main, ["solve", "-q", "--shave", "0", *args])
     assert out.exception is None or isinstance(out.exception, SystemExit), out.output
     return out.exit_code, seen
-
-
-def distinct(seen: list[Inputs]) -> bool:
-    return all(a != b for i, a in enumerate(seen) for b in seen[i + 1:])
 
 
 def test_a_solve_with_every_section_elaborates_once(monkeypatch):
@@ -58,14 +60,115 @@ def faulty(tmp_path: Path) -> Path:
 @pytest.mark.slow
 @pytest.mark.parametrize("more", [[], ["--outliers", "1"]])
 def test_the_diagnosis_and_the_outliers_load_the_model_once(tmp_path, monkeypatch, more):
-    """Inconsistent data, diagnosed (the rows at fault named) or solved with an outlier: the
-    model with the command's inputs is elaborated once; the diagnosis elaborates no other
-    set of inputs twice (the solve with outliers may: the rows without its certain outlier
-    are one of its sets, and its final solve, and only the last program is kept)."""
+    """Inconsistent data, diagnosed (the rows at fault named) or solved with an outlier, on a
+    model of the paper's size: the model is elaborated once, with the command's inputs;
+    every set of rows the diagnosis, the proofs and the solve ask for is derived."""
     data = faulty(tmp_path)
     code, seen = elaborations(monkeypatch, [str(RX90), "--data", str(data), *more])
     assert code == (1 if not more else 0)
-    given = seen[0]
-    assert [s == given for s in seen].count(True) == 1
-    assert len(seen) > 1  # (the rows left out: other inputs)
-    assert distinct(seen) or more
+    assert len(seen) == 1 and seen[0].data == {"": str(data)}
+
+def arm_with_a_faulty_row(tmp_path: Path) -> Path:
+    """The planar arm's data with row 3's x moved by 1 cm: proven inconsistent."""
+    lines = (ARM.parent / "planar_arm.csv").read_text().splitlines()
+    j = lines[0].split(",").index("x")
+    cells = lines[3].split(",")
+    cells[j] = repr(float(cells[j]) + 0.01)
+    lines[3] = ",".join(cells)
+    out = tmp_path / "faulty_arm.csv"
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
+def counting(monkeypatch) -> list[int]:
+    """A counter of the elaborations from now on (every one is an `Elaborator`), wherever
+    they come from."""
+    count = [0]
+    real = Elaborator.__init__
+
+    def counted(self, *args, **kwargs):
+        count[0] += 1
+        real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Elaborator, "__init__", counted)
+    return count
+
+
+def every_elaboration(monkeypatch, args: list[str]) -> tuple[int, int]:
+    """The exit code of `calibc solve ARGS` and how many times any model was elaborated."""
+    count = counting(monkeypatch)
+    out = CliRunner().invoke(main, ["solve", "-q", "--shave", "0", *args])
+    assert out.exception is None or isinstance(out.exception, SystemExit), out.output
+    return out.exit_code, count[0]
+
+
+@pytest.mark.parametrize("more, code", [
+    ([], 0),
+    (["--residuals"], 0),
+    # (["--min-error", "e"], 0): each trial elaborates its const anew (step 2)
+    (["FAULTY"], 1),  # inconsistent: diagnosed, the rows at fault named
+    (["FAULTY", "--outliers", "1"], 0),  # a row proven an outlier, then the solve without it
+])
+def test_a_solve_elaborates_its_model_once(tmp_path, monkeypatch, more, code):
+    args = [str(ARM)] + [a for a in more if a != "FAULTY"]
+    if "FAULTY" in more:
+        args += ["--data", str(arm_with_a_faulty_row(tmp_path))]
+    assert every_elaboration(monkeypatch, args) == (code, 1)
+
+
+def same_program(a, b) -> None:
+    sa, sb = a.slots, b.slots
+    assert list(sa.names) == list(sb.names) and list(sa.kinds) == list(sb.kinds)
+    assert np.array_equal(sa.lo, sb.lo) and np.array_equal(sa.hi, sb.hi)
+    assert sa.row_keys == sb.row_keys and sa.col_keys == sb.col_keys
+    assert np.array_equal(sa.cell_row, sb.cell_row) and np.array_equal(sa.cell_col, sb.cell_col)
+    assert sa.measured_sides == sb.measured_sides and sa.declared == sb.declared
+    assert list(a.primitives) == list(b.primitives) and len(a.groups) == len(b.groups)
+    for g, h in zip(a.groups, b.groups, strict=True):
+        assert (g.op, g.level) == (h.op, h.level)
+        assert all(np.array_equal(getattr(g, f), getattr(h, f)) for f in ("out", "args", "prim"))
+    assert (a.tables, a.centred, a.domains) == (b.tables, b.centred, b.domains)
+    assert (a.rows is None) == (b.rows is None)
+    assert a.rows is None or np.array_equal(a.rows.rows, b.rows.rows)
+
+
+@pytest.mark.parametrize("path", [ARM, RX90, ROOT / "models" / "rx90_full.cal"])
+def test_rows_left_out_are_derived_as_elaborating_anew_gives(monkeypatch, path):
+    """Rows left out (as --exclude does), or named (as the outlier proofs do), of the first
+    rows, the last, every other: the derived program is the elaborated one, array for array,
+    and no elaboration ran for it."""
+    problem = Problem.load(path)
+    assert derivable(problem.model)
+    t = problem.model.tables[0]
+    n = len(t.numbers)
+    asked = [excluding(problem.inputs, [Row(t.name, t.path, 0, 1)], t.name),
+             excluding(problem.inputs, [Row(t.name, t.path, 0, r) for r in (2, n)], t.name),
+             only(problem.inputs, problem.model, [1, 3, 4, n]),
+             only(problem.inputs, problem.model,
+                  [k for k in range(1, n + 1) if k % 2 == 0 or k == n])]
+    for inputs in asked:
+        expected = load_model(path, inputs=inputs)
+        count = counting(monkeypatch)
+        derived = problem.derive(inputs)
+        monkeypatch.undo()
+        assert count == [0]
+        same_program(derived.program, expected[1])
+        assert derived.model.tables[0].numbers == expected[0].tables[0].numbers
+        assert derived.model.tables[0].lines == expected[0].tables[0].lines
+        again = excluding(inputs, [Row(t.name, t.path, 0, derived.model.tables[0].numbers[-1])],
+                          t.name)  # a derived problem derives in turn
+        same_program(derived.derive(again).program, load_model(path, inputs=again)[1])
+
+
+def test_what_the_model_does_not_allow_is_elaborated_anew(tmp_path):
+    """rows(t) read beside the loop, or fewer rows than a loop compiled once needs: the
+    model is elaborated again (and the result is still what elaborating gives)."""
+    text = ARM.read_text().replace("p[3] == 0;", "p[3] == 0 * rows(m);")
+    (tmp_path / "arm.cal").write_text(text)
+    for name in ("planar_arm_robot.cal", "planar_arm.csv"):
+        (tmp_path / name).write_text((ARM.parent / name).read_text())
+    assert not derivable(Problem.load(tmp_path / "arm.cal").model)
+    problem = Problem.load(ARM)
+    two = only(problem.inputs, problem.model, [1, 2])
+    derived = problem.derive(two)
+    assert derived.program.rows is None and len(derived.model.tables[0].numbers) == 2

@@ -21,7 +21,7 @@ import numpy as np
 
 from calib_dsl.elaborate.checks import MAX_UNROLL
 from calib_dsl.elaborate.context import Context
-from calib_dsl.elaborate.scope import ColumnRef, Macro, Scope
+from calib_dsl.elaborate.scope import ColumnRef, Macro, Scope, TableRef
 from calib_dsl.elaborate.table_decl import Cells
 from calib_dsl.frontend import ast
 from calib_dsl.frontend.diagnostics import CalError
@@ -118,7 +118,7 @@ class Batching(Context):
             if isinstance(derived, Cells):
                 cells[key] = (derived.lo, derived.hi)
         self.batch = RowBatch(list(range(lo, hi + 1)), (lo, lo + 1), cells, s.loc,
-                              self.unrolled_model)
+                              self.unrolled_model, _over(s, scope, cells, lo, hi))
         return True
 
     def _cells(self, found: list[tuple[ast.Field, Scope]], lo: int, hi: int
@@ -140,3 +140,18 @@ class Batching(Context):
                 return None
             out[(cells.table, cells.column)] = (cells.lo, cells.hi)
         return out
+
+
+def _over(s: ast.For, scope: Scope, cells: dict[tuple[str, str], Any], lo: int,
+          hi: int) -> str | None:
+    """The table t when the loop is `for k in 1..rows(t)` over all of t's rows and its body
+    reads cells of t alone: then the same model with fewer rows of t is this one's loop over
+    those rows (elaborate/subset.py); else None."""
+    end = s.range.hi
+    if lo != 1 or not isinstance(end, ast.Call) or end.func != "rows" or len(end.args) != 1:
+        return None
+    hit = scope.lookup(end.args[0].id) if isinstance(end.args[0], ast.Name) else None
+    table = hit[0] if hit is not None else None
+    if not isinstance(table, TableRef) or table.rows != hi:
+        return None
+    return table.name if {t for t, _ in cells} == {table.name} else None

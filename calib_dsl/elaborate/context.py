@@ -29,6 +29,7 @@ class Context:
     overrides: dict[str, str]  # const values from the command line (-D name=value)
     overridden: set[str]  # the consts they replaced
     consts_seen: set[str]
+    row_counts_read: int  # how many times `rows(t)` was evaluated
     const_values: dict[str, Fraction]  # the top-level numeric consts, as elaborated
     loop_product: int
     expanded: dict[tuple, tuple[Any, Any]]

@@ -89,7 +89,7 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
                  batch=run.batch, sources=tuple(run.sources),
-                 joint_limits=dict(run.joint_limits))
+                 joint_limits=dict(run.joint_limits), row_counts_read=run.row_counts_read)
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -121,6 +121,7 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
         self.overrides = dict(inputs.consts)
         self.overridden: set[str] = set()
         self.consts_seen: set[str] = set()
+        self.row_counts_read = 0
         self.const_values: dict[str, Fraction] = {}
         self.loop_product = 1  # the enclosing loops' iterations, multiplied
         self.unroll = inputs.unroll

@@ -308,6 +308,7 @@ class Expressions(Context):
         table = self.entity(e.args[0], scope)
         if not isinstance(table, TableRef):
             raise CalError("rows(t) takes a table", e.args[0].loc)
+        self.row_counts_read += 1
         return Fraction(table.rows)
 
     def _dot_call(self, e: ast.Call, scope: Scope) -> Value:

@@ -7,6 +7,7 @@ on constants are folded with outward-rounded interval arithmetic: folding never 
 
 from __future__ import annotations
 
+import copy
 import gc
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -133,6 +134,22 @@ class Dag:
         self.cells.setdefault(node, set()).add((table, column, row))
         self._folds[node] = self._points[node] is not None  # uncertain: never folded
         return node
+
+    def with_cells(self, values: dict[int, tuple[float, float]]) -> Dag:
+        """A copy in which these measured cells (uncertain constants, never folded nor
+        shared) hold other values: every other node, and every node's id, is the same."""
+        out = copy.copy(self)
+        out.nodes, out._table = list(self.nodes), dict(self._table)
+        out._points, out._folds = list(self._points), list(self._folds)
+        out._levels = list(self._levels)
+        for node, (lo, hi) in values.items():
+            old = self.nodes[node]
+            assert node in self.cells and old.op == "const" and len(old.data) == 3
+            new = Node("const", (), (float(lo) + 0.0, float(hi) + 0.0, old.data[2]))
+            del out._table[old]
+            out.nodes[node] = new
+            out._table[new] = node
+        return out
 
     def pi(self) -> int:
         return self.const(np.nextafter(np.pi, -np.inf), np.nextafter(np.pi, np.inf))

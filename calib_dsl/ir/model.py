@@ -57,6 +57,9 @@ class Model:
     sources: tuple[str, ...] = ()  # the files read: the model, then what it includes
     # (table, column) -> the limits of the robot joint its cells are the values of
     joint_limits: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
+    # how many times `rows(t)` was evaluated: a model whose only use of a row count is its
+    # batch's loop `1..rows(t)` can lose rows without elaborating again (elaborate/subset.py)
+    row_counts_read: int = 0
 
 
 @dataclass
@@ -71,3 +74,6 @@ class RowBatch:
     cells: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]]
     loc: Loc | None
     unrolled: Callable[[], Model]  # the same model elaborated with every loop unrolled
+    # the table whose every row the loop runs over (`for k in 1..rows(t)`, reading cells of
+    # t alone), else None
+    table: str | None = None
