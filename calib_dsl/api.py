@@ -251,5 +251,4 @@ def min_error(problem: Problem, name: str, *, strategy: str = "tight",
               progress: Progress | None = None) -> MinError:
     """Bracket the smallest value of the const `name` (an error bound) for which the data
     are consistent, as `calibc solve --min-error NAME`."""
-    return pipeline.min_error(problem.path, name, problem.formulation, problem.inputs,
-                              strategy, progress)
+    return pipeline.min_error(problem, name, strategy=strategy, progress=progress)

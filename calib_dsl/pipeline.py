@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -52,11 +51,12 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
     return load_model(model, formulation, data, inputs)[1]
 
 
-def min_error(model: str | Path, name: str, formulation: str = "matrix",
+def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight",
               progress: Progress | None = None) -> MinError:
     """Bracket the smallest value of the const `name` for which the data are consistent
-    (`progress`: each trial solve's stages, labelled with the trial's number)."""
+    (`progress`: each trial solve's stages, labelled with the trial's number). `model`: its
+    file, or the problem loaded already (then `formulation` and `inputs` are its own)."""
     trials = 0
 
     def run(prog: Program) -> str:
@@ -64,40 +64,12 @@ def min_error(model: str | Path, name: str, formulation: str = "matrix",
         trials += 1
         return solve(prog, strategy, progress=labelled(progress, f"trial {trials}: ")).status
 
-    given = inputs or Inputs()
-    first = load_model(model, formulation, inputs=given)
-    load = on_priors_of(first[1], lambda i: load_model(model, formulation, inputs=i,
-                                                        centre=False), first)
-    del first  # (the trials hold one program at a time)
-    return find_min_error(name, given, load, run)
-
-
-def on_priors_of(prog: Program, load: Callable[[Inputs], tuple[Model, Program]],
-                 first: tuple[Model, Program] | None = None
-                 ) -> Callable[[Inputs], tuple[Model, Program]]:
-    """`load` (which leaves `lsq +- w` domains uncentred), each program's `lsq +- w` domains
-    `prog`'s: every trial of a bracket asks about the same priors (centred anew on each
-    trial's data, a domain along a direction the data do not see moves by millimetres, and a
-    point certified in one is outside the next). `first`, when given, is returned by the
-    first call (`prog`'s own load), not loaded again."""
-    s = prog.slots
-    fixed = {name: (float(s.lo[s.names.index(name)]), float(s.hi[s.names.index(name)]))
-             for name in prog.centred}
-    centred, domains = dict(prog.centred), None if prog.domains is None else dict(prog.domains)
-    held = [first] if first is not None else []
-
-    def run(inputs: Inputs) -> tuple[Model, Program]:
-        if held:
-            return held.pop()
-        model, other = load(inputs)
-        for name, (lo, hi) in fixed.items():
-            j = other.slots.names.index(name)
-            other.slots.lo[j], other.slots.hi[j] = lo, hi
-        other.domains = None if domains is None else dict(domains)
-        other.centred = dict(centred)
-        return model, other
-
-    return run
+    problem = model if isinstance(model, Problem) else \
+        Problem.load(model, formulation, inputs or Inputs())
+    # every trial asks about the same priors (centred anew on each trial's data, a domain
+    # along a direction the data do not see moves by millimetres, and a point certified in
+    # one is outside the next)
+    return find_min_error(problem.keeping_priors(), name, run)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,

@@ -6,8 +6,9 @@ pipeline, the verdict's proofs, the conflict search, the solve with outliers and
 residuals ask it for the same model with other inputs (`derive`, `without_rows`,
 `with_const`, and the loaders over them), and it gives itself for its own inputs. Rows of
 its table left out are derived from the elaborated model where it allows
-(elaborate/subset.py: then the derived model is compiled, never elaborated); other inputs
-(rows added, a const set, another file) are elaborated anew. `on_domains` puts a program on
+(elaborate/subset.py: then the derived model is compiled, never elaborated), and so are
+consts that are only error bounds set to other values; other inputs (rows added, another
+file, a const read elsewhere) are elaborated anew. `on_domains` puts a program on
 another's domains (a proof about other rows must hold on the same box).
 """
 
@@ -23,7 +24,7 @@ from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
-from calib_dsl.elaborate.subset import derivable, rows_of
+from calib_dsl.elaborate.subset import derivable, rows_of, with_tolerance
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.proof import pinned
@@ -73,6 +74,30 @@ def _compiled(model: Model, centre: bool) -> Program | None:
     return prog
 
 
+@dataclass(frozen=True)
+class Priors:
+    """A program's `lsq +- w` domains (and its declared and centred domains), to put on the
+    programs of other inputs."""
+
+    fixed: dict[str, tuple[float, float]]
+    centred: dict[str, tuple[float, float]]
+    domains: dict[str, tuple[float, float]] | None
+
+    @classmethod
+    def of(cls, prog: Program) -> Priors:
+        s = prog.slots
+        at = {name: s.names.index(name) for name in prog.centred}
+        return cls({n: (float(s.lo[j]), float(s.hi[j])) for n, j in at.items()},
+                   dict(prog.centred), None if prog.domains is None else dict(prog.domains))
+
+    def put_on(self, prog: Program) -> None:
+        for name, (lo, hi) in self.fixed.items():
+            j = prog.slots.names.index(name)
+            prog.slots.lo[j], prog.slots.hi[j] = lo, hi
+        prog.domains = None if self.domains is None else dict(self.domains)
+        prog.centred = dict(self.centred)
+
+
 @dataclass(frozen=True, eq=False)  # (its program's arrays have no single truth value)
 class Problem:
     """A model loaded: parsed, elaborated with its inputs, compiled."""
@@ -82,6 +107,8 @@ class Problem:
     inputs: Inputs
     model: Model  # the elaborated model: its tables, consts, DAG
     program: Program  # the flat program the solvers work on
+    # when set, what it derives is on these `lsq +- w` domains, not centred anew
+    priors: Priors | None = None
 
     @classmethod
     def load(cls, path: str | Path, formulation: str = "matrix",
@@ -109,12 +136,19 @@ class Problem:
         `centre=False` leaves `lsq +- w` domains unbounded (for `on_domains`)."""
         if self.asks_for(inputs):
             return self
-        keep = self._kept(inputs)
-        model = None if keep is None else rows_of(self.model, keep, _unrolled)
+        centre = centre and self.priors is None
+        model = self._derived(inputs)
         prog = None if model is None else _compiled(model, centre)
         if model is None or prog is None:
             model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre)
-        return Problem(self.path, self.formulation, inputs, model, prog)
+        if self.priors is not None:
+            self.priors.put_on(prog)
+        return Problem(self.path, self.formulation, inputs, model, prog, self.priors)
+
+    def keeping_priors(self) -> Problem:
+        """This problem, but what it derives is on its `lsq +- w` domains (a bracket's
+        trials all ask about the same priors)."""
+        return replace(self, priors=Priors.of(self.program))
 
     def without_rows(self, ids: list[int]) -> Problem:
         """The same without these data rows (ids of `Slots.row_keys`), as `--exclude`."""
@@ -123,8 +157,9 @@ class Problem:
                                      first))
 
     def with_const(self, **values: str) -> Problem:
-        """The same with these consts set (as `-D name=value`): elaborated anew, as a const
-        may fold into any node of the DAG."""
+        """The same with these consts set (as `-D name=value`): derived where each is an
+        error bound of columns alone (`with_tolerance`), else elaborated anew (a const may
+        fold into any node of the DAG)."""
         return self.derive(replace(self.inputs, consts={**self.inputs.consts, **values}))
 
     def on_domains(self, prog: Program) -> Problem:
@@ -146,6 +181,31 @@ class Problem:
         for its own inputs."""
         return self._reusing(lambda i: _pair(self.derive(i, centre=False)
                                              .on_domains(self.program)))
+
+    def _derived(self, inputs: Inputs) -> Model | None:
+        """The elaborated model with `inputs`, derived from this one's: its rows `inputs`
+        keep, or consts that are error bounds set; None when it must be elaborated anew."""
+        keep = self._kept(inputs)
+        if keep is not None:
+            return rows_of(self.model, keep, _unrolled)
+        values = self._bounds_set(inputs)
+        model: Model | None = self.model
+        for name, value in (values or {}).items():
+            model = None if model is None else with_tolerance(model, name, value)
+        return model if values else None
+
+    def _bounds_set(self, inputs: Inputs) -> dict[str, Fraction] | None:
+        """The consts `inputs` set otherwise than this problem's (as `-D` reads them), when
+        nothing else differs; None otherwise."""
+        mine = dict(self.inputs.consts)
+        if inputs.unroll != self.inputs.unroll or not _same(inputs.data, self.inputs.data) \
+                or not _same(inputs.rows, self.inputs.rows) or set(mine) - set(inputs.consts):
+            return None
+        try:
+            return {k: Fraction(v.strip()) for k, v in inputs.consts.items()
+                    if mine.get(k) != v}
+        except (ValueError, ZeroDivisionError, AttributeError):
+            return None
 
     def _kept(self, inputs: Inputs) -> list[int] | None:
         """The model rows (k, 1-based) of this problem's that `inputs` keep, when they differ

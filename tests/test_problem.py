@@ -105,7 +105,7 @@ def every_elaboration(monkeypatch, args: list[str]) -> tuple[int, int]:
 @pytest.mark.parametrize("more, code", [
     ([], 0),
     (["--residuals"], 0),
-    # (["--min-error", "e"], 0): each trial elaborates its const anew (step 2)
+    (["--min-error", "e"], 0),  # every trial's bound set on the cells
     (["FAULTY"], 1),  # inconsistent: diagnosed, the rows at fault named
     (["FAULTY", "--outliers", "1"], 0),  # a row proven an outlier, then the solve without it
 ])

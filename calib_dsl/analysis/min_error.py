@@ -9,16 +9,18 @@
   are tried from the top down, then by bisection, within a budget of solves.
 
 The rows whose residual at hi is within BINDING of it are the ones that set it. Every trial
-elaborates the model anew with the const set, so any model whose measured values are stated
-`+- NAME` works, whatever else it contains.
+is the problem with the const set (problem.py's `Problem.with_const`: the cells' bounds
+changed where the const is only an error bound, else the model elaborated anew), so any model
+whose measured values are stated `+- NAME` works, whatever else it contains.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import Protocol
 
 import numpy as np
 
@@ -58,12 +60,25 @@ class MinError:
     trials: list[tuple[float, str]] = field(default_factory=list)  # (value, outcome)
 
 
-Loader = Callable[[Inputs], tuple[Model, Program]]
+Loader = Callable[[Inputs], tuple[Model, Program]]  # the model with other inputs
 Solver = Callable[[Program], str]  # the status of a solve
 
 
-def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinError:
-    model, prog = load(inputs)
+class Trials(Protocol):
+    """What the bracket asks of a problem (problem.py's `Problem`): the model as loaded, and
+    the same with consts set (`-D`)."""
+
+    @property
+    def model(self) -> Model: ...
+
+    @property
+    def program(self) -> Program: ...
+
+    def with_const(self, **values: str) -> Trials: ...
+
+
+def min_error(problem: Trials, name: str, solve: Solver) -> MinError:
+    model, prog = problem.model, problem.program
     if name not in model.consts:
         have = ", ".join(sorted(model.consts)) or "none"
         raise CalError(f"--min-error {name}: the model has no numeric const '{name}' (its "
@@ -72,15 +87,15 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    hi, check_prog, point = _upper(name, inputs, load, prog, rows)
+    hi, check_prog, point = _upper(name, problem, prog, rows)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
     out.binding = _binding(model, check_prog, point, rows, hi)
-    del model, prog, check_prog  # each trial loads its own: one program in memory at a time
-    _lower(out, inputs, load, solve)
+    del model, prog, check_prog  # (each trial derives its own)
+    _lower(out, problem, solve)
     return out
 
 
-def _upper(name: str, inputs: Inputs, load: Loader, prog: Program, rows: np.ndarray
+def _upper(name: str, problem: Trials, prog: Program, rows: np.ndarray
            ) -> tuple[float, Program, np.ndarray]:
     """The smallest bound proven feasible: the Chebyshev fit's point, or the fit continued
     with the joint readings free (their errors lower it further), whichever is certified at
@@ -91,13 +106,13 @@ def _upper(name: str, inputs: Inputs, load: Loader, prog: Program, rows: np.ndar
     found: list[tuple[float, Program, np.ndarray]] = []
     if step is not None and step[2] < need:
         try:
-            found.append(_certified(name, inputs, load, step[0], step[2],
+            found.append(_certified(name, problem, step[0], step[2],
                                     Readings(prog).by_cell(step[1])))
         except CalError:
             pass
     if not found or found[0][0] > need:
         try:
-            found.append(_certified(name, inputs, load, point, need))
+            found.append(_certified(name, problem, point, need))
         except CalError:
             if not found:
                 raise
@@ -120,7 +135,7 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     return rows
 
 
-def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need: float,
+def _certified(name: str, problem: Trials, point: np.ndarray, need: float,
                readings: dict[int, float] | None = None
                ) -> tuple[float, Program, np.ndarray]:
     """The smallest tried bound (from `need` up) at which the point (with these joint
@@ -129,7 +144,7 @@ def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need:
     e = need * (1 + 1e-6) + 1e-12
     computed = False
     for _ in range(CERTIFY_TRIES):
-        _, prog = load(_with(inputs, name, e))
+        prog = _trial(problem, name, e)
         # an LP's point may sit a rounding outside a domain (and domains centred on least
         # squares move with the data)
         point = np.clip(point, *within_domains(prog))
@@ -147,14 +162,14 @@ def _certified(name: str, inputs: Inputs, load: Loader, point: np.ndarray, need:
     raise CalError(f"--min-error {name}: no point could be proven feasible ({why})")
 
 
-def _lower(out: MinError, inputs: Inputs, load: Loader, solve: Solver) -> None:
+def _lower(out: MinError, problem: Trials, solve: Solver) -> None:
     """Prove infeasible the largest value below hi that the budget allows."""
     refuted, open_ = None, out.hi
     for k, step in enumerate(STEPS):
         if k >= MAX_SOLVES:
             break
         e = out.hi / step
-        status = solve(load(_with(inputs, out.name, e))[1])
+        status = solve(_trial(problem, out.name, e))
         out.trials.append((e, status))
         if status == "infeasible":
             refuted = e
@@ -163,7 +178,7 @@ def _lower(out: MinError, inputs: Inputs, load: Loader, solve: Solver) -> None:
     solves = len(out.trials)
     while refuted is not None and solves < MAX_SOLVES and open_ / refuted > 1.005:
         e = math.sqrt(refuted * open_)
-        status = solve(load(_with(inputs, out.name, e))[1])
+        status = solve(_trial(problem, out.name, e))
         out.trials.append((e, status))
         solves += 1
         if status == "infeasible":
@@ -173,8 +188,9 @@ def _lower(out: MinError, inputs: Inputs, load: Loader, solve: Solver) -> None:
     out.lo = refuted
 
 
-def _with(inputs: Inputs, name: str, value: float) -> Inputs:
-    return replace(inputs, consts={**inputs.consts, name: str(Fraction(value))})
+def _trial(problem: Trials, name: str, value: float) -> Program:
+    """The program with the const at `value` (exactly: the float as a fraction)."""
+    return problem.with_const(**{name: str(Fraction(value))}).program
 
 
 def _binding(model: Model, prog: Program, point: np.ndarray, rows: np.ndarray,

@@ -89,7 +89,9 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
                  batch=run.batch, sources=tuple(run.sources),
-                 joint_limits=dict(run.joint_limits), row_counts_read=run.row_counts_read)
+                 joint_limits=dict(run.joint_limits), row_counts_read=run.row_counts_read,
+                 tolerances={c: cols for c, (n, cols) in run.tolerance_of.items()
+                             if n == run.const_reads.get(c)})
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:
@@ -122,6 +124,8 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
         self.overridden: set[str] = set()
         self.consts_seen: set[str] = set()
         self.row_counts_read = 0
+        self.const_reads: dict[str, int] = {}
+        self.tolerance_of: dict[str, tuple[int, list[tuple[str, str]]]] = {}
         self.const_values: dict[str, Fraction] = {}
         self.loop_product = 1  # the enclosing loops' iterations, multiplied
         self.unroll = inputs.unroll

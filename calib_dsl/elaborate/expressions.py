@@ -85,12 +85,19 @@ class Expressions(Context):
     def lookup(self, name: str, loc: Loc, scope: Scope) -> Entity:
         hit = scope.lookup(name)
         if hit is not None:
+            if self.is_global_const(name, hit):
+                self.const_reads[name] = self.const_reads.get(name, 0) + 1
             return hit[0]
         if name in BUILTINS:
             raise CalError(f"'{name}' is a built-in function: call it, {name}(...)", loc)
         near = difflib.get_close_matches(name, scope.visible(), n=1)
         hint = f" (did you mean '{near[0]}'?)" if near else ""
         raise CalError(f"unknown name '{name}'{hint}", loc)
+
+    def is_global_const(self, name: str, hit: tuple[Entity, Loc] | None) -> bool:
+        """Whether `hit` (a scope's entry for `name`) is a top-level numeric const."""
+        return name in self.const_values and hit is not None \
+            and hit is self.globals.names.get(name)
 
     def _name(self, e: ast.Name, scope: Scope) -> Entity:
         return self.lookup(e.id, e.loc, scope)

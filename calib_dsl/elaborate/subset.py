@@ -1,4 +1,5 @@
-"""The same elaborated model with fewer rows of its table, without elaborating it again.
+"""The same elaborated model with fewer rows of its table, or another error bound, without
+elaborating it again.
 
 A model whose rows enter only through one loop compiled once (elaborate/batching.py) over
 all the rows of its one table, `for k in 1..rows(t)`, is its two template rows' DAG and the
@@ -8,16 +9,24 @@ template's cell nodes are uncertain constants that nothing folds (ir/dag.py), so
 their values leaves every other node as it was. Any other use of the rows (`rows(t)` read
 elsewhere, a cell read outside the loop, another table, fewer rows than a batch needs) and
 `rows_of` answers None: the caller elaborates anew.
+
+A const read only as the whole error bound of columns (`x, y : +- e`, `Model.tolerances`)
+enters the model through those columns' cells alone: set to another value, it is the same
+DAG with those cells (never folded, never shared) widened or narrowed from the readings
+(`with_tolerance`). A bound of 0 makes exact cells, which fold: elaborated anew.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 
+from calib_dsl.arith.exact import enclose_fraction
 from calib_dsl.elaborate.batching import BATCH_MIN_ROWS
+from calib_dsl.elaborate.tables import cell_bounds
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, RowBatch, Table
 
@@ -54,7 +63,48 @@ def _rows_of_table(t: Table, at: np.ndarray) -> Table:
     return replace(t, rows=len(at), lines=[t.lines[i] for i in at.tolist()],
                    numbers=[t.numbers[i] for i in at.tolist()],
                    bounds={c: (lo[at], hi[at]) for c, (lo, hi) in t.bounds.items()},
+                   readings={c: (lo[at], hi[at]) for c, (lo, hi) in t.readings.items()},
                    columns=list(t.columns))
+
+
+def with_tolerance(model: Model, name: str, value: Fraction) -> Model | None:
+    """The model with the const `name` (an error bound of columns alone) set to `value`, or
+    None when it must be elaborated anew (see the module's doc)."""
+    columns = set(model.tolerances.get(name, ()))
+    try:
+        lo, tol = enclose_fraction(value)
+    except OverflowError:
+        return None
+    tables = {t.name: t for t in model.tables}
+    if not columns or model.simulation or not (0 < lo and np.isfinite(tol)) \
+            or any(c.derived for t in model.tables for c in t.columns) \
+            or any(c not in tables[t].readings for t, c in columns) \
+            or any(c.name == col and c.tol <= 0 for t, col in columns
+                   for c in tables[t].columns):
+        return None
+    bounds = {(t, c): cell_bounds(*tables[t].readings[c], tol) for t, c in columns}
+    new_tables = [_with_bounds(t, bounds, tol) for t in model.tables]
+    batch = model.batch
+    if batch is not None:
+        batch = replace(batch, cells={k: bounds.get(k, v) for k, v in batch.cells.items()})
+    values = {}
+    for node, tags in model.dag.cells.items():
+        hit = [(t, c, row) for t, c, row in tags if (t, c) in bounds]
+        if hit:
+            if len(tags) != 1:
+                return None
+            (t, c, row), = hit
+            values[node] = (float(bounds[(t, c)][0][row - 1]),
+                            float(bounds[(t, c)][1][row - 1]))
+    return replace(model, dag=model.dag.with_cells(values), tables=new_tables, batch=batch,
+                   consts={**model.consts, name: value})
+
+
+def _with_bounds(t: Table, bounds: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
+                 tol: float) -> Table:
+    mine = {c for name, c in bounds if name == t.name}
+    return replace(t, columns=[replace(c, tol=tol) if c.name in mine else c for c in t.columns],
+                   bounds={**t.bounds, **{c: bounds[(t.name, c)] for c in mine}})
 
 
 def _template_cells(dag: Dag, cells: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]]

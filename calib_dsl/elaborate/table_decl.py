@@ -94,7 +94,8 @@ class Tables(Context):
             table.rows, table.lines, table.numbers = data.rows, data.lines, data.numbers
             cells = {}
             for c in columns:
-                lo, hi = cell_bounds(*convert(*data.enclosures[c.name], c.factor), c.tol)
+                table.readings[c.name] = convert(*data.enclosures[c.name], c.factor)
+                lo, hi = cell_bounds(*table.readings[c.name], c.tol)
                 cells[c.name] = Cells(self.dag, s.name.id, c.name, lo, hi)
                 table.bounds[c.name] = (lo, hi)
         self.tables.append(table)
@@ -173,6 +174,11 @@ class Tables(Context):
         locs: dict[str, Loc] = {}
         for g in s.groups:
             tol = self._tolerance(g.tol, scope)
+            if isinstance(g.tol, ast.Name) and self.is_global_const(g.tol.id,
+                                                                    scope.lookup(g.tol.id)):
+                n, cols = self.tolerance_of.get(g.tol.id, (0, []))
+                self.tolerance_of[g.tol.id] = (n + 1, cols + [(s.name.id, i.id)
+                                                              for i in g.names])
             sim = None
             if g.simulate is not None:
                 lo, hi, _ = self.domain(g.simulate, scope)

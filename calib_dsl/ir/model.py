@@ -42,6 +42,8 @@ class Table:
     # per column, each row's cell [lo, hi] in the model's units, its error bound included
     # (the DAG holds a node for the cells the model reads; empty in simulation mode)
     bounds: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # per column, each row's reading [lo, hi] in the model's units, before its error bound
+    readings: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 @dataclass
@@ -60,6 +62,9 @@ class Model:
     # how many times `rows(t)` was evaluated: a model whose only use of a row count is its
     # batch's loop `1..rows(t)` can lose rows without elaborating again (elaborate/subset.py)
     row_counts_read: int = 0
+    # the top-level consts read only as the whole error bound of columns (`x, y : +- e`),
+    # with those columns (table, column): setting one changes those cells alone
+    tolerances: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
 
 
 @dataclass

@@ -156,15 +156,14 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     nothing)."""
     from calib_dsl.analysis import min_error as found
     from calib_dsl.analysis.chebyshev import chebyshev, with_readings
-    from calib_dsl.pipeline import load_model, on_priors_of
+    from calib_dsl.problem import Problem
 
     path = MODELS / "ur10_all.cal"
-    model, prog = load_model(path)
-    load = on_priors_of(prog, lambda i: load_model(path, inputs=i, centre=False),
-                        (model, prog))
+    problem = Problem.load(path).keeping_priors()
+    model, prog = problem.model, problem.program
     rows = found._bound_rows(prog, float(model.consts["e"]))
     point, plain = chebyshev(prog, rows)
     step = with_readings(prog, point, rows)
     assert step is not None and step[2] < 0.99 * plain
-    hi, _, _ = found._upper("e", Inputs(), load, prog, rows)
+    hi, _, _ = found._upper("e", problem, prog, rows)
     assert hi <= step[2] * 1.001

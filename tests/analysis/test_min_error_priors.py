@@ -1,7 +1,8 @@
 """--min-error asks every trial about the same priors: `lsq +- w` domains are the first
-load's, not centred anew on each trial (pipeline.on_priors_of). Along a direction the data do
-not see, a domain centred anew moves, and the point certified in one trial's domains fell
-outside the next's (an internal error before, then a bracket 30 times too wide)."""
+load's, not centred anew on each trial (problem.py's `Problem.keeping_priors`). Along a
+direction the data do not see, a domain centred anew moves, and the point certified in one
+trial's domains fell outside the next's (an internal error before, then a bracket 30 times
+too wide)."""
 
 from __future__ import annotations
 
@@ -32,8 +33,10 @@ def test_min_error_with_lsq_priors_and_an_unseen_direction(tmp_path: Path) -> No
 
 
 def test_every_trial_has_the_first_loads_lsq_domains(tmp_path: Path) -> None:
+    from dataclasses import replace
+
     from calib_dsl.elaborate.elaborator import Inputs
-    from calib_dsl.pipeline import load_model, on_priors_of
+    from calib_dsl.problem import Problem
 
     rows = simulate_rows(tmp_path, 12, seed=5, e=0.05)
     write_table(tmp_path / "data.csv", rows, COLUMNS, lambda r, c: r[c])
@@ -44,14 +47,15 @@ def test_every_trial_has_the_first_loads_lsq_domains(tmp_path: Path) -> None:
                     "  x, y, z : +- e;\n}\nfor k in 1..rows(m) {\n"
                     f"  ur5({JOINTS}) at (tx, ty, tz) == (m.x[k], m.y[k], m.z[k]);\n}}\n",
                     encoding="utf-8")
-    first = load_model(path)
-    at = first[1].slots.names.index("base_x")
-    want = (first[1].slots.lo[at], first[1].slots.hi[at])
-    load = on_priors_of(first[1], lambda i: load_model(path, inputs=i, centre=False), first)
-    assert load(Inputs()) is first
-    # other rows: their own least squares would centre base_x elsewhere
+    first = Problem.load(path).keeping_priors()
+    at = first.program.slots.names.index("base_x")
+    want = (first.program.slots.lo[at], first.program.slots.hi[at])
+    assert first.derive(Inputs()) is first
+    # other rows, another bound: their own least squares would centre base_x elsewhere
     from calib_dsl.elaborate.rows import Selection, parse_ranges
-    _, other = load(Inputs(rows={"": Selection(parse_ranges("1..6"))}))
-    j = other.slots.names.index("base_x")
-    assert (other.slots.lo[j], other.slots.hi[j]) == want
-    assert other.centred == first[1].centred
+    for inputs in (Inputs(rows={"": Selection(parse_ranges("1..6"))}),
+                   replace(Inputs(), consts={"e": "0.07"})):
+        other = first.derive(inputs).program
+        j = other.slots.names.index("base_x")
+        assert (other.slots.lo[j], other.slots.hi[j]) == want
+        assert other.centred == first.program.centred
