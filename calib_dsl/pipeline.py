@@ -252,7 +252,7 @@ def outlier_report(request: SolveRequest, problem: Problem,
                     [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
                     proven=len(proven))
     return SolveReport(prog, res, extra, "tight", None,
-                       solve_warnings(prog, res, None, settings.routine_max_primitives), rows,
+                       solve_warnings(prog, res), rows,
                        of_outliers(res, kept, k), problem)
 
 
@@ -283,8 +283,8 @@ def report_on(request: SolveRequest, problem: Problem,
     found = None
     if res.status == "infeasible" and r.diagnose:
         found = conflict(problem)
-    return SolveReport(prog, res, extra, r.strategy, found,
-                       solve_warnings(prog, res, elaborated, settings.routine_max_primitives),
+    sections.leverage(extra, prog, res, elaborated, settings.routine_max_primitives)
+    return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
                        verdict=verdict, problem=problem)
 
 

@@ -1,5 +1,6 @@
 """The optional sections of a solve's report, computed: identifiability, a least-squares
-estimate, certified inner bounds, and the result shaved towards them. Each fills its part of
+estimate, certified inner bounds, the result shaved towards them, and the data rows that
+carry a parameter (a warning). Each fills its part of
 an `Extras` (report/extras.py), which the report layer only renders."""
 
 from __future__ import annotations
@@ -11,11 +12,14 @@ from dataclasses import replace
 import numpy as np
 
 from calib_dsl.analysis.identify import analyse, combination_enclosures
+from calib_dsl.analysis.leverage import heavy_rows
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.inner.shave import shave
+from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.outliers.rows import data_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras
 from calib_dsl.settings import Settings
@@ -87,3 +91,15 @@ def shaved(extra: Extras, prog: Program, res: Solution, count: int | None = None
     out, extra.shaved = shave(prog, res, extra.inner.lo, extra.inner.hi, chosen, budget, tol,
                               max_sweeps)
     return out
+
+
+def leverage(extra: Extras, prog: Program, res: Solution, model: Model,
+             most_primitives: int) -> None:
+    """The parameters whose estimate one data row carries (analysis/leverage.py), with those
+    rows as the user counts them: a fault there would move the result, not show as an
+    inconsistency (report/warnings.py says so). Not past `most_primitives`."""
+    if res.status == "infeasible" or not model.tables or len(prog.primitives) > most_primitives:
+        return
+    heavy = heavy_rows(prog, res.lo, res.hi)
+    extra.heavy = list(zip(heavy, data_rows(model, prog, [h.data_row for h in heavy]),
+                           strict=True))

@@ -7,8 +7,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from calib_dsl.analysis.leverage import Leverage
 from calib_dsl.inner.bounds import Inner
 from calib_dsl.inner.shave import Shaved
+from calib_dsl.outliers.rows import Row
 
 
 class Extras:
@@ -23,6 +25,8 @@ class Extras:
         self.shaved: Shaved | None = None
         self.seconds = 0.0
         self.skipped: list[str] = []  # a line each: a section not computed, and why
+        # parameters one data row carries (a warning names them), with those rows
+        self.heavy: list[tuple[Leverage, Row]] = []
 
     def inner_of(self, name: str) -> tuple[float, float] | None:
         """The certified inner interval of an unknown (None: none certified, or not asked)."""

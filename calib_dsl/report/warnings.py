@@ -1,38 +1,32 @@
-"""Warnings instead of silence: a solve that "contracted" but learned little says so."""
+"""Warnings instead of silence: a solve that "contracted" but learned little says so (what
+they name is computed by the pipeline: sections.py's `leverage`)."""
 
 from __future__ import annotations
 
-from calib_dsl.analysis.leverage import heavy_rows
-from calib_dsl.ir.model import Model
+from calib_dsl.analysis.leverage import Leverage
 from calib_dsl.ir.program import Program
-from calib_dsl.outliers.rows import data_rows
+from calib_dsl.outliers.rows import Row
+from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
-from calib_dsl.settings import Settings
 from calib_dsl.strategy.solution import Solution
 
 
-def solve_warnings(prog: Program, res: Solution, model: Model | None = None,
-                   most_primitives: int = Settings.routine_max_primitives) -> list[str]:
+def solve_warnings(prog: Program, res: Solution, extra: Extras | None = None) -> list[str]:
     """What a user must not miss about a consistent result: no parameter narrowed, or some
     kept their whole search domain (the data did not narrow them), or a parameter that one
-    data row carries (with the model: its rows named)."""
+    data row carries (`extra.heavy`, sections.py's `leverage`: its rows named)."""
     if res.status == "infeasible":
         return []
-    heavy = _leverage(prog, res, model, most_primitives) if model is not None else []
-    return _domains(prog, res) + heavy
+    return _domains(prog, res) + (_leverage(extra.heavy) if extra is not None else [])
 
 
-def _leverage(prog: Program, res: Solution, model: Model, most_primitives: int) -> list[str]:
+def _leverage(heavy: list[tuple[Leverage, Row]]) -> list[str]:
     """A parameter whose estimate one data row carries: a fault there would move the result,
     not show as an inconsistency."""
-    if not model.tables or len(prog.primitives) > most_primitives:
-        return []
-    heavy = heavy_rows(prog, res.lo, res.hi)
     if not heavy:
         return []
-    rows = data_rows(model, prog, [h.data_row for h in heavy])
     parts = [f"{h.parameter} {h.share:.0%} on {r.file}:{r.line} (data row {r.row})"
-             for h, r in zip(heavy[:6], rows, strict=False)]
+             for h, r in heavy[:6]]
     more = f", ... ({len(heavy) - 6} more)" if len(heavy) > 6 else ""
     return [f"one data row carries most of what the data say about {len(heavy)} "
             f"parameter{'s' if len(heavy) > 1 else ''} (a fault there would move the result, "
