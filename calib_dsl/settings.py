@@ -45,6 +45,46 @@ class LPSettings:
 
 
 @dataclass(frozen=True)
+class InnerSettings:
+    """Certified inner bounds (inner/bounds.py, inner/lp.py)."""
+
+    # Each row aims inside this share of its bound: room for the rounding and for the
+    # remainder of the linearization at the LP's optimum, which is of this order near a thin
+    # solution set; aiming deeper costs the ends width (docs/decisions/14).
+    aim: float = 1.0 - 1e-5
+
+    # A failed LP optimum is pulled back towards the centre only where that costs the end at
+    # most this share of the unknown's width; else its LP is re-solved with the failed rows
+    # tightened, which loses less of the end than a long pull-back (docs/decisions/14)
+    pulled: float = 1e-3
+    # Ends per wave: their LPs shared among the threads, their points checked in one pass (a
+    # pass over many points costs little more than one check); a narrower wave leaves the
+    # threads idle, a wider one runs LPs for ends that an earlier wave's points would have
+    # reached (docs/decisions/14)
+    wave: int = 16
+    corrections: int = 6  # re-solves of an end's LP with the rows the check found violated
+    escalate: float = 4.0  # how much more a row that fails again is tightened
+    overshoot: float = 2.0  # a violated row is tightened by this many times its excess
+    # An end that a certified point reaches to within this share of the outer width gets no
+    # LP of its own (an earlier end's LP often puts the other unknowns at their bounds,
+    # notably those known beforehand as well as the data know them). The ends an LP finds
+    # fall about as short, so a tighter share buys LPs, not width
+    reached: float = 1e-3
+    computed_aim: float = 1e-3  # the first tightening of a failed row between computed values
+    pullbacks: int = 10  # halvings towards the centre when the corrections did not succeed
+    # An end whose certified point falls short of its LP's optimum by more than this share of
+    # the unknown's width (the remainder made the corrections pull it in) is sought again
+    # over the model linearized at that point, where the remainder is small (while the LP
+    # holds all its rows at once). A smaller share seeks more ends again for no wider inner
+    # interval, a larger one leaves ends short (docs/decisions/14)
+    refine: float = 1e-2
+    # The centre's fit stops once its linearized model predicts the largest residual to
+    # within this share: the centre needs a margin inside every bound, not the best fit,
+    # and the fit's later steps gain next to nothing
+    settle: float = 1e-3
+
+
+@dataclass(frozen=True)
 class OutlierSettings:
     """Solves with at most K rows at fault (outliers/solve.py, outliers/proof.py)."""
 
@@ -220,6 +260,8 @@ class Settings:
     lp: LPSettings = LPSettings()
     # -- outliers (outliers/) -------------------------------------------------------------------
     outliers: OutlierSettings = OutlierSettings()
+    # -- inner bounds (inner/) -------------------------------------------------------------
+    inner: InnerSettings = InnerSettings()
 
     # -- planning a campaign (plan/) -------------------------------------------------------
     # The domains counted as information in the classical designs, in units where a uniform

@@ -30,37 +30,7 @@ from calib_dsl.inner.lp import LinearModel, Solver
 from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import LPSettings, Settings
-
-# A failed LP optimum is pulled back towards the centre only where that costs the end at
-# most this share of the unknown's width; else its LP is re-solved with the failed rows
-# tightened, which loses less of the end than a long pull-back (docs/decisions/14)
-PULLED = 1e-3
-# Ends per wave: their LPs shared among the threads, their points checked in one pass (a
-# pass over many points costs little more than one check); a narrower wave leaves the
-# threads idle, a wider one runs LPs for ends that an earlier wave's points would have
-# reached (docs/decisions/14)
-WAVE = 16
-CORRECTIONS = 6  # re-solves of one end's LP with the rows the check found violated tightened
-ESCALATE = 4.0  # how much more a row that fails again is tightened
-OVERSHOOT = 2.0  # a violated row is tightened by this many times its measured excess
-# An end that a certified point reaches to within this share of the outer width gets no LP of
-# its own (an earlier end's LP often puts the other unknowns at their bounds, notably those
-# known beforehand as well as the data know them). The ends an LP finds fall about as short,
-# so a tighter share buys LPs, not width
-REACHED = 1e-3
-COMPUTED_AIM = 1e-3  # the first tightening of a failed row between two computed values
-PULLBACKS = 10  # halvings towards the centre when the corrections did not succeed
-# An end whose certified point falls short of its LP's optimum by more than this share of the
-# unknown's width (the remainder made the corrections pull it in) is sought again over the
-# model linearized at that point, where the remainder is small (while the LP holds all its
-# rows at once). A smaller share seeks more ends again for no wider inner interval, a larger
-# one leaves ends short (docs/decisions/14)
-REFINE = 1e-2
-# The centre's fit stops once its linearized model predicts the largest residual to within
-# this share: the centre needs a margin inside every bound, not the best fit, and the fit's
-# later steps gain next to nothing
-SETTLE = 1e-3
+from calib_dsl.settings import InnerSettings, LPSettings, Settings
 
 
 @dataclass(frozen=True)
@@ -127,7 +97,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind))
-    _search(prog, box, found, starts, settings.lp)
+    _search(prog, box, found, starts, (settings.lp, settings.inner))
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -164,7 +134,7 @@ class _Points:
 
 
 def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
-            starts: Starts | None, lp_settings: LPSettings) -> None:
+            starts: Starts | None, settings: tuple[LPSettings, InnerSettings]) -> None:
     """The certified points: the box's middle if it is one; then both ends of every unknown
     that can move, over the model linearized at the middle, or at the Chebyshev fit where it
     cannot be linearized there or its LPs gave no point (a wide box: the middle's linear
@@ -178,21 +148,22 @@ def _search(prog: Program, box: tuple[np.ndarray, np.ndarray], found: _Points,
     free = np.flatnonzero(hi > lo)
     if not len(free):
         return
-    lp = LinearModel(prog, box, mid, free, starts, lp_settings)
+    lp = LinearModel(prog, box, mid, free, starts, *settings)
     if lp.finite:
         _extremes(prog, box, lp, found)
     if found.all:
         return
-    if not found.fitted and (centre := _fit(prog, box, mid)) is not None:
+    if not found.fitted and (centre := _fit(prog, box, mid, settings[1].settle)) is not None:
         found.add_centre(centre)
     found.fitted = True
     if found.centre is not None and not np.array_equal(found.centre.point, mid):
-        lp = LinearModel(prog, box, found.centre.point, free, starts, lp_settings)
+        lp = LinearModel(prog, box, found.centre.point, free, starts, *settings)
         if lp.finite:
             _extremes(prog, box, lp, found)
 
 
-def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray) -> Witness | None:
+def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray,
+         settle: float) -> Witness | None:
     """The point with the smallest largest residual (in units of each row's bound, the
     readings at their middles), from the middle, if it is certified: a centre where the
     mean of the first wave's ends is not one."""
@@ -200,7 +171,7 @@ def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray) -> 
     try:
         with np.errstate(all="ignore"):
             p, need = chebyshev(prog, normalized=True, start=mid, box=box, target=1.0,
-                                settle=SETTLE)
+                                settle=settle)
     except (ValueError, np.linalg.LinAlgError):
         return None
     if need < 1.0 and np.all(np.isfinite(p)) and prove_point(prog, p, middles):
@@ -226,18 +197,18 @@ def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: LinearModel
 
 def _waves(prog: Program, lp: LinearModel, solvers: list[Solver], pool: ThreadPoolExecutor,
            found: _Points) -> list[tuple[int, float, Witness]]:
-    """The ends not yet reached, in waves of WAVE. The HiGHS models solve a wave's LPs in
-    their threads (HiGHS releases the GIL) while this thread checks the wave before, so a
-    wave is chosen before the points of the one just solved count: in the same order on
-    every run. Returns the ends (j, sign, point) whose point fell short of their LP's
-    optimum by REFINE."""
+    """The ends not yet reached, in waves of `wave` (InnerSettings). The HiGHS models solve
+    a wave's LPs in their threads (HiGHS releases the GIL) while this thread checks the wave
+    before, so a wave is chosen before the points of the one just solved count: in the same
+    order on every run. Returns the ends (j, sign, point) whose point fell short of their LP's
+    optimum by `refine`."""
     lo, hi = lp.box
     ends = [(j, int(k), sign) for j, k in enumerate(lp.free) for sign in (-1.0, 1.0)]
     share, untightened = len(solvers), np.zeros(lp.rows)
 
     def unreached(k: int, sign: float) -> bool:
         reached, bound = (found.hi[k], hi[k]) if sign > 0 else (found.lo[k], lo[k])
-        return not abs(bound - reached) <= REACHED * (hi[k] - lo[k])
+        return not abs(bound - reached) <= lp.inner.reached * (hi[k] - lo[k])
 
     def optima(wave: list[tuple[int, int, float]], w: int) -> list[np.ndarray | None]:
         return [solvers[w].extreme(j, sign, untightened, lp.start(j, sign))
@@ -245,7 +216,7 @@ def _waves(prog: Program, lp: LinearModel, solvers: list[Solver], pool: ThreadPo
 
     def launch() -> tuple[list[tuple[int, int, float]], list[Future]]:
         wave: list[tuple[int, int, float]] = []
-        while ends and len(wave) < WAVE:
+        while ends and len(wave) < lp.inner.wave:
             end = ends.pop(0)
             if unreached(end[1], end[2]):
                 wave.append(end)
@@ -270,7 +241,7 @@ def _waves(prog: Program, lp: LinearModel, solvers: list[Solver], pool: ThreadPo
             if w is not None:
                 found.add(w)
                 assert y is not None
-                if sign * (y[j] - (w.point[k] - lp.centre[k]) / lp.scale[j]) > REFINE:
+                if sign * (y[j] - (w.point[k] - lp.centre[k]) / lp.scale[j]) > lp.inner.refine:
                     short.append((j, sign, w))
         wave, ys = after, ys_after
     return short
@@ -290,15 +261,15 @@ def _checked(prog: Program, lp: LinearModel, wave: list[tuple[int, int, float]],
     failed = _certified(prog, at, done, found)
     if failed and found.centre is None and not found.fitted:
         found.fitted = True  # (once: a later wave's mean may still be a centre)
-        if (centre := _fit(prog, lp.box, lp.centre)) is not None:
+        if (centre := _fit(prog, lp.box, lp.centre, lp.inner.settle)) is not None:
             found.add_centre(centre)
     if found.centre is not None:
         pulled = {}
         for i in sorted(failed):
             j, k = wave[i][:2]
-            t = _pull_back(found.centre_check(prog), failed[i])
+            t = _pull_back(found.centre_check(prog), failed[i], lp.inner.overshoot)
             if t is not None and (1.0 - t) * abs(at[i][0][k] - found.centre.point[k]) \
-                    <= PULLED * lp.scale[j]:
+                    <= lp.inner.pulled * lp.scale[j]:
                 pulled[i] = _between(found.centre, at[i], t, lp)
         _certified(prog, pulled, done, found)
     return done, {i: c for i, c in failed.items() if done[i] is None}
@@ -341,13 +312,13 @@ def _corrected(prog: Program, lp: LinearModel, solvers: list[Solver],
     return [x for part in pool.map(correct, range(min(share, len(rest)))) for x in part]
 
 
-def _pull_back(centre: PointCheck, check: PointCheck) -> float | None:
+def _pull_back(centre: PointCheck, check: PointCheck, overshoot: float) -> float | None:
     """A share t < 1 of the way from the centre to a failed point at which the rows that
     failed there should hold (None where a row comparing two computed values failed: the
     corrections handle those). Such a row has room u at the centre to the bound it crossed,
     and crossed it by the measured excess e at the point; where the model curves at least
     as a square along the segment, the row at t is at most its centre's value plus t (u + e):
-    t = u / (u + OVERSHOOT e) keeps it inside. Only the check decides."""
+    t = u / (u + overshoot e) keeps it inside. Only the check decides."""
     assert check.ok is not None and check.computed is not None and check.side is not None
     assert centre.side is not None
     bad = ~check.ok
@@ -357,7 +328,7 @@ def _pull_back(centre: PointCheck, check: PointCheck) -> float | None:
     room = np.where(above, centre.side[1][bad] - centre.hi[bad],
                     centre.lo[bad] - centre.side[0][bad])
     with np.errstate(all="ignore"):
-        t = float(np.min(room / (room + OVERSHOOT * check.excess[bad])))
+        t = float(np.min(room / (room + overshoot * check.excess[bad])))
     return t if 0.0 < t < 1.0 else None
 
 
@@ -374,7 +345,8 @@ def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], first: LinearMod
              sign: float, w: Witness) -> Witness | None:
     """The end again, over the model linearized at its certified point w: near the end, the
     linearization's remainder that held it back is small."""
-    lp = LinearModel(prog, box, w.point, first.free, first.starts, first.lp_settings)
+    lp = LinearModel(prog, box, w.point, first.free, first.starts, first.lp_settings,
+                     first.inner)
     return _end(prog, lp, lp.solver, j, sign, w)[0] if lp.finite else None
 
 
@@ -389,8 +361,9 @@ def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,
     model promised."""
     tighten = np.zeros(lp.rows)
     step = np.zeros(0)
+    inner = lp.inner
     promised = np.nan
-    for k in range(CORRECTIONS):
+    for k in range(inner.corrections):
         y = first if k == 0 and first is not None else \
             solver.extreme(j, sign, tighten, lp.start(j, sign) if k == 0 else None)
         if y is None:  # tightened beyond what the LP can meet
@@ -408,14 +381,14 @@ def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,
         # a row that fails again was not binding in the LP: its remainder exceeds what it
         # was tightened by, so aim further inside, fourfold
         again = (excess > 0) & (tighten > 0)
-        tighten += OVERSHOOT * excess
-        tighten[again] = np.maximum(tighten[again], ESCALATE * (tighten[again]
-                                                                - OVERSHOOT * excess[again]))
+        tighten += inner.overshoot * excess
+        tighten[again] = np.maximum(tighten[again], inner.escalate
+                                    * (tighten[again] - inner.overshoot * excess[again]))
         # a row between two computed values fails by its remainder, not by its (whole)
         # difference: aim further inside, doubling
-        tighten[computed] = np.maximum(2.0 * tighten[computed], COMPUTED_AIM)
+        tighten[computed] = np.maximum(2.0 * tighten[computed], inner.computed_aim)
     last = lp.point(step) if len(step) else None
-    for n in range(1, PULLBACKS + 1 if last is not None else 0):
+    for n in range(1, inner.pullbacks + 1 if last is not None else 0):
         assert last is not None
         point, readings = (_between(toward, last, 0.5**n, lp) if toward is not None
                            else lp.point(0.5**n * step))

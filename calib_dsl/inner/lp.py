@@ -18,25 +18,21 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import RowCheck, add_rows, load, optimal, set_basis
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
-from calib_dsl.settings import LPSettings
-
-# Each row aims inside this share of its bound: room for the rounding and for the remainder of
-# the linearization at the LP's optimum, which is of this order near a thin solution set;
-# aiming deeper costs the ends width (docs/decisions/14).
-AIM = 1.0 - 1e-5
+from calib_dsl.settings import InnerSettings, LPSettings
 
 
 class LinearModel:
     """The rows linearized at the centre: each row's residual r + A y + B z (in units of the
     row's bound; y the free unknowns' step in units of their widths, z the readings' errors
-    in units of their bounds) within its interval, narrowed by 1 - AIM and `tighten` at each
+    in units of their bounds) within its interval, narrowed by 1 - aim and `tighten` at each
     finite end, the variables within the box; solved by HiGHS models (Solver) whose
     objective and row bounds change from one end to the next."""
 
     def __init__(self, prog: Program, box: tuple[np.ndarray, np.ndarray], centre: np.ndarray,
                  free: np.ndarray, starts: Starts | None = None,
-                 lp: LPSettings | None = None) -> None:
+                 lp: LPSettings | None = None, inner: InnerSettings | None = None) -> None:
         lp = lp or LPSettings()
+        self.inner = inner or InnerSettings()
         lo, hi = box
         lin = linearized(prog, centre)
         self.centre, self.free, self.box, self.starts = centre, free, box, starts
@@ -85,8 +81,8 @@ class LinearModel:
                                     self.cells)
 
     def bounds(self, tighten: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The rows' bounds narrowed by 1 - AIM and `tighten` (an infinite end stays)."""
-        inward = (1.0 - AIM) + tighten
+        """The rows' bounds narrowed by 1 - aim and `tighten` (an infinite end stays)."""
+        inward = (1.0 - self.inner.aim) + tighten
         return self.lower + inward, self.upper - inward
 
     def solvers(self, count: int) -> list[Solver]:

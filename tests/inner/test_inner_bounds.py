@@ -74,7 +74,7 @@ def test_line_witnesses_hold_exactly_and_reach_the_hull(tmp_path_factory, rows, 
         assert inner.witnesses[inner.hi_at[k]].point[k] == inner.hi[k]
         lo, hi = _hull(x, y, e, k, -1.0), _hull(x, y, e, k, 1.0)
         if hi - lo > 1e-6 * e:  # the linear model's extremes are the hull's: reached,
-            # but for the rows' aim 1e-5 of their bound inside (inner_lp.AIM), which a thin
+            # but for the rows' aim 1e-5 of their bound inside (InnerSettings.aim), which a thin
             # hull (width << e) feels: a in [2e-5, 0.01562] where the hull is [0, 0.015625]
             assert inner.hi[k] - inner.lo[k] >= (hi - lo) * (1 - 1e-3) - 1e-4 * e
 
@@ -407,7 +407,9 @@ def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, monkeypatch):
     over the model linearized at the centre the corrections pull the ends well in; sought
     again from their own points they reach further (one inner interval 1.75 times as wide
     here), and every point still holds exactly."""
-    import calib_dsl.inner.bounds as inner_module
+    from dataclasses import replace
+
+    from calib_dsl.settings import Settings
 
     rng = np.random.default_rng(1)
     angles = 0.3 + 2 * np.pi * np.arange(5) / 5
@@ -417,9 +419,9 @@ def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, monkeypatch):
     (tmp_path / "circle.cal").write_text(CIRCLE.replace("+- 1e-3", "+- 0.05"))
     prog = load(tmp_path / "circle.cal")
     sol = solve(prog)
-    with monkeypatch.context() as m:
-        m.setattr(inner_module, "REFINE", np.inf)
-        first = inner_bounds(prog, sol.lo, sol.hi)
+    never = Settings()
+    never = replace(never, inner=replace(never.inner, refine=np.inf))  # no end sought again
+    first = inner_bounds(prog, sol.lo, sol.hi, settings=never)
     inner = inner_bounds(prog, sol.lo, sol.hi)
     assert np.all(inner.lo <= first.lo) and np.all(first.hi <= inner.hi)
     gain = (inner.hi - inner.lo) / (first.hi - first.lo)
