@@ -88,3 +88,30 @@ def test_the_words_are_their_text():
             assert member == member.value and f"{member}" == member.value
             assert dumps({"x": member}) == dumps({"x": member.value})
     assert Status("infeasible") is Status.INFEASIBLE and Stop("fixed point") is Stop.FIXED_POINT
+
+
+# What `calibc solve` runs asks its Problem (calib_dsl/problem.py) for the model with other
+# inputs (derived where the model allows): none of these elaborates or loads a model itself.
+SOLVE_ROOMS = ("calib_dsl.outliers", "calib_dsl.analysis", "calib_dsl.strategy",
+               "calib_dsl.inner", "calib_dsl.report", "calib_dsl.sections")
+LOADERS = ("elaborate", "load_model", "compile_model")
+
+
+def loads(tree: ast.AST) -> list[int]:
+    """Lines that call `elaborate(`, `load_model(` or `compile_model(` (by any path)."""
+    return [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call)
+            and (getattr(n.func, "id", None) or getattr(n.func, "attr", None)) in LOADERS]
+
+
+@pytest.mark.parametrize("name", sorted(n for n in ALL if n.startswith(SOLVE_ROOMS)))
+def test_the_solve_rooms_never_elaborate(name):
+    found = loads(ast.parse(ALL[name].read_text(encoding="utf-8")))
+    assert not found, (f"{ALL[name].relative_to(PACKAGE.parent)}:{found[0]}: elaborates a "
+                       "model: ask the Problem (problem.py: derive, without_rows, with_const)")
+
+
+def test_the_load_check_sees_one():
+    bad = ast.parse("from calib_dsl import problem\nm = elaborate('a.cal')\n"
+                    "p = problem.load_model('a.cal')\n")
+    assert loads(bad) == [2, 3]
+    assert any(n.startswith("calib_dsl.outliers.") for n in ALL)

@@ -6,6 +6,7 @@ the derived program is the one elaborating anew would give, array for array."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -172,3 +173,37 @@ def test_what_the_model_does_not_allow_is_elaborated_anew(tmp_path):
     two = only(problem.inputs, problem.model, [1, 2])
     derived = problem.derive(two)
     assert derived.program.rows is None and len(derived.model.tables[0].numbers) == 2
+
+
+@pytest.mark.parametrize("path", [ARM, ROOT / "models" / "ur10_tracker.cal"])
+def test_an_error_bound_set_is_derived_as_elaborating_anew_gives(monkeypatch, path):
+    """A const read only as columns' error bound (`x, y : +- e`), set to other values (as
+    --min-error's trials do): the cells' bounds change, and the program is the elaborated
+    one, with no elaboration."""
+    problem = Problem.load(path)
+    assert "e" in problem.model.tolerances
+    for value in ("1/3000", "2e-3", "12345/10000000000"):
+        model, prog = load_model(path, inputs=replace(problem.inputs, consts={"e": value}))
+        count = counting(monkeypatch)
+        derived = problem.with_const(e=value)
+        monkeypatch.undo()
+        assert count == [0]
+        same_program(derived.program, prog)
+        assert derived.model.consts == model.consts
+        for mine, theirs in zip(derived.model.tables, model.tables, strict=True):
+            assert [c.tol for c in mine.columns] == [c.tol for c in theirs.columns]
+            for c, (lo, hi) in theirs.bounds.items():
+                assert np.array_equal(mine.bounds[c][0], lo)
+                assert np.array_equal(mine.bounds[c][1], hi)
+
+
+def test_a_const_read_elsewhere_is_elaborated_anew(monkeypatch):
+    """RX90's `known` sets parameters' domains: setting it elaborates the model again."""
+    problem = Problem.load(RX90)
+    assert "known" in problem.model.consts and "known" not in problem.model.tolerances
+    count = counting(monkeypatch)
+    derived = problem.with_const(known="2e-5")
+    monkeypatch.undo()
+    assert count == [1]
+    same_program(derived.program,
+                 load_model(RX90, inputs=Inputs(consts={"known": "2e-5"}))[1])
