@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Protocol
 
@@ -87,23 +87,23 @@ def min_error(problem: Trials, name: str, solve: Solver) -> MinError:
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    hi, check_prog, point = _upper(name, problem, prog, rows)
+    hi, check_prog, point, readings = _upper(name, problem, prog, rows)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
-    out.binding = _binding(model, check_prog, point, rows, hi)
+    out.binding = _binding(model, check_prog, point, readings, hi)
     del model, prog, check_prog  # (each trial derives its own)
     _lower(out, problem, solve)
     return out
 
 
 def _upper(name: str, problem: Trials, prog: Program, rows: np.ndarray
-           ) -> tuple[float, Program, np.ndarray]:
+           ) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
     """The smallest bound proven feasible: the Chebyshev fit's point, or the fit continued
     with the joint readings free (their errors lower it further), whichever is certified at
     the smaller bound (a point the readings' step moves may break a row by more than its
     linear model said: then the plain fit's may be the smaller)."""
     point, need = chebyshev(prog, rows)
     step = with_readings(prog, point, rows)
-    found: list[tuple[float, Program, np.ndarray]] = []
+    found: list[tuple[float, Program, np.ndarray, np.ndarray | None]] = []
     if step is not None and step[2] < need:
         try:
             found.append(_certified(name, problem, step[0], step[2],
@@ -137,10 +137,10 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
 
 def _certified(name: str, problem: Trials, point: np.ndarray, need: float,
                readings: dict[int, float] | None = None
-               ) -> tuple[float, Program, np.ndarray]:
+               ) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
     """The smallest tried bound (from `need` up) at which the point (with these joint
     readings, else their middles; kept within the domains) is proven feasible, the program
-    that proved it, and the point."""
+    that proved it, the point and the readings it was proven with."""
     e = need * (1 + 1e-6) + 1e-12
     computed = False
     for _ in range(CERTIFY_TRIES):
@@ -148,10 +148,10 @@ def _certified(name: str, problem: Trials, point: np.ndarray, need: float,
         # an LP's point may sit a rounding outside a domain (and domains centred on least
         # squares move with the data)
         point = np.clip(point, *within_domains(prog))
-        check = check_point(prog, point,
-                            None if readings is None else Readings(prog).from_cells(readings))
+        values = None if readings is None else Readings(prog).from_cells(readings)
+        check = check_point(prog, point, values)
         if check.holds:
-            return e, prog, point
+            return e, prog, point, values
         e += float(np.max(check.excess[np.isfinite(check.excess)], initial=0.0)) + 1e-9 * e
         if not np.all(np.isfinite(check.excess)):
             computed = True
@@ -193,12 +193,19 @@ def _trial(problem: Trials, name: str, value: float) -> Program:
     return problem.with_const(**{name: str(Fraction(value))}).program
 
 
-def _binding(model: Model, prog: Program, point: np.ndarray, rows: np.ndarray,
+def _binding(model: Model, prog: Program, point: np.ndarray, readings: np.ndarray | None,
              hi: float) -> list[Binding]:
-    """The measured rows whose residual at the point is within BINDING of hi."""
-    d, _, _ = rows_at(prog, point)
+    """The measured rows bounded by hi whose residual at the proven point, with the joint
+    readings it was proven with, is within BINDING of hi."""
+    if readings is not None:
+        at = Readings(prog).at
+        lo, up = prog.slots.lo.copy(), prog.slots.hi.copy()
+        lo[at], up[at] = readings, readings
+        prog = replace(prog, slots=replace(prog.slots, lo=lo, hi=up))
+    d, half, _ = rows_at(prog, point)
     r = np.abs(d)
-    near = np.flatnonzero(rows & (r >= (1 - BINDING) * hi))
+    bounded = np.abs(half - hi) <= 1e-6 * hi
+    near = np.flatnonzero(bounded & (r >= (1 - BINDING) * hi))
     owners = row_owners(prog)
     tables = {t.name: t for t in model.tables}
     seen: dict[tuple[str, int], Binding] = {}

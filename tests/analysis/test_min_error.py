@@ -56,6 +56,25 @@ def test_the_bracket_holds_the_exact_smallest_bound(tmp_path, seed):
     assert all(r.line == r.row + 1 for r in found.binding)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_binding_residuals_are_the_proofs_with_readings_of_error(tmp_path, seed):
+    """With readings that carry an error, the fit lets them move: a binding row's residual is
+    the one the proof saw (at the readings it chose), never above the upper end."""
+    from calib_dsl.analysis.min_error import BINDING
+
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-2, 2, 15)
+    y = 1.5 * x - 0.3 + rng.uniform(-0.3, 0.3, 15)
+    lines = [f"{a!r},{b!r}" for a, b in zip(x.tolist(), y.tolist(), strict=True)]
+    (tmp_path / "d.csv").write_text("x,y\n" + "\n".join(lines) + "\n")
+    model = tmp_path / "line.cal"
+    model.write_text(LINE.replace("x : +- 1e-9", "x : +- 0.05"))
+    found = min_error(model, "e")
+    assert found.binding
+    for b in found.binding:
+        assert (1 - BINDING) * found.hi <= b.residual <= found.hi * (1 + 1e-9), b
+
+
 def test_a_point_outside_a_bound_is_not_proven(tmp_path):
     (tmp_path / "d.csv").write_text("x,y\n0,0\n1,1\n2,2.4\n")
     model = tmp_path / "line.cal"
@@ -165,5 +184,5 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     point, plain = chebyshev(prog, rows)
     step = with_readings(prog, point, rows)
     assert step is not None and step[2] < 0.99 * plain
-    hi, _, _ = found._upper("e", problem, prog, rows)
+    hi, _, _, _ = found._upper("e", problem, prog, rows)
     assert hi <= step[2] * 1.001
