@@ -96,6 +96,10 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
         lines = read_capped(at, MAX_TABLE_BYTES, encoding="utf-8-sig").splitlines()
     except TooLarge as err:
         raise CalError(f"'{at}' is {err}: too large for a table") from None
+    except FileNotFoundError:
+        raise CalError(f"'{at}' not found") from None
+    except IsADirectoryError:
+        raise CalError(f"'{at}' is a directory: give a CSV file") from None
     except (OSError, UnicodeDecodeError) as err:
         raise CalError(f"cannot read '{at}': {err}") from None
     if not lines:
