@@ -144,3 +144,48 @@ def test_a_six_dof_tracker_keeps_its_truth(tmp_path):
     model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 40, "--seed", 2)
     _, result = solve_json(tmp_path, model, "--no-identify", codes=(0, 4))
     truths_inside(result)
+
+
+# -- the slow part: the shipped robots at other sizes, poses and errors ---------------------
+SHIPPED = [  # (model, simulate's options, the exit code expected)
+    ("rx90_lengths.cal", ("--configs", 50, "--seed", 1), 0),
+    ("rx90_lengths.cal", ("--configs", 300, "--seed", 2, "--poses", "grid"), 0),
+    ("rx90_full.cal", ("--configs", 60, "--seed", 3), 0),
+    ("ur5_simulated.cal", ("--configs", 500, "--seed", 1), 0),
+    ("ur5_simulated.cal", ("--configs", 800, "--seed", 2, "--poses", "repeated",
+                           "--repeats", 4), 0),
+    ("ur10_simulated.cal", ("--configs", 1000, "--seed", 4, "--poses", "grid"), 0),
+    ("ur10_simulated.cal", ("--configs", 600, "--seed", 5, "--no-noise",
+                            "--systematic", 0.08), 0),  # within e = 0.1
+    ("ur10_simulated.cal", ("--configs", 600, "--seed", 6, "--systematic", 1), 1),
+    ("ur10_simulated.cal", ("--configs", 3000, "--seed", 7), 0),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model, options, code", SHIPPED,
+                         ids=[f"{m}-{'-'.join(map(str, o))}" for m, o, _ in SHIPPED])
+def test_a_shipped_robot_on_a_held_out_campaign(tmp_path, model, options, code):
+    calibc("simulate", MODELS / model, "-o", "c.csv", "-q", *options, cwd=tmp_path)
+    _, result = solve_json(tmp_path, MODELS / model, "--data", "m=c.csv", "--no-identify",
+                           codes=(code,))
+    assert result["verdict"] == ("consistent" if code == 0 else "inconsistent")
+    if code == 0:
+        truths_inside(result)
+
+
+@pytest.mark.slow
+def test_every_command_on_a_ur5_campaign(tmp_path):
+    """The commands a UR user adds: the export for the controller, validation on held-out
+    rows, identification and the handover report."""
+    model = MODELS / "ur5_simulated.cal"
+    calibc("simulate", model, "-o", "c.csv", "-q", "--configs", 120, "--seed", 21, cwd=tmp_path)
+    calibc("simulate", model, "-o", "h.csv", "-q", "--configs", 40, "--seed", 22, cwd=tmp_path)
+    _, result = solve_json(tmp_path, model, "--data", "m=c.csv")
+    truths_inside(result)
+    for fmt in ("ur-kinematics", "dh-table", "urdf", "cell", "json", "cal"):
+        calibc("export", "result.json", "--format", fmt, "-o", f"x.{fmt}", cwd=tmp_path)
+    calibc("validate", model, "--data", "m=c.csv", "--at", "h.csv", "-q", "--json", "v.json",
+           cwd=tmp_path)
+    assert strict((tmp_path / "v.json").read_text())["coverage"] == 1.0
+    calibc("report", "result.json", "-o", "r.html", "--validation", "v.json", cwd=tmp_path)
