@@ -189,3 +189,11 @@ def test_every_command_on_a_ur5_campaign(tmp_path):
            cwd=tmp_path)
     assert strict((tmp_path / "v.json").read_text())["coverage"] == 1.0
     calibc("report", "result.json", "-o", "r.html", "--validation", "v.json", cwd=tmp_path)
+
+
+def test_plan_for_a_six_dof_tracker_says_why_it_cannot(tmp_path):
+    """Its orientation rows' bounds vanish at the planning point (the candidates' angles
+    are not measured yet): a user error naming them, not a singular matrix (exit 3)."""
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
+    res = calibc("plan", model.name, "--n", 5, "-o", "plan.csv", cwd=tmp_path, codes=(2,))
+    assert res.output.startswith("error: ") and "no error bound" in res.output, res.output
