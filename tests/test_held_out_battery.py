@@ -197,3 +197,12 @@ def test_plan_for_a_six_dof_tracker_says_why_it_cannot(tmp_path):
     model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
     res = calibc("plan", model.name, "--n", 5, "-o", "plan.csv", cwd=tmp_path, codes=(2,))
     assert res.output.startswith("error: ") and "no error bound" in res.output, res.output
+
+
+def test_min_error_on_a_bound_of_readings_says_which_bounds_it_varies(tmp_path):
+    """e_rot bounds the 6-DOF tracker's angles, which its rows compute with: --min-error
+    does not vary it, and must not say that no value is stated with it."""
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
+    res = calibc("solve", model.name, "-q", "--min-error", "e_rot", cwd=tmp_path, codes=(2,))
+    assert "readings a row computes with" in res.output, res.output
+    assert len([ln for ln in res.output.splitlines() if "error:" in ln]) == 1
