@@ -55,6 +55,8 @@ FAULTY = {
     "text in a number column": (b"x,y\n1,3\n2,five\n", "'five' is not a number", "3:2"),
     "semicolons": (b"x;y\n1;3\n", 'looks ";"-separated: say separator = ";"', "1:1"),
     "tabs": (b"x\ty\n1\t3\n", 'looks tab-separated: say separator = "tab"', "1:1"),
+    "a header in capitals": (b"X,Y\n1,3\n", "the file has 'X' for 'x', 'Y' for 'y': header "
+                             "names are case-sensitive", "1:1"),
     "binary": (bytes(range(256)) * 4, "", "1:1"),
     "UTF-16": ("x,y\n1,3\n".encode("utf-16"), "is not UTF-8 text", "1:1"),
 }

@@ -170,12 +170,23 @@ def _column_positions(name: str, line: int, header: list[str], columns: Mapping[
     if missing:
         have = ", ".join(h for h in header if h) or "none"
         raise CalError(f"data file '{name}' has no column {_quoted(missing)} (its columns: "
-                       f"{have}){_separator_hint(header, dialect)}", Loc(name, line, 1))
+                       f"{have}){_separator_hint(header, dialect)}{_case_hint(missing, header)}",
+                       Loc(name, line, 1))
     return where
 
 
 # The separators a table may declare, as the table writes them.
 SEPARATORS = {",": '","', ";": '";"', "\t": '"tab"', "|": '"|"'}
+
+
+def _case_hint(missing: list[str], header: list[str]) -> str:
+    """Missing names the header spells in another case: header names are exact."""
+    folded = {h.strip().casefold(): h.strip() for h in header}
+    near = [(m, folded[m.casefold()]) for m in missing if m.casefold() in folded]
+    if not near:
+        return ""
+    said = ", ".join(f"'{h}' for '{m}'" for m, h in near)
+    return f" (the file has {said}: header names are case-sensitive)"
 
 
 def _separator_hint(header: list[str], dialect: Dialect) -> str:
