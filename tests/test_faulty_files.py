@@ -206,3 +206,22 @@ def test_degrees_in_a_rad_joint_column_are_named(tmp_path):
     assert res.exit_code == 1, res.output
     assert "units to check" in res.output
     assert "column q2 (up to" in res.output and "are they degrees?" in res.output, res.output
+
+
+# -- faulty models: the first error, located, and nothing after it ---------------------------
+@pytest.mark.parametrize("source, where, message", [
+    ("param a in [0, 1];\nparam b in [0 1];\nparam c in [0, 1;\nvar ;\n", "2:15",
+     "unexpected number '1'"),
+    ("param a in [0, 1];\na == zz + yy;\n", "2:6", "unknown name 'zz'"),
+    ("param a in [1, 0];\nparam b in [2, 1];\n", "1:12", "empty interval"),
+    ("robot r(q in [1, 0]) { joint theta = q; }\nparam a in [0, 1];\n", "1:14",
+     "empty interval"),
+    ("robot r(q in [1, 1]) { joint theta = q; }\nparam a in [0, 1];\n", "1:14",
+     "a joint limit is a finite range [lo, hi] with lo < hi"),
+])
+def test_a_faulty_model_gives_its_first_error_only(tmp_path, source, where, message):
+    (tmp_path / "t.cal").write_text(source)
+    res = run("solve", "t.cal", "-q", cwd=tmp_path)
+    assert res.exit_code == 2, res.output
+    line, = _error_lines(res.output)
+    assert line.startswith(f"t.cal:{where}: error: ") and message in line, line
