@@ -225,3 +225,35 @@ def test_a_faulty_model_gives_its_first_error_only(tmp_path, source, where, mess
     assert res.exit_code == 2, res.output
     line, = _error_lines(res.output)
     assert line.startswith(f"t.cal:{where}: error: ") and message in line, line
+
+
+# -- the --at file of predict and validate: its own reader, the same standard ---------------
+AT_FAULTY = {
+    "no input column": (b"y\n5\n6\n", "", "'at.csv' has no column 'x': the configurations need it"),
+    "semicolons": (b"x;y\n5;11\n", "", "'at.csv' has no column 'x'"),
+    "NaN": (b"x\nnan\n", "2:1", "'nan' is not a finite number"),
+    "a duplicated header": (b"x,x\n5,5\n", "1:2", "column 'x' appears twice"),
+    "text": (b"x\n\n\nfive\n", "4:1", "'five' is not a number"),
+}
+
+
+@pytest.mark.parametrize("command", ["predict", "validate"])
+@pytest.mark.parametrize("name", list(AT_FAULTY))
+def test_a_faulty_at_file_is_one_error_about_it(tmp_path, command, name):
+    data, where, message = AT_FAULTY[name]
+    (tmp_path / "m.cal").write_text(MODEL)
+    (tmp_path / "d.csv").write_text(GOOD)
+    (tmp_path / "at.csv").write_bytes(data)
+    res = run(command, "m.cal", "--at", "at.csv", "-q", cwd=tmp_path)
+    assert res.exit_code == 2, res.output
+    line, = _error_lines(res.output)
+    assert line.startswith(f"at.csv:{where}: error: " if where else "error: "), line
+    assert message in line and "calibc-predict" not in line, line
+
+
+def test_a_quoted_at_header_is_read(tmp_path):
+    (tmp_path / "m.cal").write_text(MODEL)
+    (tmp_path / "d.csv").write_text(GOOD)
+    (tmp_path / "at.csv").write_text('"x","y"\n5,11\n')
+    res = run("validate", "m.cal", "--at", "at.csv", "-q", cwd=tmp_path)
+    assert res.exit_code == 0 and "coverage 1.0000" in res.output, res.output
