@@ -206,3 +206,14 @@ def test_min_error_on_a_bound_of_readings_says_which_bounds_it_varies(tmp_path):
     res = calibc("solve", model.name, "-q", "--min-error", "e_rot", cwd=tmp_path, codes=(2,))
     assert "readings a row computes with" in res.output, res.output
     assert len([ln for ln in res.output.splitlines() if "error:" in ln]) == 1
+
+
+@pytest.mark.xfail(strict=True, reason="candidates that share a joint value (grid or repeated "
+                   "poses) share one DAG cell, so their rows look owned by several "
+                   "configurations (relax/ownership.py: MIXED) and plan refuses them")
+@pytest.mark.parametrize("poses", ["grid", "repeated"])
+def test_plan_chooses_among_grid_or_repeated_candidates(tmp_path, poses):
+    model = campaign(tmp_path, "arm4_dh.cal", "--configs", 10, "--seed", 2).name
+    calibc("simulate", model, "--configs", 30, "--poses", poses, "--seed", 3, "-o", "cand.csv",
+           "-q", cwd=tmp_path)
+    calibc("plan", model, "--candidates", "cand.csv", "--n", 5, "-o", "plan.csv", cwd=tmp_path)
