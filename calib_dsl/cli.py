@@ -106,7 +106,7 @@ def main() -> None:
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="Write the output (the listing, or the JSON with --json) to this file "
                    "instead of standard output.")
@@ -152,7 +152,7 @@ MAX_CONFIGS = 1_000_000  # simulate: a table beyond this is a typo, not a campai
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @click.option("--tol", type=FINITE_TOL, default=1e-5, show_default=True,
               help="Stop when a sweep contracts every declared unknown by less than this "
                    "relative amount.")
@@ -243,7 +243,7 @@ def _min_error(model: str, name: str, formulation: str, inputs: Any, strategy: s
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the analysis as JSON.")
 @FORMULATION
 @UNROLL
@@ -264,7 +264,7 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
 def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """The configurations to predict at: a file in the format of the model's table."""
     options = [
-        click.option("--at", "at", required=True, type=click.Path(dir_okay=False),
+        click.option("--at", "at", required=True, type=click.Path(),
                      help="Configurations: a file in the format of the model's table (the "
                           "measurement columns may be absent for predict)."),
         click.option("--at-rows", metavar="RANGES",
@@ -322,7 +322,7 @@ def _out(json_path: str | None, text: str, data: dict) -> None:
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @at_options
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
               help="Also write the boxes as CSV (row, line, then each column's lo and hi).")
@@ -347,7 +347,7 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @at_options
 @outputs.PLOT
 @FORMULATION
@@ -372,7 +372,7 @@ def validate(model: str, at: str, at_rows: str | None, at_skip: str | None, stra
 
 
 @main.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @click.option("--configs", type=click.IntRange(min=1, max=MAX_CONFIGS),
               help=f"Number of configurations (rows) to draw, at most {MAX_CONFIGS:,}.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,

@@ -168,7 +168,7 @@ def write(path: str, text: str) -> None:
 
 
 @click.command()
-@click.argument("result", type=click.Path(dir_okay=False))
+@click.argument("result", type=click.Path())
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True,
               help="The figure's file: .png, .svg or .pdf (the format is the extension's).")
 @click.option("--kind", type=click.Choice(PLOT_KINDS), default="all", show_default=True,
@@ -185,7 +185,7 @@ def plot(result: str, output: str, kind: str) -> None:
 
 
 @click.command()
-@click.argument("result", type=click.Path(dir_okay=False))
+@click.argument("result", type=click.Path())
 @click.option("--format", "fmt", type=click.Choice(tuple(EXPORTS)), required=True,
               help="dh-table, urdf, ur-kinematics (ROS ur_description), json: values with "
                    "guaranteed half-widths for a controller; cell: where the robot stands "

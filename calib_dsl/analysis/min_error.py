@@ -130,8 +130,9 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     _, half, _ = rows_at(prog, 0.5 * (lo + hi))
     rows = np.abs(half - e0) <= 1e-6 * e0
     if not np.any(rows):
-        raise CalError("no measured value is stated `+- NAME` with this const: --min-error "
-                       "varies the bound of those")
+        raise CalError("no compared measured value (the `m.c[k]` side of a row) has this "
+                       "const as its bound: --min-error varies the bound of those, not of "
+                       "readings a row computes with (as euler_xyz(m.rx[k], ...))")
     return rows
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib_dsl.analysis.lsq import estimate
+from calib_dsl.analysis.unit_spreads import spreads
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -37,11 +38,13 @@ def centre_on_least_squares(prog: Program) -> None:
     values = dict(zip(names, est.values.tolist(), strict=True))
     bad = [n for n in prog.priors if not np.isfinite(values[n])]
     if bad or not est.converged:
+        units = spreads(prog, start)  # a column off by a unit's factor, named if one is
         raise CalError("the least-squares estimate that centres the lsq domains ("
-                       f"{', '.join(prog.priors)}) did not converge: give a start nearer the "
-                       "solution, as lsq(start) +- w, or check the units the table declares "
-                       "(a position in m where the file has mm, joints in deg where it has "
-                       "rad)")
+                       f"{', '.join(prog.priors)}) did not converge: "
+                       + ("; ".join(units) if units else
+                          "give a start nearer the solution, as lsq(start) +- w, or check "
+                          "the units the table declares (a position in m where the file has "
+                          "mm, joints in deg where it has rad)"))
     for name, (_, w) in prog.priors.items():
         v = values[name]
         slot = prog.slots.names.index(name)

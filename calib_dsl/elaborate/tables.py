@@ -169,12 +169,35 @@ def _column_positions(name: str, line: int, header: list[str], columns: Mapping[
     missing = [columns[c] for c in columns if c not in where]
     if missing:
         have = ", ".join(h for h in header if h) or "none"
-        hint = ""
-        if len(header) == 1 and dialect.separator == "," and ";" in header[0]:
-            hint = ' (the file looks ";"-separated: say separator = ";" in the table)'
         raise CalError(f"data file '{name}' has no column {_quoted(missing)} (its columns: "
-                       f"{have}){hint}", Loc(name, line, 1))
+                       f"{have}){_separator_hint(header, dialect)}{_case_hint(missing, header)}",
+                       Loc(name, line, 1))
     return where
+
+
+# The separators a table may declare, as the table writes them.
+SEPARATORS = {",": '","', ";": '";"', "\t": '"tab"', "|": '"|"'}
+
+
+def _case_hint(missing: list[str], header: list[str]) -> str:
+    """Missing names the header spells in another case: header names are exact."""
+    folded = {h.strip().casefold(): h.strip() for h in header}
+    near = [(m, folded[m.casefold()]) for m in missing if m.casefold() in folded]
+    if not near:
+        return ""
+    said = ", ".join(f"'{h}' for '{m}'" for m, h in near)
+    return f" (the file has {said}: header names are case-sensitive)"
+
+
+def _separator_hint(header: list[str], dialect: Dialect) -> str:
+    """A header read as one field that holds another separator: the file's, most likely."""
+    if len(header) != 1:
+        return ""
+    for sep, spelled in SEPARATORS.items():
+        if sep != dialect.separator and sep in header[0]:
+            what = "tab" if sep == "\t" else f'"{sep}"'
+            return f" (the file looks {what}-separated: say separator = {spelled} in the table)"
+    return ""
 
 
 def _quoted(names: list[str]) -> str:

@@ -45,6 +45,8 @@ def parse_file(path: str | Path) -> tuple[ast.Stmt, ...]:
                        ) from None
     except FileNotFoundError:
         raise CalError(f"model file '{name}' not found") from None
+    except IsADirectoryError:
+        raise CalError(f"model file '{name}' is a directory: give a .cal file") from None
     except NotUtf8 as err:
         raise CalError(f"model file '{name}' is not UTF-8 text ({err.reason}: byte "
                        f"{err.object[err.start]:#04x}; save it as UTF-8)",

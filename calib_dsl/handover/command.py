@@ -21,7 +21,7 @@ def write_report(docs: Documents, output: str) -> None:
 
 
 @click.command("report")
-@click.argument("result", type=click.Path(dir_okay=False))
+@click.argument("result", type=click.Path())
 @click.option("--validation", type=click.Path(dir_okay=False),
               help="The JSON of `calibc validate --json`: the accuracy on held-out poses.")
 @click.option("--identify", "identify", type=click.Path(dir_okay=False),

@@ -10,7 +10,8 @@ factor (1000: mm and m; 180/pi: deg and rad):
   within that many times its error bound, by a fit that gross rows do not pull, and most
   rows beyond it (the bound is in another unit than the model's);
 - a joint reading column declared `in deg` whose values all lie within one 180/pi-th of a
-  half turn (radians declared as degrees);
+  half turn (radians declared as degrees), or declared `in rad` with values beyond TURNS
+  turns either way (degrees declared as radians);
 - and least squares that does not converge from the middle of the domains is said too.
 """
 
@@ -20,17 +21,19 @@ import math
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import estimate, linearized, residuals
+from calib_dsl.analysis.lsq import estimate, residuals
+from calib_dsl.analysis.unit_spreads import by_column, near, spreads
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 
-FACTORS = ((1000.0, "1000 (mm and m)"), (180 / math.pi, "57 (deg and rad)"))
-NEAR = 1.5  # a ratio within this factor of a unit factor (either way) is named
 # Least squares leaves data drawn within their bounds with most residuals near a bound (the
 # largest just over it); this quantile of them measures the bound, a few gross rows aside.
 BOUND_QUANTILE = 0.9
 MOST = 0.5  # a bound in the wrong unit leaves more than this share of the rows beyond it
+# A joint turns at most a turn or two either way (a UR's limits are +- 2 pi): readings beyond
+# this many turns are not radians.
+TURNS = 2
 ROBUST_EVALUATIONS = 50  # of the robust fit, from the least-squares estimate (nearby)
 
 
@@ -40,7 +43,7 @@ def unit_hints(model: Model, prog: Program) -> list[str]:
     ind = independents(prog)
     lo, hi = s.lo[ind], s.hi[ind]
     middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
-    out = _spreads(prog, middle) + _readings(model, prog)
+    out = spreads(prog, middle) + _readings(model, prog) + _turns(model, prog)
     est = estimate(prog, start=middle, max_evaluations=200)
     if not est.converged:
         out.append("least squares did not converge from the middle of the search domains: "
@@ -48,49 +51,6 @@ def unit_hints(model: Model, prog: Program) -> list[str]:
                    "error bounds")
     elif np.all(np.isfinite(est.values)):
         out += _bounds(prog, _robust(prog, est.values))
-    return out
-
-
-def _near(ratio: float) -> str | None:
-    for factor, label in FACTORS:
-        for f in (factor, 1 / factor):
-            if ratio > 0 and abs(math.log(ratio / f)) <= math.log(NEAR):
-                return label
-    return None
-
-
-def _by_column(prog: Program, p: np.ndarray) -> dict[str, tuple[np.ndarray, ...]]:
-    """Per measured column: its values (the middles of the cells), the model's residuals at
-    p (predicted minus measured) and the bounds."""
-    s = prog.slots
-    sides = s.measured_sides or {}
-    lin = linearized(prog, p, owners=False)
-    cols: dict[str, list[int]] = {}
-    for i, slot in enumerate(lin.slots.tolist()):
-        if slot in sides and s.col_keys is not None:
-            cols.setdefault(s.col_keys[sides[slot][1]][1], []).append(i)
-    out: dict[str, tuple[np.ndarray, ...]] = {}
-    for name, rows in cols.items():
-        at = lin.slots[rows]
-        out[name] = (0.5 * s.lo[at] + 0.5 * s.hi[at], lin.d[rows], lin.half[rows])
-    return out
-
-
-def _spreads(prog: Program, middle: np.ndarray) -> list[str]:
-    found: dict[tuple[str, bool], list[tuple[str, float]]] = {}
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        for name, (values, d, _) in _by_column(prog, middle).items():
-            ratio = float(np.std(values) / np.std(values + d))
-            label = _near(ratio) if np.isfinite(ratio) else None
-            if label is not None:
-                found.setdefault((label, ratio > 1), []).append((name, ratio))
-    out = []
-    for (label, more), cols in found.items():
-        names = ", ".join(n for n, _ in cols)
-        r = float(np.median([max(x, 1 / x) for _, x in cols]))
-        out.append(f"column{'s' if len(cols) > 1 else ''} {names}: the values spread {r:.3g} "
-                   f"times {'more' if more else 'less'} than the model predicts them at the "
-                   f"middle of the domains, about {label}: check the unit the table declares")
     return out
 
 
@@ -112,7 +72,7 @@ def _robust(prog: Program, start: np.ndarray) -> np.ndarray:
 
 def _bounds(prog: Program, p: np.ndarray) -> list[str]:
     found: dict[str, list[tuple[str, float]]] = {}
-    columns = _by_column(prog, p)
+    columns = by_column(prog, p)
     over = [np.abs(d) > half for _, d, half in columns.values()]
     if not over or np.mean(np.concatenate(over)) < MOST:
         return []  # most rows hold: a few gross ones, not a unit
@@ -121,7 +81,7 @@ def _bounds(prog: Program, p: np.ndarray) -> list[str]:
         if not ok.any():
             continue
         ratio = float(np.quantile(np.abs(d[ok]) / half[ok], BOUND_QUANTILE))
-        label = _near(ratio) if ratio > 1 else None
+        label = near(ratio) if ratio > 1 else None
         if label is not None:
             found.setdefault(label, []).append((name, ratio))
     out = []
@@ -156,3 +116,26 @@ def _readings(model: Model, prog: Program) -> list[str]:
                    f", but every value is within {math.degrees(top):.3g} in the file "
                    f"({top:.3g} rad): are they radians?")
     return out
+
+
+def _turns(model: Model, prog: Program) -> list[str]:
+    """Columns declared `in rad` that are not measured sides (joint readings) with a value
+    beyond TURNS turns either way: degrees declared as radians."""
+    s = prog.slots
+    measured = {s.col_keys[c] for _, c in (s.measured_sides or {}).values()} \
+        if s.col_keys is not None else set()
+    found = []
+    for t in model.tables:
+        for c in t.columns:
+            if c.unit != "rad" or c.name not in t.bounds or (t.name, c.name) in measured:
+                continue
+            lo, hi = t.bounds[c.name]
+            most = float(np.max(np.maximum(np.abs(lo), np.abs(hi)))) / c.factor[0] \
+                if len(lo) else 0.0
+            if most > TURNS * 2 * math.pi:
+                found.append(f"{c.name} (up to {most:.4g})")
+    if not found:
+        return []
+    return [f"column{'s' if len(found) > 1 else ''} {', '.join(found)}: declared `in rad`, "
+            f"but a joint does not turn {TURNS} turns ({TURNS * 360} deg) either way: are "
+            "they degrees?"]

@@ -115,7 +115,7 @@ def targets(items: tuple[str, ...]) -> dict[str, float]:
 
 
 @click.command()
-@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("model", type=click.Path())
 @click.option("--candidates", metavar="[TABLE=]CSV",
               help="The configurations to choose from (a file in the table's dialect; its "
                    "measured columns may be absent). Default: drawn within the joint limits.")

@@ -31,6 +31,10 @@ from calib_dsl.pipeline import load_model
 from calib_dsl.plan.configs import Configurations, table_of
 from calib_dsl.relax.layout import independents
 
+# A bound within this share of its row's value is the floats' width, not a tolerance (a row
+# weighed by it would swamp the others: the design's matrices become singular).
+ROUNDING = 1e-12
+
 
 @dataclass(frozen=True, eq=False)
 class Linear:
@@ -91,6 +95,13 @@ def linearize(model_path: str | Path, configs: Configurations, formulation: str 
     if np.any(bound <= 0):
         raise CalError("a measured value has no error bound (+- 0): planning weighs rows by "
                        "their bounds")
+    with np.errstate(invalid="ignore", over="ignore"):
+        rounding = bound <= ROUNDING * np.maximum(1.0, np.abs(lin.d))
+    if np.any(rounding):
+        raise CalError(f"{int(rounding.sum())} rows have no error bound at the planning point "
+                       "beyond rounding: their measured side is computed from readings (as "
+                       "euler_xyz(m.rx[k], ...)) whose tolerances move it by nothing there; "
+                       "planning weighs rows by their bounds, so it cannot plan for them")
     rows = _by_configuration(lin.data_row, len(configs), prog)
     half = 0.5 * (hi - lo)
     scaled = lin.jac * half[None, :] / bound[:, None]

@@ -16,8 +16,9 @@ these boxes widened by each column's error bound.
 
 from __future__ import annotations
 
+import csv
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -73,10 +74,14 @@ def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str
     t = _table(first, table)
     with tempfile.TemporaryDirectory(prefix="calibc-predict-") as tmp:
         path, present = _completed(Path(at), t, Path(tmp))
-        model = elaborate(model_path, formulation=formulation, inputs=Inputs(
-            data={**inputs.data, t.name: path},
-            rows={t.name: at_rows} if at_rows is not None else {}, consts=inputs.consts))
+        try:
+            model = elaborate(model_path, formulation=formulation, inputs=Inputs(
+                data={**inputs.data, t.name: path},
+                rows={t.name: at_rows} if at_rows is not None else {}, consts=inputs.consts))
+        except CalError as err:  # located in the copy: the user's file has the same lines
+            raise _in_file(err, str(path), str(at)) from None
     prog = compile_model(model)
+    _inputs_present(prog, _table(model, t.name), present, str(at))
     return _enclose(prog, _table(model, t.name), box, present, str(at), relaxation, center)
 
 
@@ -96,11 +101,15 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
         lines = read_capped(at, MAX_TABLE_BYTES, encoding="utf-8-sig").splitlines()
     except TooLarge as err:
         raise CalError(f"'{at}' is {err}: too large for a table") from None
+    except FileNotFoundError:
+        raise CalError(f"'{at}' not found") from None
+    except IsADirectoryError:
+        raise CalError(f"'{at}' is a directory: give a CSV file") from None
     except (OSError, UnicodeDecodeError) as err:
         raise CalError(f"cannot read '{at}': {err}") from None
     if not lines:
         raise CalError(f"'{at}' is empty: it has no header")
-    header = [h.strip() for h in lines[0].split(t.separator)]
+    header = [h.strip() for h in next(csv.reader([lines[0]], delimiter=t.separator))]
     files = [c for c in t.columns if not c.derived]  # (a derived column is no file's)
     names = [c.header or c.name for c in files]
     missing = [n for n in names if n not in header]
@@ -110,10 +119,32 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
         return at, present
     out = tmp / at.name
     fill = t.separator + t.separator.join("0" for _ in missing)
-    body = [ln + fill for ln in lines[1:] if ln.strip()]
+    body = [ln + fill if ln.strip() else ln for ln in lines[1:]]  # (the same line numbers)
     out.write_text("\n".join([lines[0] + t.separator + t.separator.join(missing), *body])
                    + "\n", encoding="utf-8")
     return out, present
+
+
+def _in_file(err: CalError, copy: str, at: str) -> CalError:
+    """The error `err` of the completed copy, said of the user's file `at`."""
+    loc = err.loc
+    if loc is not None and loc.file == copy:
+        loc = replace(loc, file=at)
+    return CalError(err.message.replace(copy, at), loc)
+
+
+def _inputs_present(prog: Program, t: Table, present: set[str], at: str) -> None:
+    """Only measured columns (a row's compared side) may be absent from the --at file: a
+    configuration is its inputs, and an input read as 0 would predict somewhere else."""
+    s = prog.slots
+    measured = {s.col_keys[c] for _, c in (s.measured_sides or {}).values()} \
+        if s.col_keys is not None else set()
+    lacking = [c.header or c.name for c in t.columns if not c.derived
+               and c.name not in present and (t.name, c.name) not in measured]
+    if lacking:
+        raise CalError(f"'{at}' has no column {', '.join(repr(n) for n in lacking)}: the "
+                       "configurations need it (only the measured columns may be absent; "
+                       f"the table's separator is {t.separator!r})")
 
 
 def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],

@@ -1,0 +1,219 @@
+"""The held-out battery: campaigns nobody tuned to, run through every command a user runs.
+
+`calibc simulate` draws campaigns (random, grid and repeated poses; with and without a
+systematic error) of robots written here (tests/held_out_robots.py: other DH tables and
+conventions, joint errors, units, a 6-DOF tracker) and, in the slow part, of the shipped UR10,
+UR5 and RX90 models at other sizes. Every command must exit 0 (consistent), 1 (proven
+inconsistent) or 2 (a user error), never 3; state its verdict; write strict JSON (no NaN or
+Infinity tokens); and every result must hold the true values whenever the data are drawn
+within their bounds."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from cli_run import run
+from held_out_robots import GENERATORS, ROBOTS
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+
+
+def strict(text: str) -> dict:
+    """JSON as a strict parser reads it: NaN, Infinity and -Infinity are refused."""
+
+    def refuse(token: str) -> None:
+        raise AssertionError(f"non-standard JSON token {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def calibc(*args: object, cwd: Path, codes: tuple[int, ...] = (0,)):
+    res = run(*args, cwd=cwd)
+    shown = f"calibc {' '.join(map(str, args))}: exit {res.exit_code}\n{res.output[-3000:]}"
+    assert res.exit_code in codes, shown
+    assert "Traceback" not in res.output and "internal error" not in res.output, shown
+    return res
+
+
+def truths_inside(result: dict) -> None:
+    """Every unknown with a stated true value holds it in its result."""
+    assert result["parameters"], "no parameter in the result"
+    for name, p in result["parameters"].items():
+        if p.get("true") is not None:
+            lo, hi = p["result"]
+            assert lo <= p["true"] <= hi, (name, p["true"], p["result"])
+
+
+def campaign(tmp: Path, robot: str, *options: object) -> Path:
+    """The robot's model and a campaign simulated for its table, in tmp."""
+    source, table, generator = ROBOTS[robot]
+    (tmp / robot).write_text(source)
+    if generator != robot:
+        (tmp / generator).write_text(GENERATORS[generator])
+    calibc("simulate", generator, "-o", table, "-q", *options, cwd=tmp)
+    return tmp / robot
+
+
+def solve_json(tmp: Path, model: Path | str, *options: object, codes: tuple[int, ...] = (0,),
+               name: str = "result.json") -> tuple[int, dict]:
+    res = calibc("solve", model, "-q", "--json", name, *options, cwd=tmp, codes=codes)
+    return res.exit_code, strict((tmp / name).read_text())
+
+
+# -- the fast part: small campaigns of the new robots ---------------------------------------
+@pytest.mark.parametrize("robot", ["arm4_dh.cal", "arm5_mdh.cal"])
+@pytest.mark.parametrize("poses", ["random", "grid", "repeated"])
+def test_a_new_robot_is_calibrated_with_its_truth_inside(tmp_path, robot, poses):
+    model = campaign(tmp_path, robot, "--configs", 30, "--seed", 11, "--poses", poses)
+    _, result = solve_json(tmp_path, model, "--no-identify")
+    assert result["verdict"] == "consistent"
+    truths_inside(result)
+
+
+def test_a_systematic_error_within_the_bound_keeps_the_truth(tmp_path):
+    e = 0.05  # arm4_dh.cal's bound
+    model = campaign(tmp_path, "arm4_dh.cal", "--configs", 30, "--seed", 3, "--no-noise",
+                     "--systematic", 0.8 * e)
+    _, result = solve_json(tmp_path, model, "--no-identify")
+    assert result["verdict"] == "consistent"
+    truths_inside(result)
+
+
+def test_a_systematic_error_far_beyond_the_bound_is_proven_inconsistent(tmp_path):
+    model = campaign(tmp_path, "arm4_dh.cal", "--configs", 30, "--seed", 3,
+                     "--systematic", 40 * 0.05)
+    code, result = solve_json(tmp_path, model, "--no-identify", codes=(1,))
+    assert result["verdict"] == "inconsistent"
+    out = run("solve", model.name, "-q", "--no-identify", cwd=tmp_path).output
+    assert "verdict: inconsistent" in out
+
+
+def test_every_command_on_a_new_robot(tmp_path):
+    """solve (default, --json, --inner, --outliers 1, --min-error, --report), identify,
+    validate, predict, plot, export (each format), plan and report on one campaign."""
+    model = campaign(tmp_path, "arm4_dh.cal", "--configs", 30, "--seed", 5).name
+    calibc("simulate", model, "--configs", 20, "--seed", 6, "-o", "held.csv", "-q",
+           cwd=tmp_path)
+    _, result = solve_json(tmp_path, model, "--report", "solve.html")
+    truths_inside(result)
+    assert "verdict: consistent" in calibc("solve", model, "-q", cwd=tmp_path).output
+    calibc("solve", model, "-q", "--inner", cwd=tmp_path)
+    _, outliers = solve_json(tmp_path, model, "--outliers", 1, "--no-identify",
+                             name="outliers.json")
+    truths_inside(outliers)
+    calibc("solve", model, "-q", "--min-error", "e", "--json", "min.json", cwd=tmp_path)
+    strict((tmp_path / "min.json").read_text())
+    ident = strict(calibc("identify", model, "--json", cwd=tmp_path).stdout)
+    (tmp_path / "identify.json").write_text(json.dumps(ident))
+    calibc("validate", model, "--at", "held.csv", "-q", "--json", "v.json", cwd=tmp_path)
+    assert strict((tmp_path / "v.json").read_text())["coverage"] == 1.0
+    calibc("predict", model, "--at", "held.csv", "-q", "--json", "p.json", "--csv", "p.csv",
+           cwd=tmp_path)
+    assert len(strict((tmp_path / "p.json").read_text())["rows"]) == 20
+    calibc("plot", "result.json", "-o", "r.png", "--kind", "all", cwd=tmp_path)
+    calibc("plot", "v.json", "-o", "v.svg", cwd=tmp_path)
+    for fmt in ("dh-table", "urdf", "cell", "json", "cal"):
+        calibc("export", "result.json", "--format", fmt, "-o", f"x.{fmt}", cwd=tmp_path)
+        assert (tmp_path / f"x.{fmt}").stat().st_size > 0
+    strict((tmp_path / "x.json").read_text())
+    res = calibc("export", "result.json", "--format", "ur-kinematics", cwd=tmp_path, codes=(2,))
+    assert res.output.count("error:") == 1 and "six revolute joints" in res.output
+    calibc("export", "result.json", "--format", "dh-table", "--convention", "dh",
+           "--point", "centre", cwd=tmp_path)
+    calibc("plan", model, "--n", 8, "-o", "plan.csv", "--json", "plan.json", cwd=tmp_path)
+    strict((tmp_path / "plan.json").read_text())
+    calibc("report", "result.json", "-o", "report.html", "--validation", "v.json",
+           "--identify", "identify.json", "--min-error", "min.json", cwd=tmp_path)
+    assert (tmp_path / "report.html").read_text().count("<html") == 1
+
+
+@pytest.mark.xfail(strict=True, reason="a 6-DOF tracker's Euler-angle rows, consistent as "
+                   "drawn, end undecided (exit 4): the Chebyshev fit's largest residual is "
+                   "~1e8 error bounds; the position rows alone are proven consistent")
+def test_a_six_dof_tracker_is_proven_consistent(tmp_path):
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 40, "--seed", 2)
+    _, result = solve_json(tmp_path, model, "--no-identify", codes=(0, 4))
+    truths_inside(result)
+    assert result["verdict"] == "consistent"
+
+
+def test_a_six_dof_tracker_keeps_its_truth(tmp_path):
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 40, "--seed", 2)
+    _, result = solve_json(tmp_path, model, "--no-identify", codes=(0, 4))
+    truths_inside(result)
+
+
+# -- the slow part: the shipped robots at other sizes, poses and errors ---------------------
+SHIPPED = [  # (model, simulate's options, the exit code expected)
+    ("rx90_lengths.cal", ("--configs", 50, "--seed", 1), 0),
+    ("rx90_lengths.cal", ("--configs", 300, "--seed", 2, "--poses", "grid"), 0),
+    ("rx90_full.cal", ("--configs", 60, "--seed", 3), 0),
+    ("ur5_simulated.cal", ("--configs", 500, "--seed", 1), 0),
+    ("ur5_simulated.cal", ("--configs", 800, "--seed", 2, "--poses", "repeated",
+                           "--repeats", 4), 0),
+    ("ur10_simulated.cal", ("--configs", 1000, "--seed", 4, "--poses", "grid"), 0),
+    ("ur10_simulated.cal", ("--configs", 600, "--seed", 5, "--no-noise",
+                            "--systematic", 0.08), 0),  # within e = 0.1
+    ("ur10_simulated.cal", ("--configs", 600, "--seed", 6, "--systematic", 1), 1),
+    ("ur10_simulated.cal", ("--configs", 3000, "--seed", 7), 0),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model, options, code", SHIPPED,
+                         ids=[f"{m}-{'-'.join(map(str, o))}" for m, o, _ in SHIPPED])
+def test_a_shipped_robot_on_a_held_out_campaign(tmp_path, model, options, code):
+    calibc("simulate", MODELS / model, "-o", "c.csv", "-q", *options, cwd=tmp_path)
+    _, result = solve_json(tmp_path, MODELS / model, "--data", "m=c.csv", "--no-identify",
+                           codes=(code,))
+    assert result["verdict"] == ("consistent" if code == 0 else "inconsistent")
+    if code == 0:
+        truths_inside(result)
+
+
+@pytest.mark.slow
+def test_every_command_on_a_ur5_campaign(tmp_path):
+    """The commands a UR user adds: the export for the controller, validation on held-out
+    rows, identification and the handover report."""
+    model = MODELS / "ur5_simulated.cal"
+    calibc("simulate", model, "-o", "c.csv", "-q", "--configs", 120, "--seed", 21, cwd=tmp_path)
+    calibc("simulate", model, "-o", "h.csv", "-q", "--configs", 40, "--seed", 22, cwd=tmp_path)
+    _, result = solve_json(tmp_path, model, "--data", "m=c.csv")
+    truths_inside(result)
+    for fmt in ("ur-kinematics", "dh-table", "urdf", "cell", "json", "cal"):
+        calibc("export", "result.json", "--format", fmt, "-o", f"x.{fmt}", cwd=tmp_path)
+    calibc("validate", model, "--data", "m=c.csv", "--at", "h.csv", "-q", "--json", "v.json",
+           cwd=tmp_path)
+    assert strict((tmp_path / "v.json").read_text())["coverage"] == 1.0
+    calibc("report", "result.json", "-o", "r.html", "--validation", "v.json", cwd=tmp_path)
+
+
+def test_plan_for_a_six_dof_tracker_says_why_it_cannot(tmp_path):
+    """Its orientation rows' bounds vanish at the planning point (the candidates' angles
+    are not measured yet): a user error naming them, not a singular matrix (exit 3)."""
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
+    res = calibc("plan", model.name, "--n", 5, "-o", "plan.csv", cwd=tmp_path, codes=(2,))
+    assert res.output.startswith("error: ") and "no error bound" in res.output, res.output
+
+
+def test_min_error_on_a_bound_of_readings_says_which_bounds_it_varies(tmp_path):
+    """e_rot bounds the 6-DOF tracker's angles, which its rows compute with: --min-error
+    does not vary it, and must not say that no value is stated with it."""
+    model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
+    res = calibc("solve", model.name, "-q", "--min-error", "e_rot", cwd=tmp_path, codes=(2,))
+    assert "readings a row computes with" in res.output, res.output
+    assert len([ln for ln in res.output.splitlines() if "error:" in ln]) == 1
+
+
+@pytest.mark.xfail(strict=True, reason="candidates that share a joint value (grid or repeated "
+                   "poses) share one DAG cell, so their rows look owned by several "
+                   "configurations (relax/ownership.py: MIXED) and plan refuses them")
+@pytest.mark.parametrize("poses", ["grid", "repeated"])
+def test_plan_chooses_among_grid_or_repeated_candidates(tmp_path, poses):
+    model = campaign(tmp_path, "arm4_dh.cal", "--configs", 10, "--seed", 2).name
+    calibc("simulate", model, "--configs", 30, "--poses", poses, "--seed", 3, "-o", "cand.csv",
+           "-q", cwd=tmp_path)
+    calibc("plan", model, "--candidates", "cand.csv", "--n", 5, "-o", "plan.csv", cwd=tmp_path)
