@@ -7,9 +7,10 @@ smooth pose-dependent error of at most A, plus the model's 0.1 mm of uniform noi
 consistent set is thin, as real data's is) with random poses, a grid or repeated poses. Each
 campaign, and Series B (every 2nd row and all rows; skipped where the data are absent), is
 solved at 5 % above its smallest consistent bound (the proven-feasible end of `--min-error`).
-Per case: the whole command's time and peak memory, the certified outer/inner (median and
-worst over the parameters: the true hull lies between, so it is the honest measure), and the
-width over the linearized yardstick (bench/yardstick.py: a second reference). The simulated
+Per case: the whole command's wall and CPU time (user + system, the process's own accounting)
+and peak memory (its maximum resident set), the certified outer/inner (median and worst over
+the parameters: the true hull lies between, so it is the honest measure), and the width over
+the linearized yardstick (bench/yardstick.py: a second reference). The simulated
 campaigns' truth is checked inside every result.
 
     python bench/campaigns.py [--cases 500:random,1500:grid,...] [--runs 1] [--out PATH]
@@ -81,6 +82,7 @@ def solve(args: list[str], e: float, runs: int, tmp: Path) -> dict:
            str(out), "-q"]
     measured = [run_process(cmd) for _ in range(runs)]
     return {"wall": statistics.median(m["wall"] for m in measured),
+            "cpu": statistics.median(m["cpu"] for m in measured),
             "rss": statistics.median(m["rss"] for m in measured),
             "json": json.loads(out.read_text())}
 
@@ -98,7 +100,7 @@ def case(name: str, runs: int, tmp: Path, data: Path) -> str:
     if size == "B":
         label = "Series B, " + ("all rows" if shape == "1" else f"every {shape}nd row")
         if not data.exists():
-            return f"| {label} | skipped: no data at {data} (UR10_DATA, --data) | | | | | | |"
+            return f"| {label} | skipped: no data at {data} (UR10_DATA, --data) | | | | | | | |"
         rows, table = f"1..1495:{shape}", data
         truth_of: dict[str, float] = {}
     else:
@@ -111,7 +113,7 @@ def case(name: str, runs: int, tmp: Path, data: Path) -> str:
     r = solve(args, e, runs, tmp)
     out = r["json"]
     if out.get("status") != "contracted":
-        return (f"| {label} | {e:.3f} | {r['wall']:.1f} | {out.get('status')} | "
+        return (f"| {label} | {e:.3f} | {r['wall']:.1f} | {r['cpu']:.1f} | {out.get('status')} | "
                 f"{r['rss']:.0f} | | | |")
     tight = out.get("tightness") or {}
     oi = (f"{tight.get('median_ratio', float('nan')):.3f} / "
@@ -121,7 +123,8 @@ def case(name: str, runs: int, tmp: Path, data: Path) -> str:
                  for n, p in out["parameters"].items() if n in truth_of)
     held = ("yes" if inside else "**no**") if truth_of else "-"
     inner = tight.get("seconds", float("nan"))
-    return (f"| {label} | {e:.3f} | {r['wall']:.1f} | {out['seconds']:.1f} / {inner:.1f} | "
+    return (f"| {label} | {e:.3f} | {r['wall']:.1f} | {r['cpu']:.1f} | "
+            f"{out['seconds']:.1f} / {inner:.1f} | "
             f"{r['rss']:.0f} | {oi} | {summary(yard)} | {held} |")
 
 
@@ -138,9 +141,10 @@ def report(cases: list[str], runs: int, data: Path) -> str:
              f"point: the smallest consistent bound is at most that). Outer/inner: the "
              f"certified ratio (median / worst). Width / yardstick: over the linearized hull "
              f"at the least-squares estimate (bench/yardstick.py). Goals: {GOALS}.", "",
-             "| campaign | E (mm) | whole command (s) | solve / inner bounds (s) | peak (MB) | "
-             "outer/inner | width / yardstick | truth inside |",
-             "|---|---:|---:|---|---:|---|---|---|"]
+             "| campaign | E (mm) | whole command, wall (s) | CPU, user + system (s) | "
+             "solve / inner bounds, wall (s) | peak (MB) | outer/inner | width / yardstick | "
+             "truth inside |",
+             "|---|---:|---:|---:|---|---:|---|---|---|"]
     with tempfile.TemporaryDirectory(prefix="calibc-campaigns-") as name:
         for c in cases:
             line = case(c, runs, Path(name), data)

@@ -72,19 +72,21 @@ def starting_rows(rel: LinearRelaxation) -> np.ndarray:
 
 
 class RowCheck:
-    """Which rows outside the LP a point violates (the `most` most violated)."""
+    """Which rows outside the LP a point violates (the `most` most violated). A x and |A| |x|
+    are two sparse products (made once per LP: the row generation checks many points)."""
 
     def __init__(self, rel: LinearRelaxation, most: int) -> None:
+        from scipy.sparse import csr_matrix  # (a tall LP's row generation only: a slow import)
+
         A = rel.A
         self.rel, self.most = rel, most
-        self.row_of = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        self.A = csr_matrix((A.data, A.indices, A.indptr), shape=A.shape)
+        self.absA = csr_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape)
         self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(A.shape[0], -np.inf)
 
     def violated(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        A, m = self.rel.A, self.rel.A.shape[0]
-        prods = A.data * x[A.indices]
-        ax = np.bincount(self.row_of, weights=prods, minlength=m)
-        scale = np.bincount(self.row_of, weights=np.abs(prods), minlength=m)
+        ax = self.A @ x
+        scale = self.absA @ np.abs(x)
         tol = 1e-9 * scale + 1e-12
         with np.errstate(invalid="ignore"):
             excess = np.maximum(ax - self.rel.b, self.b_lo - ax) - tol

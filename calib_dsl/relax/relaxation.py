@@ -60,10 +60,17 @@ class Rows:
 
 
 def transpose_times(A: Any, y: np.ndarray, absolute: bool = False) -> np.ndarray:
-    """A^T y for a CSR matrix (Rows or scipy's), or |A|^T y."""
-    data = np.abs(A.data) if absolute else A.data
-    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    return np.bincount(A.indices, weights=data * y[rows], minlength=A.shape[1])
+    """A^T y for a CSR matrix (Rows or scipy's), or |A|^T y. Only the rows where y is nonzero
+    are read (an LP's multipliers are nonzero on its binding rows alone): the other rows'
+    terms are zeros, so the sums are the same."""
+    nz = np.flatnonzero(y)
+    start, stop = A.indptr[nz], A.indptr[nz + 1]
+    lengths = stop - start
+    at = np.repeat(start - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
+    data = A.data[at]
+    data = np.abs(data) if absolute else data
+    return np.bincount(A.indices[at], weights=data * np.repeat(y[nz], lengths),
+                       minlength=A.shape[1])
 
 
 @dataclass

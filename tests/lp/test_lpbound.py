@@ -707,6 +707,35 @@ def test_rows_agree_with_dense_matrices(seed, m, k, width):
     assert np.array_equal(got, back[pick])
 
 
+@SETTINGS
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.integers(1, 6))
+def test_products_with_mostly_zero_multipliers_match_the_dense_ones(seed, m, n):
+    # an LP's multipliers are nonzero on its binding rows only: transpose_times reads those
+    # rows alone, and the row generation's check (RowCheck) multiplies by sparse products
+    from calib_dsl.lp.highs import RowCheck
+
+    rng = np.random.default_rng(seed)
+    full = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.5) * 10.0 ** rng.integers(-4, 5)
+    A = sparse.csr_matrix(full)
+    R = Rows(A.data, A.indices, A.indptr, A.shape)
+    y = rng.normal(size=m) * (rng.random(m) < 0.2)
+    for M in (A, R):
+        assert np.allclose(transpose_times(M, y), full.T @ y, rtol=1e-12, atol=1e-300)
+        assert np.allclose(transpose_times(M, np.abs(y), absolute=True),
+                           np.abs(full).T @ np.abs(y), rtol=1e-12, atol=1e-300)
+    x = rng.normal(size=n)
+    b = full @ x + rng.normal(size=m)
+    rel = LinearRelaxation(R, b, -np.ones(n), np.ones(n))
+    inside = rng.permutation(m)[: int(rng.integers(0, m + 1))]
+    excess = full @ x - b - (1e-9 * (np.abs(full) @ np.abs(x)) + 1e-12)
+    excess[inside] = 0.0
+    want = np.flatnonzero(excess > 0)
+    got = RowCheck(rel, m).violated(x, inside)
+    assert sorted(got.tolist()) == want.tolist()
+    assert np.all(np.diff(excess[got]) <= 0)  # the most violated first
+    assert len(RowCheck(rel, 2).violated(x, inside)) == min(2, len(want))
+
+
 def test_a_scipy_matrix_is_accepted_where_rows_are():
     A = np.array([[1.0, 1.0], [1.0, -1.0]])
     lo, hi = np.array([-5.0, -5.0]), np.array([5.0, 5.0])
