@@ -15,6 +15,7 @@ from click.testing import CliRunner
 from calib_dsl import cli
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
+from calib_dsl.pipeline import min_error
 from tests.strategy.test_verdict import assert_said, verdict_of
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -36,7 +37,7 @@ NOMINAL = {"alpha2": "ur10_alpha2", "d2": "ur10_d2", "theta2": "ur10_theta2",
 
 
 def six_dof_model(tmp: Path, draw: random.Random, e: float = 0.1, e_rot: float = 0.001,
-                  extra: str = "") -> tuple[Path, dict[str, float]]:
+                  extra: str = "", q_err: float = 1e-5) -> tuple[Path, dict[str, float]]:
     """A 6-DOF tracker model of a UR10 whose parameters are drawn within their priors (a
     fifth of the half-width about models/ur10_simulated.cal's true values), and its truth."""
     true = {n: t + draw.uniform(-0.2, 0.2) * w for n, (t, w) in CHAIN.items()}
@@ -44,7 +45,7 @@ def six_dof_model(tmp: Path, draw: random.Random, e: float = 0.1, e_rot: float =
                        for n in CHAIN)
     text = f"""units mm, rad;
 include "{MODELS}/robots/ur10.cal";
-const e = {e}; const e_rot = {e_rot}; const q_err = 1e-5;
+const e = {e}; const e_rot = {e_rot}; const q_err = {q_err!r};
 const base_x = 508.72; const base_y = -3567.26; const base_z = -1225.97;
 const base_rx = 0.0011; const base_ry = -0.0036; const base_rz = 0.3496;
 const alpha1 = ur10_alpha1; const d1 = ur10_d1; const theta1 = ur10_theta1; const r1 = ur10_r1;
@@ -69,8 +70,9 @@ for k in 1..rows(m) {{
     return path, true
 
 
-def simulated(tmp: Path, draw: random.Random, rows: int) -> tuple[Path, dict[str, float]]:
-    path, true = six_dof_model(tmp, draw)
+def simulated(tmp: Path, draw: random.Random, rows: int, q_err: float = 1e-5
+              ) -> tuple[Path, dict[str, float]]:
+    path, true = six_dof_model(tmp, draw, q_err=q_err)
     res = CliRunner().invoke(cli.main, ["simulate", str(path), "--configs", str(rows),
                                         "--seed", str(draw.randrange(10_000)), "-o",
                                         str(tmp / "sim.csv")], catch_exceptions=False)
@@ -85,6 +87,33 @@ def certified_with_truth(tmp: Path, draw: random.Random, rows: int) -> str:
     for name, t in true.items():
         lo, hi = data["parameters"][name]["result"]
         assert lo <= t <= hi, (name, lo, t, hi)
+    return str(data["verdict"])
+
+
+def moved_verdict(tmp: Path, draw: random.Random, rows: int = 16) -> str:
+    """One coordinate of one row moved by 2-20 mm (either sign)."""
+    path, _ = simulated(tmp, draw, rows)
+    lines = (tmp / "sim.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    k, column = 1 + draw.randrange(rows), draw.choice(["x", "y", "z"])
+    cells = lines[k].split(",")
+    cells[head.index(column)] = repr(float(cells[head.index(column)])
+                                     + draw.uniform(2, 20) * draw.choice([-1, 1]))
+    lines[k] = ",".join(cells)
+    (tmp / "sim.csv").write_text("\n".join(lines) + "\n")
+    code, data, text, err = verdict_of(path)
+    assert_said(code, data, text, err)
+    return str(data["verdict"])
+
+
+def below_verdict(tmp: Path, draw: random.Random, rows: int = 16) -> str:
+    """The position bound 3 % below the smallest consistent one (its bracket within 2 %),
+    the joints exact."""
+    path, _ = simulated(tmp, draw, rows, q_err=0.0)
+    found = min_error(path, "e")
+    assert found.lo is not None and found.hi / found.lo <= 1.02, (found.lo, found.hi)
+    code, data, text, err = verdict_of(path, "-D", f"e={0.97 * found.hi!r}")
+    assert_said(code, data, text, err)
     return str(data["verdict"])
 
 
@@ -108,6 +137,22 @@ def test_simulated_six_dof_campaigns_are_certified_consistent(tmp_path):
     draw = random.Random(4405)
     verdicts = [certified_with_truth(tmp_path / f"c{i}", draw, 24) for i in range(6)]
     assert verdicts == ["consistent"] * len(verdicts)
+
+
+def test_one_six_dof_draw_of_each_fault(tmp_path):
+    draw = random.Random(4406)
+    assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"
+    assert below_verdict(tmp_path / "below", draw) == "inconsistent"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["moved", "below"])
+def test_six_dof_faults_are_proven_inconsistent_in_most_draws(tmp_path, case):
+    draw = random.Random(4407 if case == "moved" else 4408)
+    run = moved_verdict if case == "moved" else below_verdict
+    verdicts = [run(tmp_path / f"{case}{i}", draw) for i in range(20)]
+    assert "consistent" not in verdicts
+    assert verdicts.count("inconsistent") >= 0.95 * len(verdicts), verdicts
 
 
 def test_angles_that_wrap_are_compared_as_matrices(tmp_path):
