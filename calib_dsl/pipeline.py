@@ -39,6 +39,7 @@ from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.strategy.refute import Refuter
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
@@ -54,22 +55,32 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
 
 def min_error(model: str | Path, name: str, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight",
-              progress: Progress | None = None) -> MinError:
+              progress: Progress | None = None, settings: Settings = DEFAULT) -> MinError:
     """Bracket the smallest value of the const `name` for which the data are consistent
-    (`progress`: each trial solve's stages, labelled with the trial's number)."""
+    (`progress`: each trial solve's stages, labelled with the trial's number); a trial the
+    solve leaves open spends settings.min_error_share of its time on a proof."""
     trials = 0
 
-    def run(prog: Program) -> str:
+    def run(prog: Program, effort: bool = False) -> str:
         nonlocal trials
         trials += 1
-        return solve(prog, strategy, progress=labelled(progress, f"trial {trials}: ")).status
+        res = solve(prog, strategy, settings=settings,
+                    progress=labelled(progress, f"trial {trials}: "))
+        if not effort or res.status == "infeasible" or settings.min_error_share <= 0:
+            return res.status
+        # a proof of inconsistency within the trial's budget (fine rounds, a split)
+        budget = settings.min_error_share * res.seconds
+        found = Refuter(prog, res, None, None, settings, 1e-5, 1000, budget,
+                        time.perf_counter()).run([])
+        return "infeasible" if found.proof is not None else res.status
 
     given = inputs or Inputs()
     first = load_model(model, formulation, inputs=given)
     load = on_priors_of(first[1], lambda i: load_model(model, formulation, inputs=i,
                                                         centre=False), first)
     del first  # (the trials hold one program at a time)
-    return find_min_error(name, given, load, run)
+    prove = (lambda prog: run(prog, effort=True)) if strategy == "tight" else None
+    return find_min_error(name, given, load, run, prove)
 
 
 def on_priors_of(prog: Program, load: Callable[[Inputs], tuple[Model, Program]],

@@ -6,7 +6,9 @@
   of the rows whose bound is the const, every other row within its own bound, and a last
   step of it with the joint readings free within their intervals.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
-  are tried from the top down, then by bisection, within a budget of solves.
+  are tried from the top down, then by bisection, within a budget of solves; a bracket they
+  leave wider than WIDE is bisected further by the caller's `prove` (a solve with a proof
+  effort), within PROOFS trials.
 
 The rows whose residual at hi is within BINDING of it are the ones that set it. Every trial
 elaborates the model anew with the const set, so any model whose measured values are stated
@@ -36,6 +38,11 @@ from calib_dsl.relax.layout import independents
 BINDING = 0.01  # a row within this share of the bound's value binds it
 STEPS = (1.02, 1.05, 1.1, 1.25, 1.5, 2.0, 4.0)  # lower trials: hi divided by these, in turn
 MAX_SOLVES = 8  # tight solves to prove the lower end, at most
+# A bracket wider than this (hi / lo - 1) gets PROOFS more trials, each a solve and, where it
+# leaves the trial open, a proof effort (the caller's `prove`): the 2 % every shipped model
+# is to meet
+WIDE = 0.02
+PROOFS = 4
 CERTIFY_TRIES = 4  # raises of the bound by the point's excess before the upper end gives up
 
 
@@ -62,7 +69,8 @@ Loader = Callable[[Inputs], tuple[Model, Program]]
 Solver = Callable[[Program], str]  # the status of a solve
 
 
-def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinError:
+def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver,
+              prove: Solver | None = None) -> MinError:
     model, prog = load(inputs)
     if name not in model.consts:
         have = ", ".join(sorted(model.consts)) or "none"
@@ -77,6 +85,8 @@ def min_error(name: str, inputs: Inputs, load: Loader, solve: Solver) -> MinErro
     out.binding = _binding(model, check_prog, point, rows, hi)
     del model, prog, check_prog  # each trial loads its own: one program in memory at a time
     _lower(out, inputs, load, solve)
+    if prove is not None and out.lo is not None and out.hi > (1 + WIDE) * out.lo:
+        raise_lower(out, inputs, load, prove)
     return out
 
 
@@ -166,6 +176,24 @@ def _lower(out: MinError, inputs: Inputs, load: Loader, solve: Solver) -> None:
         status = solve(load(_with(inputs, out.name, e))[1])
         out.trials.append((e, status))
         solves += 1
+        if status == "infeasible":
+            refuted = e
+        else:
+            open_ = e
+    out.lo = refuted
+
+
+def raise_lower(out: MinError, inputs: Inputs, load: Loader, prove: Solver) -> None:
+    """Bisect between the refuted lo and the certified hi with `prove` (the values the
+    solves left open may be refuted by it)."""
+    assert out.lo is not None
+    refuted, open_ = out.lo, out.hi
+    for _ in range(PROOFS):
+        if open_ / refuted <= 1.005:
+            break
+        e = math.sqrt(refuted * open_)
+        status = prove(load(_with(inputs, out.name, e))[1])
+        out.trials.append((e, status))
         if status == "infeasible":
             refuted = e
         else:
