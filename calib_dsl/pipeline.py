@@ -38,6 +38,7 @@ from calib_dsl.report.text import render_summary, render_table
 from calib_dsl.report.verdict import render_verdict, stderr_line
 from calib_dsl.report.warnings import solve_warnings
 from calib_dsl.settings import DEFAULT, Settings
+from calib_dsl.strategy.refute import Refuter
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
@@ -53,23 +54,33 @@ def load(model: str | Path, formulation: str = "matrix", data: str | Path | None
 
 def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix",
               inputs: Inputs | None = None, strategy: str = "tight",
-              progress: Progress | None = None) -> MinError:
+              progress: Progress | None = None, settings: Settings = DEFAULT) -> MinError:
     """Bracket the smallest value of the const `name` for which the data are consistent
     (`progress`: each trial solve's stages, labelled with the trial's number). `model`: its
-    file, or the problem loaded already (then `formulation` and `inputs` are its own)."""
+    file, or the problem loaded already (then `formulation` and `inputs` are its own). A
+    trial the solve leaves open spends settings.min_error_share of its time on a proof."""
     trials = 0
 
-    def run(prog: Program) -> str:
+    def run(prog: Program, effort: bool = False) -> str:
         nonlocal trials
         trials += 1
-        return solve(prog, strategy, progress=labelled(progress, f"trial {trials}: ")).status
+        res = solve(prog, strategy, settings=settings,
+                    progress=labelled(progress, f"trial {trials}: "))
+        if not effort or res.status == "infeasible" or settings.min_error_share <= 0:
+            return res.status
+        # a proof of inconsistency within the trial's budget (fine rounds, a split)
+        budget = settings.min_error_share * res.seconds
+        found = Refuter(prog, res, None, None, settings, 1e-5, 1000, budget,
+                        time.perf_counter()).run([])
+        return "infeasible" if found.proof is not None else res.status
 
     problem = model if isinstance(model, Problem) else \
         Problem.load(model, formulation, inputs or Inputs())
     # every trial asks about the same priors (centred anew on each trial's data, a domain
     # along a direction the data do not see moves by millimetres, and a point certified in
     # one is outside the next)
-    return find_min_error(problem.keeping_priors(), name, run)
+    prove = (lambda prog: run(prog, effort=True)) if strategy == "tight" else None
+    return find_min_error(problem.keeping_priors(), name, run, prove)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,

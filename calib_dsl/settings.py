@@ -241,6 +241,13 @@ class Settings:
     # too tight leave every row near 1; one faulty coordinate leaves its row far beyond.
     verdict_outlier_bounds: float = 2.0
     verdict_outlier_rows: int = 3  # such rows tried at most, the worst first
+    # --min-error's trials where the solves left a bracket over 2 % wide: a trial the solve
+    # leaves open gets at most this share of the solve's time for a proof (fine rounds, a
+    # split): the lower end is only as high as the highest bound proven infeasible, and a
+    # fine round with the readings as LP columns, the one that proves most, costs about ten
+    # solves where parameters the data cannot separate keep their whole domains (the solve
+    # is quick, its rounds over them loose)
+    min_error_share: float = 12.0
 
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut

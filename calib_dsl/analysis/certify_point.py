@@ -162,27 +162,31 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     s = np.concatenate(slots)
     tlo, thi = exact_inside(base_lo[s], base_hi[s])
     computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
+    # an implied equality (the others prove it: ir/primitives.Slots.implied) needs no proof
+    implied = computed & np.isin(s, np.fromiter(prog.slots.implied, dtype=np.int64))
     found = np.concatenate(owners_of) if owners else None
     a, b = (np.concatenate(c).reshape(len(s), k) for c in (clo, chi))
     lo, hi = lo.reshape(len(lo), k), hi.reshape(len(hi), k)
-    return [_verdict(s, (a[:, i], b[:, i]), (tlo, thi), computed, (lo[:, i], hi[:, i]), found,
-                     bool(in_domain[i])) for i in range(k)]
+    return [_verdict(s, (a[:, i], b[:, i]), (tlo, thi), (computed, implied),
+                     (lo[:, i], hi[:, i]), found, bool(in_domain[i])) for i in range(k)]
 
 
 def _verdict(s: np.ndarray, side: tuple[np.ndarray, np.ndarray],
-             target: tuple[np.ndarray, np.ndarray], computed: np.ndarray,
+             target: tuple[np.ndarray, np.ndarray], kinds: tuple[np.ndarray, np.ndarray],
              at: tuple[np.ndarray, np.ndarray], owners: np.ndarray | None,
              in_domain: bool) -> PointCheck:
     """One point's check: each row's computed side [a, b] against the other side (the exact
     interval's inside [tlo, thi] of a measured or bounded slot; a computed slot's value, in
-    the point's slots [lo, hi])."""
-    (a, b), (lo, hi) = side, at
+    the point's slots [lo, hi]); `kinds`: the rows comparing two computed sides, and those
+    of them implied by the others (they hold where the others do)."""
+    (a, b), (lo, hi), (computed, implied) = side, at, kinds
     tlo, thi = target[0].copy(), target[1].copy()
     tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
     with np.errstate(invalid="ignore"):
         excess = np.maximum(np.maximum(b - thi, tlo - a), 0.0)
         ok = (a >= tlo) & (b <= thi)
         ok[computed] &= (tlo[computed] == thi[computed])
+        ok[implied] = True
     excess = np.where(np.isnan(excess), np.inf, excess)
     return PointCheck(bool(np.all(ok)) and in_domain, s, a, b, excess, ok, computed,
                       (tlo, thi), owners, in_domain)

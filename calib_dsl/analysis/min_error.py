@@ -6,7 +6,9 @@
   of the rows whose bound is the const, every other row within its own bound, and a last
   step of it with the joint readings free within their intervals.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
-  are tried from the top down, then by bisection, within a budget of solves.
+  are tried from the top down, then by bisection, within a budget of solves; a bracket they
+  leave wider than WIDE is bisected further by the caller's `prove` (a solve with a proof
+  effort), within PROOFS trials.
 
 The rows whose residual at hi is within BINDING of it are the ones that set it. Every trial
 is the problem with the const set (problem.py's `Problem.with_const`: the cells' bounds
@@ -38,6 +40,11 @@ from calib_dsl.relax.layout import independents
 BINDING = 0.01  # a row within this share of the bound's value binds it
 STEPS = (1.02, 1.05, 1.1, 1.25, 1.5, 2.0, 4.0)  # lower trials: hi divided by these, in turn
 MAX_SOLVES = 8  # tight solves to prove the lower end, at most
+# A bracket wider than this (hi / lo - 1) gets PROOFS more trials, each a solve and, where it
+# leaves the trial open, a proof effort (the caller's `prove`): the 2 % every shipped model
+# is to meet
+WIDE = 0.02
+PROOFS = 4
 CERTIFY_TRIES = 4  # raises of the bound by the point's excess before the upper end gives up
 
 
@@ -77,7 +84,8 @@ class Trials(Protocol):
     def with_const(self, **values: str) -> Trials: ...
 
 
-def min_error(problem: Trials, name: str, solve: Solver) -> MinError:
+def min_error(problem: Trials, name: str, solve: Solver,
+              prove: Solver | None = None) -> MinError:
     model, prog = problem.model, problem.program
     if name not in model.consts:
         have = ", ".join(sorted(model.consts)) or "none"
@@ -92,6 +100,8 @@ def min_error(problem: Trials, name: str, solve: Solver) -> MinError:
     out.binding = _binding(model, check_prog, point, readings, hi)
     del model, prog, check_prog  # (each trial derives its own)
     _lower(out, problem, solve)
+    if prove is not None and out.lo is not None and out.hi > (1 + WIDE) * out.lo:
+        raise_lower(out, problem, prove)
     return out
 
 
@@ -192,6 +202,25 @@ def _lower(out: MinError, problem: Trials, solve: Solver) -> None:
 def _trial(problem: Trials, name: str, value: float) -> Program:
     """The program with the const at `value` (exactly: the float as a fraction)."""
     return problem.with_const(**{name: str(Fraction(value))}).program
+
+
+def raise_lower(out: MinError, problem: Trials, prove: Solver) -> None:
+    """Bisect between the refuted lo and the certified hi with `prove` (the values the
+    solves left open may be refuted by it)."""
+    assert out.lo is not None
+    refuted, open_ = out.lo, out.hi
+    for _ in range(PROOFS):
+        if open_ / refuted <= 1.005:
+            break
+        e = math.sqrt(refuted * open_)
+        status = prove(_trial(problem, out.name, e))
+        out.trials.append((e, status))
+        if status == "infeasible":
+            refuted = e
+        else:
+            open_ = e
+    out.lo = refuted
+
 
 
 def _binding(model: Model, prog: Program, point: np.ndarray, readings: np.ndarray | None,

@@ -171,4 +171,5 @@ def _slots(s: Slots, lay: RowLayout, n: int) -> Slots:
                  list(s.declared_names),
                  None if s.cell_row is None else s.cell_row[:n].copy(),
                  None if s.cell_col is None else s.cell_col[:n].copy(),
-                 s.row_keys, s.col_keys, sides, set(s.capped_by_rows))
+                 s.row_keys, s.col_keys, sides, set(s.capped_by_rows),
+                 {k for k in s.implied if k < n})

@@ -224,6 +224,12 @@ def _slots(batch: RowBatch, s: Slots, dep: np.ndarray, shared: np.ndarray, s0: n
             base = layout.shared + j
             for r in range(n):
                 sides[base + r * width] = (r * len(layout.tables) + ti, col)
+    implied = set()
+    for slot in s.implied:  # the template's and the shared ones (the second row's: copies)
+        if dep[slot] < 0:
+            implied.add(int(new[slot]))
+        elif dep[slot] == 0:
+            implied.update(int(new[slot]) + r * width for r in range(n))
     names_t = [s.names[i] for i in s0.tolist()]
     kinds_t = [s.kinds[i] for i in s0.tolist()]
     return Slots(
@@ -233,7 +239,7 @@ def _slots(batch: RowBatch, s: Slots, dep: np.ndarray, shared: np.ndarray, s0: n
         lo, hi,
         Tiled([s.origin[i] for i in shared.tolist()], [s.origin[i] for i in s0.tolist()], n),
         [int(new[i]) for i in s.declared], list(s.declared_names),
-        cell_row, cell_col, row_keys, list(s.col_keys or []), sides)
+        cell_row, cell_col, row_keys, list(s.col_keys or []), sides, implied=implied)
 
 
 class _RowPrimitive:

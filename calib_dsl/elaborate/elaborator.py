@@ -31,6 +31,7 @@ from calib_dsl.elaborate.context import DEFAULT_UNITS
 from calib_dsl.elaborate.expressions import Expressions
 from calib_dsl.elaborate.loops import Loops
 from calib_dsl.elaborate.measured import Measured
+from calib_dsl.elaborate.orientation import Orientation
 from calib_dsl.elaborate.robots import Robots
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.scope import (
@@ -112,7 +113,8 @@ def _check_used(inputs: Inputs, run: Elaborator) -> None:
                        f"consts: {', '.join(consts)})")
 
 
-class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measured):
+class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measured,
+                 Orientation):
     """One elaboration: the shared state, and each AST node type's part."""
 
     def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
@@ -137,6 +139,8 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
         self.tables: list[Table] = []
         self.derived_columns: dict[tuple[str, str], Sequence[int]] = {}
         self.negated_cells: dict[int, int] = {}
+        self.rotations: set[tuple[int, ...]] = set()
+        self.euler_angles: dict[tuple[int, ...], tuple[int, ...]] = {}
         self.globals = Scope()
         self.including: list[tuple[Path, str]] = []  # the include stack (resolved, as shown)
         self.included: set[Path] = set()

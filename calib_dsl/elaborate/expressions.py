@@ -336,14 +336,17 @@ class Expressions(Context):
         if e.func == "euler_xyz":
             angles = [self.node(self.scalar(v, a.loc, "an angle of euler_xyz"), a.loc)
                       for v, a in zip(values, e.args, strict=True)]
-            return chains.euler_xyz(self.dag, *angles)
+            return self.note_rotation(chains.euler_xyz(self.dag, *angles), tuple(angles))
         mats = []
         for v, a in zip(values, e.args, strict=True):
             if not (isinstance(v, tuple) and len(v) == 9):
                 raise CalError(f"compose(A, B) takes two 3x3 matrices as 9-vectors (row by "
                                f"row), not {kind_of(v)}", a.loc)
             mats.append(tuple(self.node(x, a.loc) for x in v))
-        return chains.compose(self.dag, mats[0], mats[1])
+        product = chains.compose(self.dag, mats[0], mats[1])
+        if all(self.is_rotation(v) for v in values):
+            self.note_rotation(product)
+        return product
 
     def _expand(self, macro: Macro, e: ast.Call, scope: Scope) -> Value:
         if len(e.args) != len(macro.params):

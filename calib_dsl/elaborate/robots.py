@@ -93,6 +93,7 @@ class Robots(Context):
         if found is None:
             found = chains.forward_axes(self.dag, self._frames(robot, args), self.formulation)
             self._robot_calls[key] = found
+            self.note_rotation(found)
         return found
 
     def _note_unit(self, node: int, dimension: str) -> None:

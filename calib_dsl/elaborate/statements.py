@@ -133,11 +133,15 @@ class Statements(Context):
             raise CalError(f"strict inequality '{s.rel}' is not supported: over intervals it "
                            f"means the same as '{s.rel}=' - write that", s.rel_loc)
         lhs, rhs = self.value(s.lhs, scope), self.value(s.rhs, scope)
+        # an orientation reading: three measured angles, and the matrices they imply equal
+        angles = self.orientation_pairs(lhs, rhs) if s.rel == "==" else None
+        for left, right in angles or []:
+            self.dag.constrain(left, s.rel, right, s.loc)
         for a, b in pairs(lhs, rhs, "compare", s.rel_loc):
             left, right = self.node(a, s.lhs.loc), self.node(b, s.rhs.loc)
             if s.rel == "==":  # a measured side that sums cells, one with an error: one reading
                 left, right = self.measured_pair(left, right) or (left, right)
-            self.dag.constrain(left, s.rel, right, s.loc)
+            self.dag.constrain(left, s.rel, right, s.loc, implied=angles is not None)
 
     # -- declarations of unknowns ---------------------------------------------------------
     def _decl(self, s: ast.Decl, scope: Scope, top: bool) -> None:

@@ -70,6 +70,9 @@ class Constraint:
     rel: str
     rhs: int
     loc: Loc | None
+    # implied by the model's other constraints (an orientation's matrix by its three angles,
+    # elaborate/orientation.py): it contracts, but a point proof need not prove it
+    implied: bool = False
 
 
 @dataclass
@@ -220,10 +223,11 @@ class Dag:
         """(u cos b - v sin b, u sin b + v cos b) as the two outputs of one rotation."""
         return self.op("rotu", beta, u, v), self.op("rotv", beta, u, v)
 
-    def constrain(self, lhs: int, rel: str, rhs: int, loc: Loc | None = None) -> None:
+    def constrain(self, lhs: int, rel: str, rhs: int, loc: Loc | None = None,
+                  implied: bool = False) -> None:
         if rel not in ("==", "<=", ">="):
             raise ValueError(f"unknown relation {rel!r}")
-        self.constraints.append(Constraint(lhs, rel, rhs, loc))
+        self.constraints.append(Constraint(lhs, rel, rhs, loc, implied))
 
     # -- helpers ----------------------------------------------------------------------------
     def point(self, node: int) -> float | None:

@@ -49,6 +49,9 @@ class Slots:
     measured_sides: dict[int, tuple[int, int]] | None = None
     # measured sides compared with cells of several table rows (`measured_sides` names one)
     capped_by_rows: set[int] = field(default_factory=set)
+    # slots where an implied equality (ir/dag.Constraint.implied), and no other, meets two
+    # computed sides: a point proof (analysis/certify_point.py) need not prove them equal
+    implied: set[int] = field(default_factory=set)
 
 
 @dataclass

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.arith.interval import LIB_ABS, LIB_REL
+from calib_dsl.arith.projections import forward
 
 U = 2.0**-53  # unit roundoff
 
@@ -26,7 +27,11 @@ _SUM = 1.0 + 2.0**-40
 _TINY = 1e-300  # covers underflow of the (few) products in one remainder update
 
 
-SUPPORTED = {"neg", "add", "sub", "mul", "sqr", "sin", "cos", "rot"}
+# Operations given a model of degree 0 (their range over the box, no unknown's term): sound
+# and loose; an orientation's angles (elaborate/orientation.py) are such rows, and a program
+# holding them keeps the second-order models of its other rows
+ENCLOSED = {"sqrt", "atan2"}
+SUPPORTED = {"neg", "add", "sub", "mul", "sqr", "sin", "cos", "rot"} | ENCLOSED
 
 
 @dataclass
@@ -212,4 +217,18 @@ def apply(op: str, args: list[Models], pairs: Pairs) -> list[Models]:
         u, v = args[1], args[2]
         return [add(mul(u, c, pairs), mul(v, s, pairs), -1.0),
                 add(mul(u, s, pairs), mul(v, c, pairs))]
+    if op in ENCLOSED:
+        return [_range_model(op, args)]
     raise ValueError(f"no Taylor model for primitive {op!r}")
+
+
+def _range_model(op: str, args: list[Models]) -> Models:
+    """The operation's enclosure over the arguments' ranges, as a model of degree 0."""
+    ranges = []
+    for a in args:
+        la, qa = a.sizes()
+        spread = up(la + qa + a.r)
+        ranges.append((np.nextafter(a.c0 - spread, -np.inf), np.nextafter(a.c0 + spread, np.inf)))
+    lo, hi = forward(op, ranges)
+    n, p = args[0].c1.shape[1], args[0].c2.shape[1]
+    return constant(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float), n, p)

@@ -19,7 +19,8 @@ def render_min_error(r: MinError) -> str:
         lines.append("  lower end: no tried value was proven infeasible (the data may be "
                      "consistent with much smaller bounds)")
     else:
-        lines.append(f"  lower end {r.lo:.6g}: proven infeasible by the solve")
+        lines.append(f"  lower end {r.lo:.6g}: proven infeasible by the solve (or its proof "
+                     "effort: fine rounds, a split)")
     tried = ", ".join(f"{v:.6g} {'infeasible' if s == 'infeasible' else 'not refuted'}"
                       for v, s in r.trials)
     lines.append(f"  values tried: {tried or 'none'}")

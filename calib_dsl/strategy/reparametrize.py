@@ -168,7 +168,7 @@ def _rewritten(prog: Program, combos: list) -> Reparametrized:
                                                                   np.full(extra, -1)]),
                    None if s.cell_col is None else np.concatenate([s.cell_col,
                                                                   np.full(extra, -1)]),
-                   s.row_keys, s.col_keys)
+                   s.row_keys, s.col_keys, implied=set(s.implied))
     out.prog = Program(prog.source, prog.formulation, slots2, list(prog.primitives) + new,
                        groups + prog.groups, true, domains, true_stated=stated,
                        units=prog.units, tables=prog.tables, sources=prog.sources)

@@ -186,3 +186,24 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     assert step is not None and step[2] < 0.99 * plain
     hi, _, _, _ = found._upper("e", problem, prog, rows)
     assert hi <= step[2] * 1.001
+
+
+def test_a_wide_bracket_is_bisected_with_the_proof_effort():
+    """Where the solves left the bracket over 2 % wide, trials with the proof effort raise its
+    lower end, never above a value that effort leaves open (a stand-in: each trial's
+    program is the bound itself; the effort refutes below 0.9, the truth's 0.95)."""
+    from fractions import Fraction
+
+    from calib_dsl.analysis.min_error import MinError, raise_lower
+    from calib_dsl.elaborate.elaborator import Inputs
+
+    def load(inputs):
+        return None, float(Fraction(inputs.consts["e"]))
+
+    def prove(bound):
+        return "infeasible" if bound < 0.9 else "contracted"
+
+    out = MinError("e", 0.5, 1.0, {})
+    raise_lower(out, Inputs(), load, prove)
+    assert 0.8 < out.lo < 0.9 and len(out.trials) == 4
+    assert all((s == "infeasible") == (v < 0.9) for v, s in out.trials)
