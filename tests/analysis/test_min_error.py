@@ -195,15 +195,20 @@ def test_a_wide_bracket_is_bisected_with_the_proof_effort():
     from fractions import Fraction
 
     from calib_dsl.analysis.min_error import MinError, raise_lower
-    from calib_dsl.elaborate.elaborator import Inputs
 
-    def load(inputs):
-        return None, float(Fraction(inputs.consts["e"]))
+    class Bounds:
+        """A problem whose program, with the const set, is the bound itself."""
+
+        def __init__(self, e: float = 1.0) -> None:
+            self.program = e
+
+        def with_const(self, **values: str) -> Bounds:
+            return Bounds(float(Fraction(values["e"])))
 
     def prove(bound):
         return "infeasible" if bound < 0.9 else "contracted"
 
     out = MinError("e", 0.5, 1.0, {})
-    raise_lower(out, Inputs(), load, prove)
+    raise_lower(out, Bounds(), prove)
     assert 0.8 < out.lo < 0.9 and len(out.trials) == 4
     assert all((s == "infeasible") == (v < 0.9) for v, s in out.trials)
