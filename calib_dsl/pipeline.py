@@ -315,6 +315,8 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
+        units = elaborated.units if elaborated is not None else None
+        extra.accuracy_of(prog, res, units["length"] if units else None)
     found = None
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)

@@ -88,7 +88,7 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
                        "so there is nothing to compile or solve", Loc(str(path), 1, 1))
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
-                 batch=run.batch)
+                 batch=run.batch, units=dict(run.units) if run.units_loc else None)
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:

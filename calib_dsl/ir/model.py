@@ -54,6 +54,8 @@ class Model:
     simulation: bool = False
     consts: dict[str, Fraction] = field(default_factory=dict)  # top-level numeric consts
     batch: RowBatch | None = None  # a loop compiled once for all its rows
+    # the model's unit of each dimension ("length", "angle"); None where it states none
+    units: dict[str, str] | None = None
 
 
 @dataclass

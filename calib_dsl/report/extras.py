@@ -10,9 +10,11 @@ from typing import Any
 
 import numpy as np
 
+from calib_dsl.analysis.accuracy import Accuracy, accuracy, nominal_point
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.inner import Inner, inner_bounds
 from calib_dsl.analysis.lsq import estimate
+from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -33,6 +35,8 @@ class Extras:
         self.shaved: Shaved | None = None
         self.seconds = 0.0
         self.skipped: list[str] = []  # a line each: a section not computed, and why
+        self.accuracy: Accuracy | None = None
+        self.length_unit: str | None = None  # the model's, where it states one
 
     def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
         start = time.perf_counter()
@@ -54,6 +58,29 @@ class Extras:
         ind = independents(prog)
         mid = 0.5 * (res.lo[ind] + res.hi[ind])
         self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
+        self.seconds += time.perf_counter() - start
+
+    def accuracy_of(self, prog: Program, res: Solution, length_unit: str | None) -> None:
+        """The residuals before calibration (nominal point), at the least-squares point and at
+        the certified centre, and the guaranteed bound over the result box."""
+        if not prog.slots.measured_sides:
+            self.skipped.append("accuracy: the model compares no computed value with a "
+                                "measured column")
+            return
+        start = time.perf_counter()
+        ind = independents(prog)
+        points = {"nominal": nominal_point(prog)}
+        lsq = self.estimate  # (computed here unless asked: the table's column only if asked)
+        if lsq is None:
+            mid = 0.5 * (res.lo[ind] + res.hi[ind])
+            lsq = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
+        if lsq is not None and np.all(np.isfinite(lsq.values)):
+            points["least_squares"] = lsq.values
+        if self.inner is not None and self.inner.centre is not None:
+            points["certified"] = self.inner.centre.point
+        box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
+        self.accuracy = accuracy(prog, residual_ranges(prog, box), points)
+        self.length_unit = length_unit
         self.seconds += time.perf_counter() - start
 
     def inner_bounds(self, prog: Program, res: Solution, asked: bool = False) -> None:

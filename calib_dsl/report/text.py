@@ -8,6 +8,7 @@ from typing import Any
 
 from calib_dsl.analysis.identify import render
 from calib_dsl.ir.program import Program
+from calib_dsl.report.accuracy import accuracy_json, render_accuracy
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
@@ -159,6 +160,8 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     t = tightness(prog, res, extra)
     if t is not None:
         lines += ["", *render_tightness(t)]
+    if extra.accuracy is not None:
+        lines += ["", *render_accuracy(accuracy_json(extra.accuracy, extra.length_unit))]
     if extra.skipped:
         lines += ["", *extra.skipped]
     if extra.info is not None:
