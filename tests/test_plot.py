@@ -143,13 +143,34 @@ def test_history_widths_against_seconds(solved):
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["l1", "l2"]
 
 
+def test_accuracy_histograms_and_the_guaranteed_bound(solved):
+    fig = figure(solved, "accuracy")
+    (ax,) = axes(fig, "accuracy")
+    acc = solved["accuracy"]
+    # one histogram per point, each counting every pose once
+    bars = [p for p in ax.patches if p.get_label() != "_nolegend_"]
+    assert len(bars) == len(acc["points"]) == 3
+    for patch in bars:
+        assert "rms" in patch.get_label()
+    # the rows the solve used (--exclude left one out)
+    assert acc["configurations"] == sum(r["used"] for r in solved["residuals"]["rows"])
+    for p in acc["points"].values():
+        assert len(p["distances"]) == acc["configurations"]
+    # the bound's largest and median values as vertical lines, at or beyond every distance
+    xs = [line.get_xdata()[0] for line in ax.lines]
+    assert xs == [pytest.approx(acc["bound"]["max"]), pytest.approx(acc["bound"]["median"])]
+    after = max(acc["points"]["least_squares"]["distances"])
+    assert acc["bound"]["max"] >= after
+    assert ax.get_xlim()[1] >= acc["bound"]["max"]
+
+
 def test_all_kinds_in_one_figure(solved, validated):
-    assert available(solved) == ["domains", "residuals", "history"]
+    assert available(solved) == ["domains", "residuals", "accuracy", "history"]
     assert available(validated) == ["prediction"]
     fig = figure(solved)
-    assert len(fig.subfigs) == 3
+    assert len(fig.subfigs) == 4
     assert [ax.get_label() for ax in fig.axes] == ["domains", "domains:true", "residuals",
-                                                  "history"]
+                                                  "accuracy", "history"]
 
 
 @pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml"),
@@ -166,7 +187,7 @@ def test_plot_command_writes_the_format_of_the_extension(solved, tmp_path, suffi
 def test_solve_and_validate_draw_with_plot(arm, tmp_path):
     out = tmp_path / "s.png"
     res = run("solve", arm, "--exclude", OUTLIER_ROW, "--plot", out)
-    assert res.exit_code == 0 and "drew domains, residuals, history" in res.output
+    assert res.exit_code == 0 and "drew domains, residuals, accuracy, history" in res.output
     assert out.stat().st_size > 1000
 
 

@@ -55,7 +55,8 @@ def layout(prog: Program) -> Layout:
 def point_residuals(prog: Program, at: Layout, p: np.ndarray) -> np.ndarray:
     """Measured minus predicted at the parameter vector p (independents' order), readings at
     their middles: (configurations, columns), nan where a column is not measured or no row
-    compares it (a merge of slots) or the model is not defined at p."""
+    compares it (a merge of slots: `x == m.v[k]` makes x the cell) or the model is not
+    defined at p."""
     lin = linearized(prog, p, owners=False)
     first: dict[int, int] = {}
     for i, t in enumerate(lin.slots.tolist()):
@@ -68,9 +69,11 @@ def point_residuals(prog: Program, at: Layout, p: np.ndarray) -> np.ndarray:
 
 
 def distances(residuals: np.ndarray) -> np.ndarray:
-    """Per configuration, the Euclidean norm of its measured columns' residuals."""
+    """Per configuration, the Euclidean norm of its measured columns' residuals (nan where
+    none has one)."""
     with np.errstate(invalid="ignore"):
-        return np.sqrt(np.nansum(residuals ** 2, axis=1))
+        d = np.sqrt(np.nansum(residuals ** 2, axis=1))
+    return np.where(np.all(np.isnan(residuals), axis=1), np.nan, d)
 
 
 def bound_table(ranges: Ranges, at: Layout, consistent: bool = True) -> np.ndarray:

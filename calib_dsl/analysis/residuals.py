@@ -79,11 +79,11 @@ def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
         first.setdefault(t, i)
     pick = np.array([first.get(int(k), -1) for k in side], dtype=np.int64)
     none = pick < 0
-    f_lo, f_hi = ranges.lo[np.maximum(pick, 0)], ranges.hi[np.maximum(pick, 0)]
-    slack = ranges.slack[np.maximum(pick, 0)]
-    if len(ranges.lo) == 0:
-        f_lo, f_hi = np.zeros(len(side)), np.zeros(len(side))
-        slack = np.zeros(len(side))
+    if len(ranges.lo) == 0:  # (every side is then one no row targets)
+        f_lo = f_hi = slack = np.zeros(len(side))
+    else:
+        at = np.maximum(pick, 0)
+        f_lo, f_hi, slack = ranges.lo[at], ranges.hi[at], ranges.slack[at]
     return (np.where(none, -np.inf, f_lo), np.where(none, np.inf, f_hi),
             np.where(none, np.inf, slack))
 

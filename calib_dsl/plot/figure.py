@@ -2,7 +2,7 @@
 `validate --plot`.
 
 All the kinds asked for go into one figure, one band per kind, top to bottom (domains,
-residuals, prediction, history): one file holds everything the result can show, and
+residuals, accuracy, prediction, history): one file holds everything the result can show, and
 `--kind` picks one. `figure()` returns the matplotlib Figure (the tests read what it draws).
 """
 
@@ -12,15 +12,17 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.plot import backend, domains, history, prediction, residuals
+from calib_dsl.plot import accuracy, backend, domains, history, prediction, residuals
 
-KINDS = {"domains": domains, "residuals": residuals, "prediction": prediction,
-         "history": history}
+KINDS = {"domains": domains, "residuals": residuals, "accuracy": accuracy,
+         "prediction": prediction, "history": history}
 CHOICES = (*KINDS, "all")
 WIDTH = 10.0  # inches
 # how to get each kind into a result's JSON
 HOW = {"domains": "calibc solve MODEL --json FILE",
        "residuals": "calibc solve MODEL --residuals --json FILE",
+       "accuracy": "calibc solve MODEL --json FILE (a model that compares predictions with "
+                   "measured columns)",
        "prediction": "calibc validate MODEL --at HELDOUT --json FILE",
        "history": "calibc solve MODEL --json FILE (the tight strategy)"}
 
@@ -50,7 +52,7 @@ def _height(kind: str, data: dict[str, Any]) -> float:
     n = KINDS[kind].count(data)
     if kind == "domains":
         return max(2.5, 1.2 + 0.2 * n)
-    return 3.5 if kind == "history" else 2.8 * n
+    return 3.5 if kind in ("history", "accuracy") else 2.8 * n
 
 
 def figure(data: dict[str, Any], kind: str = "all") -> Any:

@@ -79,7 +79,13 @@ class Extras:
         if self.inner is not None and self.inner.centre is not None:
             points["certified"] = self.inner.centre.point
         box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
-        self.accuracy = accuracy(prog, residual_ranges(prog, box), points)
+        found = accuracy(prog, residual_ranges(prog, box), points)
+        if not np.any(np.isfinite(found.points["nominal"])):
+            self.skipped.append("accuracy: no constraint compares a computed value with a "
+                                "measured column (each measured cell became an unknown's "
+                                "value)")
+            return
+        self.accuracy = found
         self.length_unit = length_unit
         self.seconds += time.perf_counter() - start
 
