@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from calib_dsl import cli
 from calib_dsl.analysis.accuracy import (
@@ -146,3 +148,23 @@ def test_a_model_without_measured_columns_says_why(tmp_path):
     run = solve_report(model)
     assert run.extra.accuracy is None and "accuracy" not in run.as_json()
     assert "accuracy: the model compares no computed value" in run.text()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(0, 1), st.floats(0, 1))
+def test_the_box_bound_holds_every_vector_of_the_box(arm, a, b):
+    """Any (l1, l2) of the result box, the hand-written kinematics at the readings: within
+    the box's bound on every axis and in distance."""
+    run, rows = arm
+    acc, prog = run.extra.accuracy, run.prog
+    ind = independents(prog)
+    names = [prog.slots.names[k] for k in ind]
+    lo, hi = run.res.lo[ind], run.res.hi[ind]
+    p = lo + np.array([a, b]) * (hi - lo)
+    l1, l2 = p[names.index("l1")], p[names.index("l2")]
+    for i, (_, k) in enumerate(acc.at.configurations):
+        row = rows[k - 1]
+        x, y = tip(l1, l2, row["q1"], row["q2"])
+        r = np.array([row["x"] - x, row["y"] - y])
+        assert np.all(np.abs(r) <= acc.box_worst[i])
+        assert np.hypot(*r) <= acc.box_bound[i]
