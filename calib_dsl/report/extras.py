@@ -37,6 +37,7 @@ class Extras:
         self.skipped: list[str] = []  # a line each: a section not computed, and why
         self.accuracy: Accuracy | None = None
         self.length_unit: str | None = None  # the model's, where it states one
+        self.accuracy_seconds = 0.0
 
     def identify(self, prog: Program, res: Solution, use_lp: bool) -> None:
         start = time.perf_counter()
@@ -68,26 +69,21 @@ class Extras:
                                 "measured column")
             return
         start = time.perf_counter()
-        ind = independents(prog)
-        points = {"nominal": nominal_point(prog)}
-        lsq = self.estimate  # (computed here unless asked: the table's column only if asked)
-        if lsq is None:
-            mid = 0.5 * (res.lo[ind] + res.hi[ind])
-            lsq = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
-        if lsq is not None and np.all(np.isfinite(lsq.values)):
-            points["least_squares"] = lsq.values
-        if self.inner is not None and self.inner.centre is not None:
-            points["certified"] = self.inner.centre.point
-        box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
-        found = accuracy(prog, residual_ranges(prog, box), points)
+        # the statement only adds to a result proven already: a numerical failure of its
+        # own is reported as such, and never costs the user the result
+        try:
+            found = _accuracy(prog, res, self.estimate, self.inner)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            self.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
+            return
         if not np.any(np.isfinite(found.points["nominal"])):
             self.skipped.append("accuracy: no constraint compares a computed value with a "
                                 "measured column (each measured cell became an unknown's "
                                 "value)")
             return
-        self.accuracy = found
-        self.length_unit = length_unit
-        self.seconds += time.perf_counter() - start
+        self.accuracy, self.length_unit = found, length_unit
+        self.accuracy_seconds = time.perf_counter() - start
+        self.seconds += self.accuracy_seconds
 
     def inner_bounds(self, prog: Program, res: Solution, asked: bool = False) -> None:
         """Certified inner bounds, at every size; unless `asked`, not after the hc4 strategy
@@ -141,3 +137,21 @@ class Extras:
         if self.estimate is None or name not in self.estimate.names:
             return None
         return float(self.estimate.values[self.estimate.names.index(name)])
+
+
+def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None) -> Accuracy:
+    """The accuracy at the nominal point, the least-squares point (`lsq`, an Estimate, or
+    computed here: the table's column only when asked) and the certified centre."""
+    ind = independents(prog)
+    points = {"nominal": nominal_point(prog)}
+    if lsq is None:  # from the certified centre, a fit already (else the box's middle)
+        mid = 0.5 * (res.lo[ind] + res.hi[ind])
+        start = (inner.centre.point if inner is not None and inner.centre is not None
+                 else mid if all(map(math.isfinite, mid)) else None)
+        lsq = estimate(prog, start=start)
+    if np.all(np.isfinite(lsq.values)):
+        points["least_squares"] = lsq.values
+    if inner is not None and inner.centre is not None:
+        points["certified"] = inner.centre.point
+    box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
+    return accuracy(prog, residual_ranges(prog, box), points)

@@ -117,12 +117,14 @@ _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no
 
 
 def _extra_time(extra: Extras) -> str:
-    """The inner bounds' and the shaving's own clocks, after the solve's."""
+    """The inner bounds', the shaving's and the accuracy's own clocks, after the solve's."""
     parts = []
     if extra.inner is not None:
         parts.append(f"{extra.inner.seconds:.2f} s for the inner bounds")
     if extra.shaved is not None:
         parts.append(f"{extra.shaved.seconds:.2f} s shaving")
+    if extra.accuracy is not None:
+        parts.append(f"{extra.accuracy_seconds:.2f} s for the accuracy")
     return f" (and {', '.join(parts)})" if parts else ""
 
 
