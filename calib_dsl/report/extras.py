@@ -144,14 +144,28 @@ def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None) -> Ac
     computed here: the table's column only when asked) and the certified centre."""
     ind = independents(prog)
     points = {"nominal": nominal_point(prog)}
-    if lsq is None:  # from the certified centre, a fit already (else the box's middle)
+    centre = certified_centre(inner)
+    if lsq is None:  # from the certified centre, near a fit (else the box's middle)
         mid = 0.5 * (res.lo[ind] + res.hi[ind])
-        start = (inner.centre.point if inner is not None and inner.centre is not None
-                 else mid if all(map(math.isfinite, mid)) else None)
+        start = centre if centre is not None else mid if all(map(math.isfinite, mid)) else None
         lsq = estimate(prog, start=start)
     if np.all(np.isfinite(lsq.values)):
         points["least_squares"] = lsq.values
-    if inner is not None and inner.centre is not None:
-        points["certified"] = inner.centre.point
+    if centre is not None:
+        points["certified"] = centre
     box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
     return accuracy(prog, residual_ranges(prog, box), points)
+
+
+def certified_centre(inner: Inner | None) -> np.ndarray | None:
+    """The certified point the inner bounds' search pulled the others towards; where the
+    search needed none (its first points were certified), the certified point nearest the
+    middle of the inner intervals, each unknown scaled by its inner width."""
+    if inner is None or not inner.witnesses:
+        return None
+    if inner.centre is not None:
+        return inner.centre.point
+    mid = 0.5 * (inner.lo + inner.hi)
+    scale = np.where(inner.hi > inner.lo, inner.hi - inner.lo, 1.0)
+    gaps = [float(np.nansum(((w.point - mid) / scale) ** 2)) for w in inner.witnesses]
+    return inner.witnesses[int(np.argmin(gaps))].point

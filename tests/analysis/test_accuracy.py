@@ -27,6 +27,7 @@ from calib_dsl.analysis.accuracy import (
 from calib_dsl.pipeline import solve_report
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.accuracy import accuracy_json, render_accuracy
+from calib_dsl.report.extras import certified_centre
 from calib_dsl.report.strict_json import dumps, strict_loads
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -74,7 +75,7 @@ def acc_point(run, label: str) -> np.ndarray:
     if label == "nominal":  # [0.8, 1.2] and [0.3, 0.7]: no `c +- w`, the domains' middles
         return np.array([1.0, 0.5])
     if label == "certified":
-        return run.extra.inner.centre.point
+        return certified_centre(run.extra.inner)
     return lsq_of(run)
 
 
