@@ -25,6 +25,7 @@ from calib_dsl.analysis.robot_frames import robot_tables
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
+from calib_dsl.elaborate.units import dimension
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
@@ -315,13 +316,22 @@ def report_on(prog: Program, model: str | Path, formulation: str = "matrix",
             extra.identify(prog, res, use_lp=strategy == "tight")
         if lsq:
             extra.least_squares(prog, res)
-        units = elaborated.units if elaborated is not None else None
-        extra.accuracy_of(prog, res, units["length"] if units else None)
+        extra.accuracy_of(prog, res, *_units_of(elaborated))
     found = None
     if res.status == "infeasible" and diagnose:
         found = conflict(model, formulation, inputs)
     return SolveReport(prog, res, extra, strategy, found,
                        solve_warnings(prog, res, elaborated), verdict=verdict)
+
+
+def _units_of(elaborated: Model | None) -> tuple[str | None, frozenset[str]]:
+    """The model's length unit (None: it states none) and its columns read in an angle
+    unit (the accuracy's distance leaves them out)."""
+    if elaborated is None:
+        return None, frozenset()
+    angles = frozenset(c.name for t in elaborated.tables for c in t.columns
+                       if c.unit is not None and dimension(c.unit) == "angle")
+    return (elaborated.units or {}).get("length"), angles
 
 
 def effort_for(model: str | Path, formulation: str, inputs: Inputs | None, prog: Program,

@@ -4,7 +4,7 @@ proofs), and a guaranteed bound on the distance between the measurement and the 
 every parameter vector of the result box (residuals.py's ranges, rounded upward: a proof).
 
 A configuration's distance is the Euclidean norm of its measured columns' residuals (a
-tracker's x, y, z: the position error).
+tracker's x, y, z: the position error), columns read in an angle unit left out.
 """
 
 from __future__ import annotations
@@ -68,9 +68,11 @@ def point_residuals(prog: Program, at: Layout, p: np.ndarray) -> np.ndarray:
     return out
 
 
-def distances(residuals: np.ndarray) -> np.ndarray:
-    """Per configuration, the Euclidean norm of its measured columns' residuals (nan where
-    none has one)."""
+def distances(residuals: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:
+    """Per configuration, the Euclidean norm of its measured columns' residuals (of the
+    columns `among` marks, if given; nan where none has one)."""
+    if among is not None:
+        residuals = residuals[:, among]
     with np.errstate(invalid="ignore"):
         d = np.sqrt(np.nansum(residuals ** 2, axis=1))
     return np.where(np.all(np.isnan(residuals), axis=1), np.nan, d)
@@ -98,9 +100,12 @@ def bound_table(ranges: Ranges, at: Layout, consistent: bool = True) -> np.ndarr
     return out
 
 
-def distance_bounds(worst: np.ndarray) -> np.ndarray:
-    """Per configuration, an upper bound on sqrt(sum over its columns of worst^2): the float
-    computation scaled up by its rounding errors' bound, then stepped up one ulp."""
+def distance_bounds(worst: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:
+    """Per configuration, an upper bound on sqrt(sum over its columns (those `among` marks)
+    of worst^2): the float computation scaled up by its rounding errors' bound, then
+    stepped up one ulp."""
+    if among is not None:
+        worst = worst[:, among]
     n = worst.shape[1] if worst.ndim == 2 else 0
     with np.errstate(over="ignore", invalid="ignore"):
         d = np.sqrt(np.nansum(worst ** 2, axis=1)) * (1.0 + (2 * n + 4) * _ULP)
@@ -143,15 +148,23 @@ class Accuracy:
     bound: np.ndarray
     box_worst: np.ndarray
     box_bound: np.ndarray
+    among: np.ndarray  # per column, whether the distance counts it (not an angle)
 
 
-def accuracy(prog: Program, ranges: Ranges, points: dict[str, np.ndarray]) -> Accuracy:
+def accuracy(prog: Program, ranges: Ranges, points: dict[str, np.ndarray],
+             angles: frozenset[str] = frozenset()) -> Accuracy:
     """The accuracy at `points` (label -> parameter vector, independents' order) with the
-    bounds of `ranges` (residuals.residual_ranges over the result box)."""
+    bounds of `ranges` (residuals.residual_ranges over the result box); the columns named
+    in `angles` (measured in an angle unit) have their own statistics but no part in the
+    distance, unless every column is one."""
     at = layout(prog)
+    among = np.array([c not in angles for c in at.columns], dtype=bool)
+    if not among.any():
+        among[:] = True
     worst, box = bound_table(ranges, at), bound_table(ranges, at, consistent=False)
     return Accuracy(at, {k: point_residuals(prog, at, p) for k, p in points.items()},
-                    worst, distance_bounds(worst), box, distance_bounds(box))
+                    worst, distance_bounds(worst, among), box, distance_bounds(box, among),
+                    among)
 
 
 def statistics(values: np.ndarray, signed: bool = False) -> dict[str, float | None]:

@@ -22,12 +22,13 @@ def accuracy_json(acc: Accuracy, unit: str | None) -> dict[str, Any]:
         if label not in acc.points:
             continue
         r = acc.points[label]
-        d = distances(r)
+        d = distances(r, acc.among)
         points[label] = {
             "axes": {c: statistics(r[:, j], signed=True) for j, c in enumerate(acc.at.columns)},
             "distance": statistics(d), "distances": d}
     finite = acc.bound[np.isfinite(acc.bound)]
     return {"unit": unit, "columns": list(acc.at.columns),
+            "distance_columns": [c for c, k in zip(acc.at.columns, acc.among, strict=True) if k],
             "configurations": len(acc.at.configurations), "points": points,
             "bound": {"max": float(np.max(acc.bound)) if len(acc.bound) else None,
                       "median": float(np.median(acc.bound)) if len(acc.bound) else None,
@@ -45,7 +46,7 @@ def render_accuracy(found: dict[str, Any]) -> list[str]:
     cols = found["columns"]
     lines = [f"accuracy over the data's {found['configurations']} configurations "
              f"(measured minus predicted, in {unit}; distance: the norm over "
-             f"{', '.join(cols)}):",
+             f"{', '.join(found['distance_columns'])}):",
              f"  {'':34s} {'mean':>9s} {'rms':>9s} {'p95':>9s} {'max':>9s}"]
     for label, point in found["points"].items():
         lines.append(f"  {POINTS[label] + ' distance':34s} {_row(point['distance'])}")

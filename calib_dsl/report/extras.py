@@ -61,9 +61,11 @@ class Extras:
         self.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
         self.seconds += time.perf_counter() - start
 
-    def accuracy_of(self, prog: Program, res: Solution, length_unit: str | None) -> None:
+    def accuracy_of(self, prog: Program, res: Solution, length_unit: str | None,
+                    angles: frozenset[str] = frozenset()) -> None:
         """The residuals before calibration (nominal point), at the least-squares point and at
-        the certified centre, and the guaranteed bound over the result box."""
+        the certified centre, and the guaranteed bound over the result box (`angles`: the
+        measured columns read in an angle unit, left out of the distance)."""
         if not prog.slots.measured_sides:
             self.skipped.append("accuracy: the model compares no computed value with a "
                                 "measured column")
@@ -72,7 +74,7 @@ class Extras:
         # the statement only adds to a result proven already: a numerical failure of its
         # own is reported as such, and never costs the user the result
         try:
-            found = _accuracy(prog, res, self.estimate, self.inner)
+            found = _accuracy(prog, res, self.estimate, self.inner, angles)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             self.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
             return
@@ -139,7 +141,8 @@ class Extras:
         return float(self.estimate.values[self.estimate.names.index(name)])
 
 
-def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None) -> Accuracy:
+def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None,
+              angles: frozenset[str]) -> Accuracy:
     """The accuracy at the nominal point, the least-squares point (`lsq`, an Estimate, or
     computed here: the table's column only when asked) and the certified centre."""
     ind = independents(prog)
@@ -154,7 +157,7 @@ def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None) -> Ac
     if centre is not None:
         points["certified"] = centre
     box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
-    return accuracy(prog, residual_ranges(prog, box), points)
+    return accuracy(prog, residual_ranges(prog, box), points, angles)
 
 
 def certified_centre(inner: Inner | None) -> np.ndarray | None:

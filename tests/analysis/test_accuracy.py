@@ -18,12 +18,15 @@ from hypothesis import strategies as st
 
 from calib_dsl import cli
 from calib_dsl.analysis.accuracy import (
+    accuracy,
     distances,
     independent_point,
     layout,
+    nominal_point,
     point_residuals,
     statistics,
 )
+from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.pipeline import solve_report
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.accuracy import accuracy_json, render_accuracy
@@ -169,3 +172,17 @@ def test_the_box_bound_holds_every_vector_of_the_box(arm, a, b):
         r = np.array([row["x"] - x, row["y"] - y])
         assert np.all(np.abs(r) <= acc.box_worst[i])
         assert np.hypot(*r) <= acc.box_bound[i]
+
+
+def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
+    prog, res = ur10.prog, ur10.res
+    ind = independents(prog)
+    box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
+    p = {"nominal": nominal_point(prog)}
+    acc = accuracy(prog, residual_ranges(prog, box), p, angles=frozenset({"z"}))
+    r = acc.points["nominal"]
+    np.testing.assert_allclose(distances(r, acc.among), np.hypot(r[:, 0], r[:, 1]))
+    found = accuracy_json(acc, "mm")
+    assert found["distance_columns"] == ["x", "y"] and set(found["points"]["nominal"]["axes"]) \
+        == {"x", "y", "z"}
+    assert np.all(acc.bound <= ur10.extra.accuracy.bound)  # one axis fewer
