@@ -121,10 +121,17 @@ class Certificates:
     # each objective's LP optimum, in the unknowns (unknowns_at), where the LP found one:
     # where the optima stand, not a bound (a row generation checks them on rows left out)
     points: dict[tuple[int, float], np.ndarray] = field(default_factory=dict)
+    # the same optima in the LP's own columns, by column key (sorted keys, values): a row
+    # generation evaluates the relaxation's rows left out there (strategy/relaxed_check.py)
+    columns: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(
+        default_factory=dict)
+    # the box (every slot's lo, hi) the last fresh LPs relaxed, where their caller said
+    box: tuple[np.ndarray, np.ndarray] | None = None
 
     def copy(self) -> Certificates:
         return Certificates(self.family, self.key_space, dict(self.y), dict(self.basis),
-                            dict(self.meaning), dict(self.points))
+                            dict(self.meaning), dict(self.points), dict(self.columns),
+                            self.box)
 
     def usable(self, rel: LinearRelaxation) -> bool:
         return bool(self.y) and rel.keys is not None and rel.family == self.family
@@ -135,11 +142,14 @@ class Certificates:
             return
         if rel.family != self.family:
             self.family, self.y, self.basis, self.meaning = rel.family, {}, {}, {}
-            self.key_space, self.points = rel.key_space, {}
+            self.key_space, self.points, self.columns = rel.key_space, {}, {}
         if point is not None:
             at = unknowns_at(rel, point)
             if at is not None:
                 self.points[(i, sign)] = at
+            if rel.col_keys is not None and len(point) == len(rel.col_keys):
+                order = np.argsort(rel.col_keys, kind="stable")
+                self.columns[(i, sign)] = (rel.col_keys[order], np.asarray(point)[order])
         if y is not None:  # (None: no LP solved, the box bound stood; its old y stays valid)
             self.y[(i, sign)] = (rel.keys, y * _unit(rel, i))
         if basis is not None and rel.col_keys is not None:

@@ -222,6 +222,8 @@ class _Rounds:
         """Certified bounds on the unknowns over this round's relaxation."""
         s, n = self.spec.settings, len(self.ind)
         certs = self.fine_certs if self.fine else self.spec.certs
+        if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
+            certs.box = (self.lo.copy(), self.hi.copy())
         self.skip = self.skip | self.never
         threads = self.spec.threads or s.lp_workers
         if this.quad is None:

@@ -5,11 +5,12 @@ campaign's configurations repeat one another: the rounds (every phase: first ord
 fine second-order rounds, the readings' rounds) run on a working set of the loop's rows,
 evenly spread, to their fixed point. Then the check: each bound's optimum in the last
 round's LPs (the fine rounds' where they ran), as a parameter vector, is evaluated on every
-row of the campaign (a point check, with the readings at their midpoints). The rows it
+row of the campaign (a point check, with the readings at their midpoints), and so are
+the fine rounds' own relaxation rows (relaxed_check.py). The rows it
 violates are where the working set's LPs let through parameters the whole campaign
 excludes: the worst of them join the set and the rounds run again, until no optimum
-violates a row (or `working_passes` checks). A working set of every row is the plain rounds
-on all rows, with no check.
+violates a row (or `working_passes` checks); a pass after a check resumes the fine
+rounds. A working set of every row is the plain rounds on all rows, with no check.
 
 Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
 every bound is certified from its own LP's multipliers, and propagation runs on every row:
@@ -31,6 +32,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
+from calib_dsl.strategy.relaxed_check import violated_rows
 from calib_dsl.strategy.rounds import LPRounds
 
 
@@ -56,6 +58,11 @@ class WorkingRows:
         s, work = self.settings, Work()
         rows = start_rows(self.prog, s.working_rows)
         out = Outcome(lo, hi, "")
+        # a pass after a check resumes the fine rounds where the last ended (their box is
+        # near its end: the first-order and wide rounds' gains are below their thresholds,
+        # and would stop the rounds before the fine ones ran on the rows that joined)
+        # (readings' columns and McCormick's inequalities both: the strongest fine rounds)
+        resume, kind = False, "both"
         for passes in range(s.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
             certs, fine = self.certs if every else Certificates(), Certificates()
@@ -63,7 +70,9 @@ class WorkingRows:
                               self.max_rounds or s.max_rounds, self.second_order,
                               unsolved=self.unsolved, progress=self.progress,
                               history=self.history, rows=None if every else rows,
-                              fine_start=self.fine_start, fine_certs=fine)
+                              fine_start=self.fine_start or resume,
+                              fine_kind=kind if resume else "readings",
+                              fine_certs=fine)
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
             if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
@@ -71,7 +80,9 @@ class WorkingRows:
                 break
             # the last LPs' optima: the fine rounds' where they ran, else the first order's
             points = fine.points if fine.points else certs.points
-            violated = self.violated(out.lo, out.hi, np.array(list(points.values())), rows)
+            violated = np.union1d(
+                self.violated(out.lo, out.hi, np.array(list(points.values())), rows),
+                self.relaxed_violated(fine, rows))
             if self.history is not None:
                 self.history.record(f"row check on all {loop_rows(self.prog)} rows: "
                                     f"{len(violated)} rows violated by the optima of LPs on "
@@ -79,7 +90,20 @@ class WorkingRows:
             if len(violated) == 0:
                 break
             rows = np.union1d(rows, violated)
+            resume = bool(fine.points)
         return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
+
+    def relaxed_violated(self, fine: Certificates, rows: np.ndarray) -> np.ndarray:
+        """The loop rows outside `rows` whose second-order relaxation (the fine rounds' last,
+        on their box) cuts off one of their LPs' optima: the `rows_added` worst, shared among
+        the optima (relaxed_check.py)."""
+        outside = np.setdiff1d(np.arange(loop_rows(self.prog)), rows)
+        found = violated_rows(self.prog, fine, outside)
+        if not found:
+            return np.zeros(0, dtype=np.int64)
+        per = max(1, self.settings.rows_added // len(found))
+        picked = [_first_distinct(row[np.argsort(-excess)], per) for row, excess in found]
+        return np.unique(np.concatenate(picked)).astype(np.int64)
 
     def violated(self, lo: np.ndarray, hi: np.ndarray, points: np.ndarray,
                  rows: np.ndarray) -> np.ndarray:

@@ -1,0 +1,66 @@
+"""The working set's check on the relaxation's own rows (strategy/relaxed_check.py): a row
+left out is reported where it cuts an LP optimum off whatever its own columns are, and the
+rows it reports on a simulated campaign are outside the working set and cut the optima of
+the working set's LPs off."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.strategy.relaxed_check import _excess
+
+
+@settings(max_examples=200, deadline=None)
+@given(a=st.floats(-3, 3), c=st.floats(-3, 3), x=st.floats(-1, 1), b=st.floats(-5, 5),
+       width=st.floats(0, 4))
+def test_a_row_is_violated_only_where_no_free_value_satisfies_it(a, c, x, b, width):
+    """Row: b - width <= a x + c z <= b, x known, z free in [-1, 1]: the excess is positive
+    exactly where no z on a fine grid satisfies the row (by more than the grid's step)."""
+    A = Rows(np.array([a, c]), np.array([0, 1]), np.array([0, 2]), (1, 2))
+    rel = LinearRelaxation(A, np.array([b]), np.array([-1.0, -1.0]), np.array([1.0, 1.0]),
+                           main=1, b_lo=np.array([b - width]))
+    excess = _excess(rel, np.array([x, np.nan]))[0]
+    values = a * x + c * np.linspace(-1, 1, 20001)
+    gap = np.maximum(values - b, b - width - values).min()
+    step, eps = 1e-4 * abs(c), 1e-9 * (1 + abs(a) + abs(b) + width)
+    if gap > step:  # (then the grid's best is within a step of the row's best)
+        assert abs(excess - gap) <= step + eps
+    assert (excess > eps) <= (gap > 0)
+    assert (gap > step + eps) <= (excess > 0)
+
+
+def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp_path):
+    from calib_dsl.analysis.campaign import Campaign
+    from calib_dsl.analysis.simulate import simulate
+    from calib_dsl.compile.chunks import loop_rows, start_rows
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.lp.certify import Certificates
+    from calib_dsl.pipeline import load
+    from calib_dsl.propagate.fixpoint import propagate
+    from calib_dsl.settings import DEFAULT
+    from calib_dsl.strategy.relaxed_check import violated_rows
+    from calib_dsl.strategy.rounds import LPRounds
+    from tests.test_ur10 import TRACKER, _noisy_simulation_model
+
+    table = tmp_path / "sim.csv"
+    simulate(_noisy_simulation_model(tmp_path, 0.05), 80, 4, out_csv=table,
+             campaign=Campaign("random", 4, systematic=0.6))
+    prog = load(TRACKER, inputs=Inputs(data={"m": table}, consts={"e": "0.65"}))
+    rows = start_rows(prog, 10)
+    assert rows is not None
+    res = propagate(prog, tol=1e-5, max_sweeps=100)
+    fine = Certificates()
+    LPRounds(prog, replace(DEFAULT), Certificates(), 1e-5, 100, DEFAULT.max_rounds, True,
+             rows=rows, fine_certs=fine).contract(res.lo, res.hi)
+    outside = np.setdiff1d(np.arange(loop_rows(prog)), rows)
+    found = violated_rows(prog, fine, outside)
+    assert found is not None and len(found) == len(fine.columns)
+    reported = np.concatenate([r for r, _ in found])
+    assert len(reported) > 0  # (10 rows of 80 leave the LPs' optima where others cut them)
+    assert np.all(np.isin(reported, outside))
+    assert all(np.all(excess > 0) for _, excess in found)
