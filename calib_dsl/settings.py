@@ -185,6 +185,29 @@ class Settings:
     # bounds work row by row of the multipliers on the sparse matrix, not on a dense copy.
     dense_entries: int = 4_000_000
 
+    # -- the accuracy statement ----------------------------------------------------------
+    # Its least-squares point (accuracy/fit.py) is polished from the certified centre, near
+    # the fit: Levenberg-Marquardt steps at most fit_steps, stopped when one lowers the sum
+    # of squares by less than fit_tolerance of it (the floats' noise on a fit's residuals);
+    # fit_damping the first step's, relative to the Jacobian's columns.
+    fit_steps: int = 50
+    fit_tolerance: float = 1e-10
+    fit_damping: float = 1e-3
+    # -- predictions ---------------------------------------------------------------------
+    # The linear parts of many predictions are bounded with the multipliers of a few LPs
+    # (accuracy/batch_lp.py): prediction_first_lps objectives far apart in direction, then
+    # per round at most prediction_more_lps of those whose bound exceeds what the LPs'
+    # optima reach by more than prediction_gap of its width (a share of the width the user
+    # reads, far below outer/inner's own excess), for at most prediction_rounds rounds.
+    prediction_first_lps: int = 32
+    prediction_more_lps: int = 32
+    prediction_gap: float = 0.01
+    prediction_rounds: int = 8
+    # Those LPs' optima are pulled back towards the certified centre by bisection until
+    # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
+    # of the segment short of the last certified share.
+    pullback_steps: int = 8
+
     @property
     def piece_lp_threads(self) -> int:
         return max(1, self.lp_workers // self.piece_processes)

@@ -22,6 +22,7 @@ RANKS = {
     "lp": 5,
     "analysis": 6,
     "strategy": 7,
+    "accuracy": 7.5,  # the accuracy statement and predictions: over analysis, beside a solve
     "report": 8, "plot": 8,
     "pipeline": 9,
     "batch": 10,  # many solves on Dask: the pipeline's calls, one job each

@@ -1,4 +1,4 @@
-"""The solve's accuracy statement (analysis/accuracy.py): the JSON's `accuracy` and the text
+"""The solve's accuracy statement (accuracy/statement.py): the JSON's `accuracy` and the text
 report's section."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.analysis.accuracy import Accuracy, distances, statistics
+from calib_dsl.accuracy.statement import Accuracy, distances, statistics
 
 # the points, in the order reported, and how the text names them
 POINTS = {"nominal": "before (nominal)", "least_squares": "after (least squares)",

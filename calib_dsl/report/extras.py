@@ -10,15 +10,15 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.analysis.accuracy import Accuracy, accuracy, nominal_point
+from calib_dsl.accuracy.points import solve_statement
+from calib_dsl.accuracy.statement import Accuracy
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.inner import Inner, inner_bounds
 from calib_dsl.analysis.lsq import estimate
-from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import DEFAULT
+from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.shave import Shaved, shave
 from calib_dsl.strategy.solution import Solution
 
@@ -62,7 +62,8 @@ class Extras:
         self.seconds += time.perf_counter() - start
 
     def accuracy_of(self, prog: Program, res: Solution, length_unit: str | None,
-                    angles: frozenset[str] = frozenset()) -> None:
+                    angles: frozenset[str] = frozenset(),
+                    settings: Settings = DEFAULT) -> None:
         """The residuals before calibration (nominal point), at the least-squares point and at
         the certified centre, and the guaranteed bound over the result box (`angles`: the
         measured columns read in an angle unit, left out of the distance)."""
@@ -74,7 +75,8 @@ class Extras:
         # the statement only adds to a result proven already: a numerical failure of its
         # own is reported as such, and never costs the user the result
         try:
-            found = _accuracy(prog, res, self.estimate, self.inner, angles)
+            found = solve_statement(prog, res.lo, res.hi, self.estimate, self.inner, angles,
+                                    settings)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             self.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
             return
@@ -139,36 +141,3 @@ class Extras:
         if self.estimate is None or name not in self.estimate.names:
             return None
         return float(self.estimate.values[self.estimate.names.index(name)])
-
-
-def _accuracy(prog: Program, res: Solution, lsq: Any, inner: Inner | None,
-              angles: frozenset[str]) -> Accuracy:
-    """The accuracy at the nominal point, the least-squares point (`lsq`, an Estimate, or
-    computed here: the table's column only when asked) and the certified centre."""
-    ind = independents(prog)
-    points = {"nominal": nominal_point(prog)}
-    centre = certified_centre(inner)
-    if lsq is None:  # from the certified centre, near a fit (else the box's middle)
-        mid = 0.5 * (res.lo[ind] + res.hi[ind])
-        start = centre if centre is not None else mid if all(map(math.isfinite, mid)) else None
-        lsq = estimate(prog, start=start)
-    if np.all(np.isfinite(lsq.values)):
-        points["least_squares"] = lsq.values
-    if centre is not None:
-        points["certified"] = centre
-    box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
-    return accuracy(prog, residual_ranges(prog, box), points, angles)
-
-
-def certified_centre(inner: Inner | None) -> np.ndarray | None:
-    """The certified point the inner bounds' search pulled the others towards; where the
-    search needed none (its first points were certified), the certified point nearest the
-    middle of the inner intervals, each unknown scaled by its inner width."""
-    if inner is None or not inner.witnesses:
-        return None
-    if inner.centre is not None:
-        return inner.centre.point
-    mid = 0.5 * (inner.lo + inner.hi)
-    scale = np.where(inner.hi > inner.lo, inner.hi - inner.lo, 1.0)
-    gaps = [float(np.nansum(((w.point - mid) / scale) ** 2)) for w in inner.witnesses]
-    return inner.witnesses[int(np.argmin(gaps))].point

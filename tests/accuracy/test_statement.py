@@ -17,7 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calib_dsl import cli
-from calib_dsl.analysis.accuracy import (
+from calib_dsl.accuracy.points import certified_centre
+from calib_dsl.accuracy.statement import (
     accuracy,
     distances,
     independent_point,
@@ -30,7 +31,6 @@ from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.pipeline import solve_report
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.accuracy import accuracy_json, render_accuracy
-from calib_dsl.report.extras import certified_centre
 from calib_dsl.report.strict_json import dumps, strict_loads
 
 ROOT = Path(__file__).resolve().parents[2]
