@@ -24,11 +24,11 @@ from typing import Any
 import numpy as np
 
 from calib_dsl import pipeline
+from calib_dsl.accuracy.predict import Prediction
 from calib_dsl.analysis.advice import Advice, advise
 from calib_dsl.analysis.conflict import Conflict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.outlier_rows import Outliers
-from calib_dsl.analysis.predict import Prediction
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import RowRange, Selection, parse_numbers, parse_ranges

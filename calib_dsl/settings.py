@@ -207,6 +207,10 @@ class Settings:
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
     # of the segment short of the last certified share.
     pullback_steps: int = 8
+    # Directions (predictions' gradients, spread apart) whose extremes over the calibration
+    # linearized at the certified centre become candidates too: near the solution set's
+    # boundary, where the relaxation's optima lie beyond it
+    prediction_linear_lps: int = 64
 
     @property
     def piece_lp_threads(self) -> int:

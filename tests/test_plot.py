@@ -120,15 +120,27 @@ def test_residual_ranges_bounds_and_the_outlier(solved):
 
 
 def test_prediction_marks_the_rows_not_covered(validated):
+    """Bands over the rows sorted by their guaranteed error, the row not covered marked at
+    its rank, and the summary line with the coverage."""
+    from calib_dsl.plot.prediction import errors
+
     assert validated["coverage"] == pytest.approx(7 / 8)
     fig = figure(validated, "prediction")
     (ax,) = axes(fig, "prediction")
-    ranges = [c for c in ax.collections if isinstance(c, LineCollection)]
-    assert [c.get_label() for c in ranges] == ["x", "y"]
-    assert all(len(c.get_segments()) == 8 for c in ranges)
-    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on y's bar of row 4
-    assert list(marks.get_xdata()) == [pytest.approx(4.2)]
-    assert "coverage 0.875" in ax.get_title(loc="left")
+    bands = [c for c in ax.collections if c.get_label() in ("x", "y")]
+    assert [c.get_label() for c in bands] == ["x", "y"]
+    found, reach, covered = errors(validated)
+    order = np.argsort(reach, kind="stable")
+    assert np.all(np.diff(reach[order]) >= 0)
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # row 4: not covered
+    assert list(marks.get_xdata()) == [int(np.flatnonzero(order == 3)[0])]
+    levels = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_linestyle() == "--")
+    assert levels == pytest.approx([-validated["held_out"][0]["columns"]["x"]["bound"],
+                                    validated["held_out"][0]["columns"]["x"]["bound"]],
+                                   rel=1e-2)
+    title = ax.get_title(loc="left")
+    assert "coverage 0.875" in title and "1 not covered" in title
+    assert f"max {np.max(reach):.3g}" in title
 
 
 def test_history_widths_against_seconds(solved):

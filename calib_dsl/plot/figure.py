@@ -12,10 +12,18 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.plot import accuracy, backend, domains, history, prediction, residuals
+from calib_dsl.plot import (
+    accuracy,
+    backend,
+    domains,
+    history,
+    prediction,
+    residuals,
+    workspace,
+)
 
 KINDS = {"domains": domains, "residuals": residuals, "accuracy": accuracy,
-         "prediction": prediction, "history": history}
+         "prediction": prediction, "history": history, "workspace": workspace}
 CHOICES = (*KINDS, "all")
 WIDTH = 10.0  # inches
 # how to get each kind into a result's JSON
@@ -24,7 +32,8 @@ HOW = {"domains": "calibc solve MODEL --json FILE",
        "accuracy": "calibc solve MODEL --json FILE (a model that compares predictions with "
                    "measured columns)",
        "prediction": "calibc validate MODEL --at HELDOUT --json FILE",
-       "history": "calibc solve MODEL --json FILE (the tight strategy)"}
+       "history": "calibc solve MODEL --json FILE (the tight strategy)",
+       "workspace": "calibc predict MODEL --grid NAME=a:b:step,... --json FILE"}
 
 
 def available(data: dict[str, Any]) -> list[str]:
@@ -52,7 +61,7 @@ def _height(kind: str, data: dict[str, Any]) -> float:
     n = KINDS[kind].count(data)
     if kind == "domains":
         return max(2.5, 1.2 + 0.2 * n)
-    return 3.5 if kind in ("history", "accuracy") else 2.8 * n
+    return 3.5 if kind in ("history", "accuracy", "workspace") else 2.8 * n
 
 
 def figure(data: dict[str, Any], kind: str = "all") -> Any:
