@@ -203,6 +203,10 @@ class Settings:
     prediction_more_lps: int = 32
     prediction_gap: float = 0.01
     prediction_rounds: int = 8
+    # An objective between representatives takes a non-negative blend of the multipliers of
+    # this many representatives near its nearest one (about twice the parameters of a
+    # robot's model: enough neighbours to hold a direction between them)
+    prediction_blend: int = 48
     # Those LPs' optima are pulled back towards the certified centre by bisection until
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
     # of the segment short of the last certified share.

@@ -122,7 +122,7 @@ def test_residual_ranges_bounds_and_the_outlier(solved):
 def test_prediction_marks_the_rows_not_covered(validated):
     """Bands over the rows sorted by their guaranteed error, the row not covered marked at
     its rank, and the summary line with the coverage."""
-    from calib_dsl.plot.prediction import errors
+    from calib_dsl.plot.prediction import column_order, errors
 
     assert validated["coverage"] == pytest.approx(7 / 8)
     fig = figure(validated, "prediction")
@@ -130,10 +130,13 @@ def test_prediction_marks_the_rows_not_covered(validated):
     bands = [c for c in ax.collections if c.get_label() in ("x", "y")]
     assert [c.get_label() for c in bands] == ["x", "y"]
     found, reach, covered = errors(validated)
-    order = np.argsort(reach, kind="stable")
-    assert np.all(np.diff(reach[order]) >= 0)
-    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # row 4: not covered
-    assert list(marks.get_xdata()) == [int(np.flatnonzero(order == 3)[0])]
+    for name in ("x", "y"):
+        order = column_order(found[name])
+        size = np.fmax(*(np.abs(v[order]) for v in found[name]))
+        assert np.all(np.diff(size) >= 0)
+    # row 4 (index 3): not covered, its y interval outside +-e, marked at its rank for y
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]
+    assert list(marks.get_xdata()) == [int(np.flatnonzero(column_order(found["y"]) == 3)[0])]
     levels = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_linestyle() == "--")
     assert levels == pytest.approx([-validated["held_out"][0]["columns"]["x"]["bound"],
                                     validated["held_out"][0]["columns"]["x"]["bound"]],

@@ -44,7 +44,7 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
             if point is not None:
                 points.append(point)
         for sign, bound in ((1.0, upper), (-1.0, lower)):
-            _tighten(rel, C, sign, ys, width, bound)
+            _tighten(rel, C, sign, ys, width, bound, settings.prediction_blend)
         more = _loose(C, lower, upper, points, reps, settings)
         if not more:
             break
@@ -54,9 +54,10 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
 
 def _tighten(rel: LinearRelaxation, C: np.ndarray, sign: float,
              ys: dict[tuple[int, float], np.ndarray], width: np.ndarray,
-             bound: np.ndarray) -> None:
+             bound: np.ndarray, blend: int) -> None:
     """Each objective's certified max of sign * c.p from its nearest representative's
-    multipliers (scaled), taken into `bound` where tighter."""
+    multipliers (scaled), or a blend of its `blend` neighbours' (_blends), the tighter taken
+    into `bound` where tighter."""
     keys = [k for k in ys if k[1] == sign]
     if not keys:
         return
@@ -69,15 +70,41 @@ def _tighten(rel: LinearRelaxation, C: np.ndarray, sign: float,
     for a in range(0, len(C), 256):
         loss = np.abs(C[a:a + 256, None, :] - alpha[a:a + 256, :, None] * R[None]) @ width
         best[a:a + 256] = np.argmin(loss, axis=1)
+    blends = _blends(C, R, width, best, min(len(R), blend))
     step = max(1, _BLOCK // max(Y.shape[1], 1))
     for a in range(0, len(C), step):
         pick = best[a:a + step]
         scale = alpha[np.arange(a, a + len(pick)), pick][:, None]
-        found = certified_maxes(rel, sign * C[a:a + step], scale * Y[pick])
+        found = np.minimum(certified_maxes(rel, sign * C[a:a + step], scale * Y[pick]),
+                           certified_maxes(rel, sign * C[a:a + step], blends[a:a + step] @ Y))
         if sign > 0:
             bound[a:a + step] = np.minimum(bound[a:a + step], found)
         else:
             bound[a:a + step] = np.maximum(bound[a:a + step], -found)
+
+
+def _blends(C: np.ndarray, R: np.ndarray, width: np.ndarray, best: np.ndarray,
+            k: int) -> np.ndarray:
+    """Per objective, non-negative weights of the representatives (rows of R): c as a
+    combination of the k nearest in direction to its nearest one, fitted in the box's
+    widths (least squares, weights >= 0): their multipliers so combined bound c where it
+    lies between representatives, which one alone bounds only with what the box allows."""
+    from scipy.optimize import nnls
+
+    cols = np.flatnonzero(width[: C.shape[1]] > 0)
+    w = width[cols]
+    norms = np.linalg.norm(R, axis=1)
+    U = R / np.where(norms > 0, norms, 1.0)[:, None]
+    near = np.argsort(-(U @ U.T), axis=1)[:, :k]  # each representative's k nearest
+    out = np.zeros((len(C), len(R)))
+    for i, c in enumerate(C):
+        ks = near[best[i]]
+        try:
+            lam, _ = nnls((R[ks][:, cols] * w).T, c[cols] * w, maxiter=50 * k)
+        except RuntimeError:  # (no convergence: the nearest one alone stands)
+            continue
+        out[i, ks] = lam
+    return out
 
 
 def _loose(C: np.ndarray, lower: np.ndarray, upper: np.ndarray, points: list[np.ndarray],

@@ -1,7 +1,7 @@
 """The prediction figure: a validation's held-out rows (`validate --json`'s `held_out`)
-sorted by how far their measurement may lie from the prediction (the largest |measured -
-predicted| over their columns and boxes: the row's guaranteed error), each measured column's
-interval of measured minus predicted drawn as a band over the sorted rows, the lines at +-e
+each measured column's interval of measured minus predicted drawn as a band over the rows
+sorted by the column's guaranteed error (the larger size of the interval's ends: how far the
+measurement may lie from the prediction), so that each band widens steadily, the lines at +-e
 (a row is covered when each of its intervals meets the band between them), the rows not
 covered marked, and a summary line in the model's units. Columns with different bounds
 (millimetres and radians) get an axes each. Bands stay readable at any number of rows,
@@ -9,6 +9,7 @@ where one bar per row merges into a block."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -57,23 +58,31 @@ def errors(data: dict[str, Any]) -> tuple[dict[str, tuple[np.ndarray, np.ndarray
     return out, reach, np.array([bool(r["covered"]) for r in rows])
 
 
+def column_order(interval: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The rows sorted by the column's guaranteed error (the larger size of its interval's
+    ends; rows without one last): each band then widens steadily."""
+    with np.errstate(invalid="ignore"):
+        size = np.fmax(np.abs(interval[0]), np.abs(interval[1]))
+    return np.argsort(np.where(np.isfinite(size), size, np.inf), kind="stable")
+
+
 def summary(data: dict[str, Any], reach: np.ndarray, covered: np.ndarray,
             unit: str) -> str:
     finite = reach[np.isfinite(reach)]
     spread = (f"guaranteed |measured − predicted| per row: median {np.median(finite):.3g}, "
               f"max {np.max(finite):.3g} {unit}" if len(finite) else "no finite box")
-    return (f"{len(covered)} held-out rows of {data.get('at', '?')}: coverage "
-            f"{float(np.mean(covered)):.3f} ({int(np.sum(~covered))} not covered); {spread}")
+    return (f"{len(covered)} held-out rows of {Path(data.get('at', '?')).name}: coverage "
+            f"{float(np.mean(covered)):.3f} ({int(np.sum(~covered))} not covered)\n{spread}")
 
 
 def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
     found, reach, covered = errors(data)
-    order = np.argsort(np.where(np.isfinite(reach), reach, np.inf), kind="stable")
-    rank = np.arange(len(order))
+    rank = np.arange(len(reach))
     groups = _groups(data)
     axes = fig.subplots(len(groups), 1, squeeze=False)[:, 0]
     for k, (ax, (bound, names)) in enumerate(zip(axes, groups.items(), strict=True)):
         for j, name in enumerate(names):
+            order = column_order(found[name])
             lo, hi = (v[order] for v in found[name])
             ok = np.isfinite(lo) & np.isfinite(hi)
             ax.fill_between(rank, np.where(ok, lo, np.nan), np.where(ok, hi, np.nan),
@@ -87,7 +96,7 @@ def draw(fig: Any, data: dict[str, Any]) -> list[Any]:
         for sign in (1, -1):
             ax.axhline(sign * bound, color="black", linestyle="--", linewidth=0.8,
                        label=f"±e = ±{bound:.3g}" if sign > 0 else None)
-        ax.set_xlabel("held-out rows, sorted by their guaranteed error")
+        ax.set_xlabel("held-out rows, each column's sorted by its guaranteed error")
         ax.set_ylabel("measured − predicted box")
         ax.set_label("prediction")
         ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
