@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from calib_dsl.accuracy.points import solve_statement
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.frontend.diagnostics import CalError
@@ -87,3 +88,30 @@ def shaved(extra: Extras, prog: Program, res: Solution, count: int | None = None
     out, extra.shaved = shave(prog, res, extra.inner.lo, extra.inner.hi, chosen, budget, tol,
                               max_sweeps)
     return out
+
+
+def accuracy(extra: Extras, prog: Program, res: Solution, units: tuple[str | None, frozenset[str]],
+             settings: Settings) -> None:
+    """The residuals before calibration (nominal point), at the least-squares point and at
+    the certified centre, and the guaranteed bound over the result box (`units`: the model's
+    length unit, and the measured columns read in an angle unit, left out of the distance)."""
+    if not prog.slots.measured_sides:
+        extra.skipped.append("accuracy: the model compares no computed value with a "
+                             "measured column")
+        return
+    start = time.perf_counter()
+    # the statement only adds to a result proven already: a numerical failure of its own is
+    # reported as such, and never costs the user the result
+    try:
+        found = solve_statement(prog, res.lo, res.hi, extra.estimate, extra.inner, units[1],
+                                settings)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+        extra.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
+        return
+    if not np.any(np.isfinite(found.points["nominal"])):
+        extra.skipped.append("accuracy: no constraint compares a computed value with a "
+                             "measured column (each measured cell became an unknown's value)")
+        return
+    extra.accuracy, extra.length_unit = found, units[0]
+    extra.accuracy_seconds = time.perf_counter() - start
+    extra.seconds += extra.accuracy_seconds

@@ -241,6 +241,37 @@ class Settings:
     plan_draws: int = 15
     plan_candidates: int = 3000  # configurations drawn when no candidate file is given
 
+    # -- the accuracy statement ----------------------------------------------------------
+    # Its least-squares point (accuracy/fit.py) is polished from the certified centre, near
+    # the fit: Levenberg-Marquardt steps at most fit_steps, stopped when one lowers the sum
+    # of squares by less than fit_tolerance of it (the floats' noise on a fit's residuals);
+    # fit_damping the first step's, relative to the Jacobian's columns.
+    fit_steps: int = 50
+    fit_tolerance: float = 1e-10
+    fit_damping: float = 1e-3
+    # -- predictions ---------------------------------------------------------------------
+    # The linear parts of many predictions are bounded with the multipliers of a few LPs
+    # (accuracy/batch_lp.py): prediction_first_lps objectives far apart in direction, then
+    # per round at most prediction_more_lps of those whose bound exceeds what the LPs'
+    # optima reach by more than prediction_gap of its width (a share of the width the user
+    # reads, far below outer/inner's own excess), for at most prediction_rounds rounds.
+    prediction_first_lps: int = 32
+    prediction_more_lps: int = 32
+    prediction_gap: float = 0.01
+    prediction_rounds: int = 8
+    # An objective between representatives takes a non-negative blend of the multipliers of
+    # this many representatives near its nearest one (about twice the parameters of a
+    # robot's model: enough neighbours to hold a direction between them)
+    prediction_blend: int = 48
+    # Those LPs' optima are pulled back towards the certified centre by bisection until
+    # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
+    # of the segment short of the last certified share.
+    pullback_steps: int = 8
+    # Directions (predictions' gradients, spread apart) whose extremes over the calibration
+    # linearized at the certified centre become candidates too: near the solution set's
+    # boundary, where the relaxation's optima lie beyond it
+    prediction_linear_lps: int = 64
+
     @property
     def piece_lp_threads(self) -> int:
         return max(1, self.lp.workers // self.piece_processes)

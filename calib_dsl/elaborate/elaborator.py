@@ -89,7 +89,8 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
                  batch=run.batch, sources=tuple(run.sources),
-                 joint_limits=dict(run.joint_limits))
+                 joint_limits=dict(run.joint_limits),
+                 units=dict(run.units) if run.units_loc else None)
 
 
 def _check_used(inputs: Inputs, run: Elaborator) -> None:

@@ -85,6 +85,7 @@ class Inner:
     lo_at: np.ndarray  # per unknown, the witness giving lo (-1: none)
     hi_at: np.ndarray
     seconds: float
+    centre: Witness | None = None  # the certified point the others were pulled towards
 
     @property
     def consistent(self) -> bool:
@@ -115,7 +116,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     found = _Points(len(ind))
     _search(prog, box, found, starts, settings.lp)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
-                 time.perf_counter() - start)
+                 time.perf_counter() - start, found.centre)
 
 
 class _Points:

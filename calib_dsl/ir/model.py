@@ -57,6 +57,8 @@ class Model:
     sources: tuple[str, ...] = ()  # the files read: the model, then what it includes
     # (table, column) -> the limits of the robot joint its cells are the values of
     joint_limits: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
+    # the model's unit of each dimension ("length", "angle"); None where it states none
+    units: dict[str, str] | None = None
 
 
 @dataclass
