@@ -15,8 +15,8 @@ import numpy as np
 from calib_dsl.accuracy.batch_lp import spread
 from calib_dsl.analysis.certify_point import check_points
 from calib_dsl.analysis.existence import prove_point
-from calib_dsl.analysis.inner import Witness
-from calib_dsl.analysis.inner_lp import LinearModel
+from calib_dsl.inner.bounds import Witness
+from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.bounds import lp_solutions
 from calib_dsl.relax.layout import independents

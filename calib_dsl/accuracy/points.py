@@ -11,8 +11,8 @@ import numpy as np
 
 from calib_dsl.accuracy.fit import polish
 from calib_dsl.accuracy.statement import Accuracy, accuracy, nominal_point
-from calib_dsl.analysis.inner import Inner, Witness
 from calib_dsl.analysis.residuals import residual_ranges
+from calib_dsl.inner.bounds import Inner, Witness
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
