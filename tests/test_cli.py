@@ -28,7 +28,7 @@ TOP_KEYS = {"model", "status", "stop", "sweeps", "lp_rounds", "reused_rounds", "
 OPTIONAL_TOP = {"emptied", "identifiability", "least_squares", "tightness", "history",
                 "residuals"}
 PARAM_KEYS = {"kind", "domain", "result", "true", "unit"}
-OPTIONAL_PARAM = {"identifiable", "least_squares", "inner"}
+OPTIONAL_PARAM = {"identifiable", "least_squares", "inner", "certified"}
 X2_STAR = brentq(lambda x: x**3 - math.sin(x), 0.5, 1.5, xtol=1e-15)  # x1 = sin(x2) = x2^3
 X1_STAR = X2_STAR**3
 SLACK = 1e-9  # the table prints 10 significant digits

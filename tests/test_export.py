@@ -315,3 +315,17 @@ def test_no_float_noise_and_fixed_entries_marked_nominal(rx90, tmp_path):
     (tmp_path / "l.json").write_text(json.dumps(with_lsq))
     res = run("export", tmp_path / "l.json", "--format", "urdf", "--point", "lsq")
     assert res.exit_code == 0 and res.output == urdf  # (the same point, the same file)
+
+
+def test_the_certified_centre_is_a_point_of_the_inner_intervals(rx90):
+    """--point centre writes the certified centre the JSON states: a vector proven to
+    satisfy every constraint, inside every certified inner interval."""
+    path, data, _ = rx90
+    for name, p in data["parameters"].items():
+        a, b = p["inner"]
+        assert a <= p["certified"] <= b, name
+    res = run("export", path, "--format", "json", "--point", "centre")
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.output)["parameters"]
+    assert out["r0"]["value"] == pytest.approx(data["parameters"]["r0"]["certified"], abs=1e-6)
+    assert res.output != run("export", path, "--format", "json").output

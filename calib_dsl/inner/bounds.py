@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -95,6 +96,19 @@ class Inner:
     @property
     def points(self) -> int:
         return len(self.witnesses)
+
+    @cached_property
+    def centre(self) -> Witness | None:
+        """The certified point nearest the middle of the inner intervals (each unknown
+        measured in its interval's width): a parameter vector proven consistent, for an
+        export that wants one (None: none certified)."""
+        if not self.witnesses:
+            return None
+        with np.errstate(invalid="ignore"):
+            mid, width = 0.5 * (self.lo + self.hi), self.hi - self.lo
+            scale = np.where(np.isfinite(width) & (width > 0), width, 1.0)
+            off = [np.nansum(((w.point - mid) / scale) ** 2) for w in self.witnesses]
+        return self.witnesses[int(np.argmin(off))]
 
 
 def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,

@@ -40,6 +40,8 @@ def result_json(prog: Program, res: Solution, strategy: str,
         if extra.inner is not None and res.status != "infeasible":
             inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
             params[r["name"]]["inner"] = None if inner is None else list(inner)
+            params[r["name"]]["certified"] = extra.certified_of(r["name"]) \
+                if r["kind"] in ("param", "var") else None
     out: dict[str, Any] = {
         "model": str(Path(prog.source)),
         "status": res.status,

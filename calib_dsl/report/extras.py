@@ -36,6 +36,13 @@ class Extras:
         a, b = float(self.inner.lo[k]), float(self.inner.hi[k])
         return None if math.isnan(a) else (a, b)
 
+    def certified_of(self, name: str) -> float | None:
+        """An unknown's value at the certified centre (inner/bounds.py `Inner.centre`)."""
+        if self.inner is None or name not in self.inner.names:
+            return None
+        centre = self.inner.centre  # (found once, for every unknown)
+        return None if centre is None else float(centre.point[self.inner.names.index(name)])
+
     def not_identifiable(self) -> set[str]:
         if self.info is None:
             return set()

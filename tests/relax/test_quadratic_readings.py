@@ -38,6 +38,7 @@ from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.quadratic import to_box
 from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
+from calib_dsl.settings import LPSettings
 
 ROOT = Path(__file__).resolve().parents[2]
 SUPPORTED_OPS = ("neg", "sqr", "add", "sub", "mul", "sin", "cos")
@@ -80,7 +81,7 @@ def check_readings(prog: Program, lo: np.ndarray, hi: np.ndarray, p_true: np.nda
             if z is None:
                 return False
             assert_holds_truth(rel, ex, z, p_true, (what, mccormick), bounds and not mccormick,
-                               iterations=20000, seconds=30.0)
+                               lp=LPSettings(iterations=20000, seconds=30.0))
     return True
 
 
@@ -138,7 +139,7 @@ def test_rx90_33_parameters_narrow_past_the_first_order_fixed_point() -> None:
     out = relax_quadratic_readings(prog, first.lo, first.hi)
     assert out is not None
     rel, ex = out
-    tl, th = lp_bounds(rel, np.eye(len(ind)), iterations=20000, seconds=30.0)
+    tl, th = lp_bounds(rel, np.eye(len(ind)), LPSettings(iterations=20000, seconds=30.0))
     plo, phi = to_box(ex, tl, th)
     assert np.all(plo <= p_true) and np.all(p_true <= phi)
     before = first.hi[ind] - first.lo[ind]

@@ -38,6 +38,7 @@ from calib_dsl.relax import taylor
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.quadratic import narrowed, relax_quadratic, to_box
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.settings import LPSettings
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -249,7 +250,7 @@ def test_rx90_section_4_models_and_relaxation_hold() -> None:
     out = relax_quadratic(prog, lo, hi)
     assert out is not None
     rel, ex = out
-    tl, th = lp_bounds(rel, np.eye(len(ind)), iterations=20000, seconds=30.0)
+    tl, th = lp_bounds(rel, np.eye(len(ind)), LPSettings(iterations=20000, seconds=30.0))
     plo, phi = to_box(ex, tl, th)
     assert np.all(plo <= p_true) and np.all(p_true <= phi)
     names = [prog.slots.names[i] for i in ind]
