@@ -28,7 +28,7 @@ from calib_dsl.accuracy.statement import (
     statistics,
 )
 from calib_dsl.analysis.residuals import residual_ranges
-from calib_dsl.pipeline import solve_report
+from calib_dsl.pipeline import SolveRequest, solve_report
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.accuracy import accuracy_json, render_accuracy
 from calib_dsl.report.strict_json import dumps, strict_loads
@@ -52,12 +52,12 @@ def arm(tmp_path_factory):
     assert res.exit_code == 0, res.output
     with open(tmp / "planar_arm.csv") as f:
         rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
-    return solve_report(tmp / "planar_arm.cal"), rows
+    return solve_report(SolveRequest(tmp / "planar_arm.cal")), rows
 
 
 @pytest.fixture(scope="module")
 def ur10():
-    return solve_report(ROOT / "models" / "ur10_simulated.cal")
+    return solve_report(SolveRequest(ROOT / "models" / "ur10_simulated.cal"))
 
 
 def test_residuals_are_the_hand_written_kinematics(arm):
@@ -149,7 +149,7 @@ def test_the_bound_holds_every_consistent_vector(ur10):
 def test_a_model_without_measured_columns_says_why(tmp_path):
     model = tmp_path / "free.cal"
     model.write_text("var x in [0, 1];\nvar y in [0, 1];\nvar z in [1, 4];\nz == x + y;\n")
-    run = solve_report(model)
+    run = solve_report(SolveRequest(model))
     assert run.extra.accuracy is None and "accuracy" not in run.as_json()
     assert "accuracy: the model compares no computed value" in run.text()
 
