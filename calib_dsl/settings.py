@@ -250,19 +250,16 @@ class Settings:
     fit_tolerance: float = 1e-10
     fit_damping: float = 1e-3
     # -- predictions ---------------------------------------------------------------------
-    # The linear parts of many predictions are bounded with the multipliers of a few LPs
-    # (accuracy/batch_lp.py): prediction_first_lps objectives far apart in direction, then
-    # per round at most prediction_more_lps of those whose bound exceeds what the LPs'
-    # optima reach by more than prediction_gap of its width (a share of the width the user
-    # reads, far below outer/inner's own excess), for at most prediction_rounds rounds.
-    prediction_first_lps: int = 32
-    prediction_more_lps: int = 32
-    prediction_gap: float = 0.01
-    prediction_rounds: int = 8
-    # An objective between representatives takes a non-negative blend of the multipliers of
-    # this many representatives near its nearest one (about twice the parameters of a
-    # robot's model: enough neighbours to hold a direction between them)
-    prediction_blend: int = 48
+    # Each predicted coordinate's linear part gets its own LP, the objectives visited in a
+    # nearest-neighbour path (accuracy/batch_lp.py) built greedily within windows of this
+    # many objectives (sorted along their leading direction first): the greedy search costs
+    # objectives x window, and a window of a few thousand already finds neighbours within
+    # a few degrees of each other on a robot's predictions.
+    prediction_path_window: int = 4000
+    # The LP optima of this many predicted coordinates, far apart in direction (both ends),
+    # become candidate extremes for the inner intervals (accuracy/extremes.py): each costs a
+    # bisection of certify_point passes and an evaluation of every predicted row.
+    prediction_candidates: int = 128
     # Those LPs' optima are pulled back towards the certified centre by bisection until
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
     # of the segment short of the last certified share.

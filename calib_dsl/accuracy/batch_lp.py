@@ -1,22 +1,29 @@
-"""Certified bounds of many nearby linear objectives over one relaxation, with few LPs.
+"""Certified bounds of many nearby linear objectives over one relaxation: one LP each,
+solved along a path through the objectives so that each starts from its neighbour's optimum.
 
-A prediction's linear part h.p is one objective per predicted coordinate, and thousands of
-them differ only a little (neighbouring poses). Any multipliers certify a bound on any
-objective (lp/certify.py: weak duality, rounding covered): the multipliers y of an LP
-solved for c_k bound c as alpha y does, looser by what the box allows (c - alpha c_k).p. So
-LPs are solved for a few representatives, every objective takes the multipliers of the one
-nearest to it, and the objectives whose bound stays well above what the LPs' optima reach
-(a lower estimate of the maximum) become representatives of the next round.
+A prediction's linear part h.p is one objective per predicted coordinate, thousands of them
+over the same relaxation. Neither another objective's multipliers nor its optimal basis
+bound one objective as tightly as its own LP (the relaxation's projection onto the
+parameters has very many vertices, and it is far narrower than the box, so a multiplier
+fitted to a neighbour leaves a residual the box charges in full: docs/decisions/22). So every
+objective gets its LP, but the objectives are visited in a nearest-neighbour order (a
+greedy path on the unit sphere) and HiGHS re-solves from the previous optimum, which a new
+cost leaves primal feasible: a few dozen pivots instead of hundreds. Each sign of the
+objectives walks the path on its own HiGHS model (its own thread). Every bound is
+certified from the LP's multipliers (lp/certify.py), so a stopped or inexact solve only
+loosens it.
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from calib_dsl.lp.bounds import lp_solutions
 from calib_dsl.lp.certify import box_max_up, certified_maxes
+from calib_dsl.lp.highs import load
 from calib_dsl.relax.relaxation import LinearRelaxation
-from calib_dsl.settings import Settings
+from calib_dsl.settings import LPSettings, Settings
 
 _BLOCK = 2_000_000  # objectives x rows per certified_maxes call (the dense Y's size)
 
@@ -25,7 +32,8 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each row c of `objectives` (over the relaxation's first
     columns) of c.p over the relaxation, and the LPs' optima (in the relaxation's first
-    objectives.shape[1] columns, one row each: points of the relaxation, not proofs)."""
+    objectives.shape[1] columns, one row each: points of the relaxation, not proofs) of
+    settings.prediction_candidates objectives far apart in direction, both signs."""
     n, cols = len(objectives), rel.A.shape[1]
     C = np.zeros((n, cols))
     C[:, : objectives.shape[1]] = objectives
@@ -33,97 +41,88 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
     lower = np.array([-box_max_up(-c, -c, rel.lo, rel.hi) for c in C])
     if n == 0:
         return lower, upper, np.zeros((0, objectives.shape[1]))
-    width = np.where(np.isfinite(rel.hi - rel.lo), rel.hi - rel.lo, 0.0)
-    reps: list[int] = spread(C, settings.prediction_first_lps)
-    ys: dict[tuple[int, float], np.ndarray] = {}
+    order = path(objectives, settings.prediction_path_window)
+    parts = max(1, settings.lp.workers // 2)
+    tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
+             if len(seg)]
+    with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
+        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp), tasks))
+    wanted = set(spread(objectives, settings.prediction_candidates))
     points: list[np.ndarray] = []
-    for _ in range(settings.prediction_rounds):
-        for i, sign, _, y, point in lp_solutions(rel, C[reps],
-                                                 settings.lp):
-            ys[(reps[i], sign)] = y
-            if point is not None:
-                points.append(point)
-        for sign, bound in ((1.0, upper), (-1.0, lower)):
-            _tighten(rel, C, sign, ys, width, bound, settings.prediction_blend)
-        more = _loose(C, lower, upper, points, reps, settings)
-        if not more:
-            break
-        reps = more
-    return lower, upper, np.array(points).reshape(len(points), cols)[:, : objectives.shape[1]]
+    for (sign, seg), (ys, solved, found) in zip(tasks, results, strict=True):
+        bound = _certified(rel, sign * C[seg[solved]], ys, settings.lp.dense_entries)
+        at = seg[solved]
+        if sign > 0:
+            upper[at] = np.minimum(upper[at], bound)
+        else:
+            lower[at] = np.maximum(lower[at], -bound)
+        points.extend(x for i, x in found if i in wanted)
+    X = np.array(points).reshape(len(points), cols)
+    return lower, upper, X[:, : objectives.shape[1]]
 
 
-def _tighten(rel: LinearRelaxation, C: np.ndarray, sign: float,
-             ys: dict[tuple[int, float], np.ndarray], width: np.ndarray,
-             bound: np.ndarray, blend: int) -> None:
-    """Each objective's certified max of sign * c.p from its nearest representative's
-    multipliers (scaled), or a blend of its `blend` neighbours' (_blends), the tighter taken
-    into `bound` where tighter."""
-    keys = [k for k in ys if k[1] == sign]
-    if not keys:
-        return
-    R = C[[k for k, _ in keys]]
-    Y = np.array([ys[k] for k in keys])
-    # alpha: the scale of c_k nearest c; the loss is |c - alpha c_k| times the box's widths
-    norms = np.einsum("ij,ij->i", R, R)
-    alpha = np.clip((C @ R.T) / np.where(norms > 0, norms, 1.0), 0.0, None)
-    best = np.empty(len(C), dtype=np.int64)
-    for a in range(0, len(C), 256):
-        loss = np.abs(C[a:a + 256, None, :] - alpha[a:a + 256, :, None] * R[None]) @ width
-        best[a:a + 256] = np.argmin(loss, axis=1)
-    blends = _blends(C, R, width, best, min(len(R), blend))
+def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
+          lp: LPSettings) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
+    """The LPs of max sign * c.p for the objectives `seg` (rows of C) in that order, on
+    one HiGHS model, each from the last one's basis: their multipliers (one row per LP that
+    gave some), which of seg those are, and the LPs' primal-feasible optima (with their
+    objective's row of C)."""
+    h = load(rel, None, lp.iterations, lp.scaling)
+    # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
+    h.setOptionValue("simplex_strategy", lp.tall_simplex)
+    m, n = rel.A.shape
+    cols = np.arange(n, dtype=np.int32)
+    ys, solved, points = [], [], []
+    for k, i in enumerate(seg):
+        h.changeColsCost(n, cols, (-sign * C[i]).astype(float))  # max as min of -c.p
+        h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
+        h.run()
+        sol = h.getSolution()
+        if sol.dual_valid:  # (a stopped solve's multipliers still certify a bound)
+            ys.append(-np.asarray(sol.row_dual))
+            solved.append(k)
+        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
+            points.append((int(i), np.asarray(sol.col_value)))
+    return np.array(ys).reshape(len(ys), m), np.array(solved, dtype=np.int64), points
+
+
+def _certified(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,
+               dense_entries: int) -> np.ndarray:
+    """certified_maxes in blocks (the dense products' size bounded)."""
+    out = np.empty(len(C))
     step = max(1, _BLOCK // max(Y.shape[1], 1))
     for a in range(0, len(C), step):
-        pick = best[a:a + step]
-        scale = alpha[np.arange(a, a + len(pick)), pick][:, None]
-        found = np.minimum(certified_maxes(rel, sign * C[a:a + step], scale * Y[pick]),
-                           certified_maxes(rel, sign * C[a:a + step], blends[a:a + step] @ Y))
-        if sign > 0:
-            bound[a:a + step] = np.minimum(bound[a:a + step], found)
-        else:
-            bound[a:a + step] = np.maximum(bound[a:a + step], -found)
-
-
-def _blends(C: np.ndarray, R: np.ndarray, width: np.ndarray, best: np.ndarray,
-            k: int) -> np.ndarray:
-    """Per objective, non-negative weights of the representatives (rows of R): c as a
-    combination of the k nearest in direction to its nearest one, fitted in the box's
-    widths (least squares, weights >= 0): their multipliers so combined bound c where it
-    lies between representatives, which one alone bounds only with what the box allows."""
-    from scipy.optimize import nnls
-
-    cols = np.flatnonzero(width[: C.shape[1]] > 0)
-    w = width[cols]
-    norms = np.linalg.norm(R, axis=1)
-    U = R / np.where(norms > 0, norms, 1.0)[:, None]
-    near = np.argsort(-(U @ U.T), axis=1)[:, :k]  # each representative's k nearest
-    out = np.zeros((len(C), len(R)))
-    for i, c in enumerate(C):
-        ks = near[best[i]]
-        try:
-            lam, _ = nnls((R[ks][:, cols] * w).T, c[cols] * w, maxiter=50 * k)
-        except RuntimeError:  # (no convergence: the nearest one alone stands)
-            continue
-        out[i, ks] = lam
+        out[a:a + step] = certified_maxes(rel, C[a:a + step], Y[a:a + step], dense_entries)
     return out
 
 
-def _loose(C: np.ndarray, lower: np.ndarray, upper: np.ndarray, points: list[np.ndarray],
-           done: list[int], settings: Settings) -> list[int]:
-    """The objectives whose bounds exceed what the LPs' optima reach by more than
-    settings.prediction_gap of their width (loosest first, at most prediction_more_lps),
-    leaving out those solved already."""
-    if not points:
-        return []
-    X = np.array(points)
-    reach = C @ X.T
-    hi, lo = reach.max(axis=1), reach.min(axis=1)
-    with np.errstate(invalid="ignore"):
-        gap = ((upper - hi) + (lo - lower)) / (upper - lower)
-    gap[done] = 0.0
-    gap[~np.isfinite(gap)] = 0.0
-    order = np.argsort(-gap)
-    order = order[gap[order] > settings.prediction_gap]
-    return [int(i) for i in order[: settings.prediction_more_lps]]
+def path(C: np.ndarray, window: int) -> np.ndarray:
+    """An order of the rows of C in which each is near the last in direction: the
+    objectives sorted along their leading principal direction, cut into windows of
+    `window`, and within each a greedy nearest-neighbour path on the unit sphere (from
+    where the last window's ended): O(n window) work, not O(n^2)."""
+    norms = np.linalg.norm(C, axis=1)
+    U = C / np.where(norms > 0, norms, 1.0)[:, None]
+    if len(U) > window:
+        lead = np.linalg.svd(U - U.mean(axis=0), full_matrices=False)[2][0]
+        coarse = np.argsort(U @ lead, kind="stable")
+    else:
+        coarse = np.arange(len(U))
+    order: list[int] = []
+    last = None
+    for a in range(0, len(U), window):
+        block = coarse[a:a + window]
+        V = U[block]
+        left = np.ones(len(block), dtype=bool)
+        cur = 0 if last is None else int(np.argmax(V @ last))
+        for _ in range(len(block)):
+            left[cur] = False
+            order.append(int(block[cur]))
+            last = V[cur]
+            if not left.any():
+                break
+            cur = int(np.argmax(np.where(left, V @ last, -np.inf)))
+    return np.array(order, dtype=np.int64)
 
 
 def spread(C: np.ndarray, k: int) -> list[int]:

@@ -8,9 +8,9 @@ take the solve's enclosure, its measured sides are set to 0, and each constraint
 (relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the gradients' midpoints and r
 their radii times the box's half-widths plus the joint readings' errors. The parameter
 vectors consistent with the data satisfy the calibration's own linear relaxation on the same
-box, so certified LP bounds of h.p over it (lp/bounds.py) bound f for every one of them: the
-parameters' correlations count, where the box alone would add every parameter's
-uncertainty. All of it rounded outward. Validation compares held-out measurements with
+box, so certified LP bounds of h.p over it (accuracy/batch_lp.py: one LP per coordinate)
+bound f for every one of them: the parameters' correlations count, where the box alone would
+add every parameter's uncertainty. All of it rounded outward. Validation compares held-out measurements with
 these boxes widened by each column's error bound.
 """
 
