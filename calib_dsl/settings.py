@@ -256,6 +256,10 @@ class Settings:
     # objectives x window, and a window of a few thousand already finds neighbours within
     # a few degrees of each other on a robot's predictions.
     prediction_path_window: int = 4000
+    # Runs of the LP's pivot and time limits (LPSettings) each prediction LP may take before
+    # its multipliers are certified as they stand: the path's first LP starts from no basis
+    # and a tall relaxation's can need more pivots than one run allows.
+    prediction_lp_runs: int = 4
     # The LP optima of this many predicted coordinates, far apart in direction (both ends),
     # become candidate extremes for the inner intervals (accuracy/extremes.py): each costs a
     # bisection of certify_point passes and an evaluation of every predicted row.

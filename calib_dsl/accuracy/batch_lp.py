@@ -21,7 +21,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from calib_dsl.lp.certify import box_max_up, certified_maxes
-from calib_dsl.lp.highs import load
+from calib_dsl.lp.highs import infeasible, load, optimal
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings, Settings
 
@@ -46,7 +46,8 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
     tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
              if len(seg)]
     with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
-        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp), tasks))
+        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp,
+                                                     settings.prediction_lp_runs), tasks))
     wanted = set(spread(objectives, settings.prediction_candidates))
     points: list[np.ndarray] = []
     for (sign, seg), (ys, solved, found) in zip(tasks, results, strict=True):
@@ -62,11 +63,13 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
 
 
 def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
-          lp: LPSettings) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
+          lp: LPSettings, runs: int) -> tuple[np.ndarray, np.ndarray,
+                                              list[tuple[int, np.ndarray]]]:
     """The LPs of max sign * c.p for the objectives `seg` (rows of C) in that order, on
-    one HiGHS model, each from the last one's basis: their multipliers (one row per LP that
-    gave some), which of seg those are, and the LPs' primal-feasible optima (with their
-    objective's row of C)."""
+    one HiGHS model, each from the last one's basis (at most `runs` runs of lp's limits
+    each: the first, from no basis, can need more pivots than one allows): their
+    multipliers (one row per LP that gave some), which of seg those are, and the LPs'
+    primal-feasible optima (with their objective's row of C)."""
     h = load(rel, None, lp.iterations, lp.scaling)
     # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
     h.setOptionValue("simplex_strategy", lp.tall_simplex)
@@ -75,8 +78,11 @@ def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
     ys, solved, points = [], [], []
     for k, i in enumerate(seg):
         h.changeColsCost(n, cols, (-sign * C[i]).astype(float))  # max as min of -c.p
-        h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
-        h.run()
+        for _ in range(runs):  # a run stopped by its pivot or time limit goes on from there
+            h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
+            h.run()
+            if optimal(h) or infeasible(h):
+                break
         sol = h.getSolution()
         if sol.dual_valid:  # (a stopped solve's multipliers still certify a bound)
             ys.append(-np.asarray(sol.row_dual))

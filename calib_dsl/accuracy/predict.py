@@ -10,8 +10,8 @@ their radii times the box's half-widths plus the joint readings' errors. The par
 vectors consistent with the data satisfy the calibration's own linear relaxation on the same
 box, so certified LP bounds of h.p over it (accuracy/batch_lp.py: one LP per coordinate)
 bound f for every one of them: the parameters' correlations count, where the box alone would
-add every parameter's uncertainty. All of it rounded outward. Validation compares held-out measurements with
-these boxes widened by each column's error bound.
+add every parameter's uncertainty. All of it rounded outward. Validation compares held-out
+measurements with these boxes widened by each column's error bound.
 """
 
 from __future__ import annotations
