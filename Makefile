@@ -63,6 +63,7 @@ bench: $(if $(BENCH_PY),,install)
 	$(or $(BENCH_PY),$(BIN)/python) bench/scale.py --baseline $(BASELINE)
 	$(or $(BENCH_PY),$(BIN)/python) bench/campaigns.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/plan.py
+	$(or $(BENCH_PY),$(BIN)/python) bench/predict.py
 
 # fetch-ur10: the public UR10 laser-tracker data set (Series B, MIT licence, Landgraf et al.,
 # CASE 2021) into data/ur10/ (git ignores it: never commit it). Needs internet.

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from calib_dsl import pipeline
+from calib_dsl.accuracy.predict import Prediction
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs
@@ -38,7 +39,6 @@ from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.studies.advice import Advice, advise
-from calib_dsl.studies.predict import Prediction
 
 __all__ = ["CalError", "Inconsistent", "Listing", "Parameter", "Problem", "Result",
            "identify", "listing", "load", "min_error", "predict", "solve"]

@@ -264,7 +264,7 @@ def identify(model: str, as_json: bool, formulation: str, data: tuple[str, ...],
 def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """The configurations to predict at: a file in the format of the model's table."""
     options = [
-        click.option("--at", "at", required=True, type=click.Path(),
+        click.option("--at", "at", type=click.Path(),
                      help="Configurations: a file in the format of the model's table (the "
                           "measurement columns may be absent for predict)."),
         click.option("--at-rows", metavar="RANGES",
@@ -283,31 +283,16 @@ def at_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
-def _at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
-    from calib_dsl.elaborate.rows import Selection, parse_ranges, select
-
-    if at_rows is None and at_skip is None:
-        return None
-    try:
-        ranges = parse_ranges(at_rows) if at_rows else ()
-        skip: tuple[int, ...] = ()
-        if at_skip:
-            with open(at, encoding="utf-8") as f:
-                n = sum(1 for line in f if line.strip()) - 1
-            skip = tuple(int(k) + 1 for k in select(Selection(parse_ranges(at_skip)), n))
-        return Selection(ranges, skip)
-    except (ValueError, OSError) as err:
-        raise CalError(f"--at-rows/--at-skip: {err}") from None
-
-
 def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
                strategy: str, formulation: str, inputs: Any, quiet: bool) -> Any:
     from calib_dsl.pipeline import predict_at
     from calib_dsl.report.progress_line import progress_line
 
+    if at is None:
+        raise CalError("--at FILE is required (predict: or --grid)")
     with progress_line("calibrating", quiet) as progress:
         sol, found = predict_at(model, at, formulation, inputs, strategy,
-                                _at_selection(at, at_rows, at_skip), progress)
+                                outputs.at_selection(at, at_rows, at_skip), progress)
     if found is None:
         click.echo("the data are inconsistent (the solve proved it): nothing to predict",
                    err=True)
@@ -326,19 +311,30 @@ def _out(json_path: str | None, text: str, data: dict) -> None:
 @at_options
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
               help="Also write the boxes as CSV (row, line, then each column's lo and hi).")
+@click.option("--grid", metavar="NAME=a:b:step,...",
+              help="Instead of --at: every pose of a grid of the table's inputs (file units), "
+                   "with the guaranteed error bound at each.")
 @FORMULATION
 @UNROLL
 @model_inputs
 @user_errors
 def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strategy: str,
-            json_path: str | None, quiet: bool, csv_path: str | None, formulation: str,
-            data: tuple[str, ...], rows: tuple[str, ...], exclude: tuple[str, ...],
-            defines: tuple[str, ...],
-            unroll: bool) -> None:
+            json_path: str | None, quiet: bool, csv_path: str | None, grid: str | None,
+            formulation: str, data: tuple[str, ...], rows: tuple[str, ...],
+            exclude: tuple[str, ...], defines: tuple[str, ...], unroll: bool) -> None:
     """Calibrate MODEL on its data, then give for each configuration of --at a box proven to
     hold the predicted measurement for every parameter vector consistent with the data."""
     from calib_dsl.report.prediction import prediction_csv, prediction_json, render_prediction
 
+    if grid is not None:
+        from calib_dsl.report.progress_line import progress_line
+
+        with progress_line("calibrating", quiet) as progress:
+            text, doc, table = outputs.grid_outputs(model, grid, formulation, _inputs(
+                data, rows, exclude, defines, unroll), strategy, progress)
+        if csv_path:
+            outputs.write(csv_path, table)
+        return _out(json_path, text, doc)
     found = _predicted(model, at, at_rows, at_skip, strategy, formulation,
                        _inputs(data, rows, exclude, defines, unroll), quiet)
     if csv_path:

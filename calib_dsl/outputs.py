@@ -212,3 +212,63 @@ def export(result: str, fmt: str, output: str | None, model: str | None, point: 
         write(output, text)
     else:
         click.echo(text, nl=False)
+
+
+def at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
+    """The rows of the --at file to predict at (--at-rows, --at-skip), or None: all."""
+    from calib_dsl.elaborate.rows import Selection, parse_ranges, select
+
+    if at_rows is None and at_skip is None:
+        return None
+    try:
+        ranges = parse_ranges(at_rows) if at_rows else ()
+        skip: tuple[int, ...] = ()
+        if at_skip:
+            with open(at, encoding="utf-8") as f:
+                n = sum(1 for line in f if line.strip()) - 1
+            skip = tuple(int(k) + 1 for k in select(Selection(parse_ranges(at_skip)), n))
+        return Selection(ranges, skip)
+    except (ValueError, OSError) as err:
+        raise CalError(f"--at-rows/--at-skip: {err}") from None
+
+
+def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strategy: str,
+                    progress: Any) -> tuple[Any, list[tuple[float, ...]], list[str]]:
+    """`predict --grid SPEC`: the prediction at every pose of the grid (None: the data are
+    inconsistent), the poses and the names of their columns."""
+    import itertools
+    import tempfile
+    from dataclasses import replace
+
+    from calib_dsl.accuracy.grid import grid_file, parse_grid
+    from calib_dsl.elaborate.elaborator import elaborate
+    from calib_dsl.pipeline import predict_at
+
+    values = parse_grid(spec)
+    tables = elaborate(model, formulation=formulation, inputs=inputs).tables
+    if not tables:
+        raise CalError("the model has no table: there is nothing to predict")
+    t = tables[0]
+    with tempfile.TemporaryDirectory(prefix="calibc-grid-") as tmp:
+        path = grid_file(values, t, Path(tmp) / "grid.csv")
+        _, found = predict_at(model, path, formulation, inputs, strategy, None, progress)
+    names = [c.name for c in t.columns if c.name in values and not c.derived]
+    poses = list(itertools.product(*(values[n] for n in names)))
+    return (None if found is None else replace(found, file=f"--grid {spec}")), poses, names
+
+
+def grid_outputs(model: str, spec: str, formulation: str, inputs: Any, strategy: str,
+                 progress: Any) -> tuple[str, dict[str, Any], str]:
+    """`predict --grid`: its text, JSON and CSV; exit 1 when the data are inconsistent."""
+    import sys
+
+    from calib_dsl.report.prediction import grid_csv, grid_json, render_grid
+
+    found, poses, names = grid_prediction(model, spec, formulation, inputs, strategy,
+                                          progress)
+    if found is None:
+        click.echo("the data are inconsistent (the solve proved it): nothing to predict",
+                   err=True)
+        sys.exit(1)
+    doc = {"model": model, **grid_json(found, poses, names)}
+    return render_grid(doc), doc, grid_csv(doc)

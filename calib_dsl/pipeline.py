@@ -8,17 +8,25 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from calib_dsl import sections
+from calib_dsl.accuracy.extremes import linearized_optima, pulled_back
+from calib_dsl.accuracy.points import centre_witness
+from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, predict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
+from calib_dsl.elaborate.units import dimension
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.conflict import Conflict, find_conflict
@@ -42,7 +50,6 @@ from calib_dsl.strategy.refute import Refuter
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
 from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
-from calib_dsl.studies.predict import Prediction, predict
 
 
 def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
@@ -97,27 +104,62 @@ def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps:
 
 def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
                inputs: Inputs | None = None, strategy: str = "tight",
-               at_rows: Selection | None = None,
-               progress: Progress | None = None) -> tuple[Solution, Prediction | None]:
+               at_rows: Selection | None = None, progress: Progress | None = None,
+               settings: Settings = DEFAULT) -> tuple[Solution, Prediction | None]:
     """Calibrate on the model's data, then predict its measurements at the configurations of
     the file `at` (its rows `at_rows`) for every parameter vector consistent with the data
-    (None when the data are inconsistent)."""
+    (None when the data are inconsistent), with certified inner intervals: the predictions
+    at the certified points of the solve's inner bounds."""
     inputs = inputs or Inputs()
     _, prog = load_model(model, formulation, inputs=inputs)
-    sol = solve(prog, strategy, progress=progress)
+    sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == "infeasible":
         return sol, None
     ind = independents(prog)
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in ind}
+    points, certify = certified_points(prog, sol, settings)
     # the data's second-order relaxation where it can be built (tighter where the remainder
     # of the first order is large, as on real data), else the first-order one
     fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
     if fine is not None:
-        return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
-                            data=(fine[0], fine[1].center))
-    data = relax(prog, sol.lo, sol.hi, max_cell_columns=DEFAULT.max_cell_columns)
-    return sol, predict(model, box, at, inputs, formulation, at_rows=at_rows,
-                        data=None if data is None else (data, None))
+        cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
+    else:
+        cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
+                                              max_cell_columns=settings.max_cell_columns),
+                         points=points, certify=certify)
+    return sol, predict(model, at, inputs, cal, formulation, at_rows=at_rows)
+
+
+Certify = Callable[[np.ndarray, np.ndarray], list]
+
+
+def certified_points(prog: Program, sol: Solution, settings: Settings
+                     ) -> tuple[tuple[Certified, ...], Certify | None]:
+    """The parameter vectors (independents' order) the inner bounds certify within the
+    solve's box, and a function that pulls candidates back towards their centre until they
+    are certified (none where the search fails: the predictions then have no inner
+    intervals)."""
+    try:
+        inner = inner_bounds(prog, sol.lo, sol.hi, sol.starts)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return (), None
+    centre = centre_witness(inner)
+    if centre is None:
+        return (), None
+    box = (sol.lo[independents(prog)], sol.hi[independents(prog)])
+
+    def certify(directions: np.ndarray, optima: np.ndarray) -> list[Certified]:
+        # more certified points only tighten the inner intervals: a numerical failure of
+        # their search leaves the ones the inner bounds found
+        try:
+            near, readings = linearized_optima(prog, box, centre, directions, settings)
+            far = np.repeat(centre.readings[None], len(optima), axis=0)
+            return pulled_back(prog, centre, np.concatenate([near, optima]),
+                               np.concatenate([readings, far]), settings.pullback_steps)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            return []
+
+    return tuple((w.point, w.readings) for w in inner.witnesses), certify
 
 
 def conflict(model: str | Path | Problem, formulation: str = "matrix",
@@ -291,12 +333,23 @@ def report_on(request: SolveRequest, problem: Problem,
             sections.identify(extra, prog, res, r.strategy == "tight", settings)
         if r.lsq:
             sections.least_squares(extra, prog, res)
+        sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
     found = None
     if res.status == "infeasible" and r.diagnose:
         found = conflict(problem)
     sections.leverage(extra, prog, res, elaborated, settings.routine_max_primitives)
     return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
                        verdict=verdict, problem=problem)
+
+
+def _units_of(elaborated: Model | None) -> tuple[str | None, frozenset[str]]:
+    """The model's length unit (None: it states none) and its columns read in an angle
+    unit (the accuracy's distance leaves them out)."""
+    if elaborated is None:
+        return None, frozenset()
+    angles = frozenset(c.name for t in elaborated.tables for c in t.columns
+                       if c.unit is not None and dimension(c.unit) == "angle")
+    return (elaborated.units or {}).get("length"), angles
 
 
 def effort_for(request: SolveRequest, problem: Problem) -> Effort:

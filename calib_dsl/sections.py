@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from calib_dsl.accuracy.points import solve_statement
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.leverage import heavy_rows
 from calib_dsl.analysis.lsq import estimate
@@ -103,3 +104,30 @@ def leverage(extra: Extras, prog: Program, res: Solution, model: Model,
     heavy = heavy_rows(prog, res.lo, res.hi)
     extra.heavy = list(zip(heavy, data_rows(model, prog, [h.data_row for h in heavy]),
                            strict=True))
+
+
+def accuracy(extra: Extras, prog: Program, res: Solution, units: tuple[str | None, frozenset[str]],
+             settings: Settings) -> None:
+    """The residuals before calibration (nominal point), at the least-squares point and at
+    the certified centre, and the guaranteed bound over the result box (`units`: the model's
+    length unit, and the measured columns read in an angle unit, left out of the distance)."""
+    if not prog.slots.measured_sides:
+        extra.skipped.append("accuracy: the model compares no computed value with a "
+                             "measured column")
+        return
+    start = time.perf_counter()
+    # the statement only adds to a result proven already: a numerical failure of its own is
+    # reported as such, and never costs the user the result
+    try:
+        found = solve_statement(prog, res.lo, res.hi, extra.estimate, extra.inner, units[1],
+                                settings)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+        extra.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
+        return
+    if not np.any(np.isfinite(found.points["nominal"])):
+        extra.skipped.append("accuracy: no constraint compares a computed value with a "
+                             "measured column (each measured cell became an unknown's value)")
+        return
+    extra.accuracy, extra.length_unit = found, units[0]
+    extra.accuracy_seconds = time.perf_counter() - start
+    extra.seconds += extra.accuracy_seconds

@@ -290,6 +290,38 @@ class Settings:
     plan_draws: int = 15
     plan_candidates: int = 3000  # configurations drawn when no candidate file is given
 
+    # -- the accuracy statement ----------------------------------------------------------
+    # Its least-squares point (accuracy/fit.py) is polished from the certified centre, near
+    # the fit: Levenberg-Marquardt steps at most fit_steps, stopped when one lowers the sum
+    # of squares by less than fit_tolerance of it (the floats' noise on a fit's residuals);
+    # fit_damping the first step's, relative to the Jacobian's columns.
+    fit_steps: int = 50
+    fit_tolerance: float = 1e-10
+    fit_damping: float = 1e-3
+    # -- predictions ---------------------------------------------------------------------
+    # Each predicted coordinate's linear part gets its own LP, the objectives visited in a
+    # nearest-neighbour path (accuracy/batch_lp.py) built greedily within windows of this
+    # many objectives (sorted along their leading direction first): the greedy search costs
+    # objectives x window, and a window of a few thousand already finds neighbours within
+    # a few degrees of each other on a robot's predictions.
+    prediction_path_window: int = 4000
+    # Runs of the LP's pivot and time limits (LPSettings) each prediction LP may take before
+    # its multipliers are certified as they stand: the path's first LP starts from no basis
+    # and a tall relaxation's can need more pivots than one run allows.
+    prediction_lp_runs: int = 4
+    # The LP optima of this many predicted coordinates, far apart in direction (both ends),
+    # become candidate extremes for the inner intervals (accuracy/extremes.py): each costs a
+    # bisection of certify_point passes and an evaluation of every predicted row.
+    prediction_candidates: int = 128
+    # Those LPs' optima are pulled back towards the certified centre by bisection until
+    # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
+    # of the segment short of the last certified share.
+    pullback_steps: int = 8
+    # Directions (predictions' gradients, spread apart) whose extremes over the calibration
+    # linearized at the certified centre become candidates too: near the solution set's
+    # boundary, where the relaxation's optima lie beyond it
+    prediction_linear_lps: int = 64
+
     @property
     def piece_lp_threads(self) -> int:
         return max(1, self.lp.workers // self.piece_processes)

@@ -69,3 +69,18 @@ def test_each_parameter_is_as_documented(cases):
             assert always <= set(p) <= set(doc), set(p) ^ set(doc)
             seen |= set(p)
     assert set(doc) - seen <= UNREACHED
+
+
+def test_accuracy_is_as_documented(cases):
+    doc = documented("Accuracy")
+    seen = [data["accuracy"] for data in cases if "accuracy" in data]
+    assert seen  # the planar arm compares its tip with measured x, y
+    for acc in seen:
+        assert set(acc) == set(doc)
+        assert set(acc["points"]) <= {"nominal", "least_squares", "certified"}
+        assert {"nominal", "least_squares"} <= set(acc["points"])
+        for point in acc["points"].values():
+            assert set(point) == {"axes", "distance", "distances"}
+            assert set(point["axes"]) == set(acc["columns"])
+        assert {"max", "median", "unbounded", "axes", "distances", "box_max",
+                "box_median"} == set(acc["bound"])

@@ -120,15 +120,30 @@ def test_residual_ranges_bounds_and_the_outlier(solved):
 
 
 def test_prediction_marks_the_rows_not_covered(validated):
+    """Bands over the rows sorted by their guaranteed error, the row not covered marked at
+    its rank, and the summary line with the coverage."""
+    from calib_dsl.plot.prediction import column_order, errors
+
     assert validated["coverage"] == pytest.approx(7 / 8)
     fig = figure(validated, "prediction")
     (ax,) = axes(fig, "prediction")
-    ranges = [c for c in ax.collections if isinstance(c, LineCollection)]
-    assert [c.get_label() for c in ranges] == ["x", "y"]
-    assert all(len(c.get_segments()) == 8 for c in ranges)
-    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]  # on y's bar of row 4
-    assert list(marks.get_xdata()) == [pytest.approx(4.2)]
-    assert "coverage 0.875" in ax.get_title(loc="left")
+    bands = [c for c in ax.collections if c.get_label() in ("x", "y")]
+    assert [c.get_label() for c in bands] == ["x", "y"]
+    found, reach, covered = errors(validated)
+    for name in ("x", "y"):
+        order = column_order(found[name])
+        size = np.fmax(*(np.abs(v[order]) for v in found[name]))
+        assert np.all(np.diff(size) >= 0)
+    # row 4 (index 3): not covered, its y interval outside +-e, marked at its rank for y
+    (marks,) = [ln for ln in ax.lines if ln.get_marker() == "x"]
+    assert list(marks.get_xdata()) == [int(np.flatnonzero(column_order(found["y"]) == 3)[0])]
+    levels = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_linestyle() == "--")
+    assert levels == pytest.approx([-validated["held_out"][0]["columns"]["x"]["bound"],
+                                    validated["held_out"][0]["columns"]["x"]["bound"]],
+                                   rel=1e-2)
+    title = ax.get_title(loc="left")
+    assert "coverage 0.875" in title and "1 not covered" in title
+    assert f"max {np.max(reach):.3g}" in title
 
 
 def test_history_widths_against_seconds(solved):
@@ -143,13 +158,34 @@ def test_history_widths_against_seconds(solved):
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["l1", "l2"]
 
 
+def test_accuracy_histograms_and_the_guaranteed_bound(solved):
+    fig = figure(solved, "accuracy")
+    (ax,) = axes(fig, "accuracy")
+    acc = solved["accuracy"]
+    # one histogram per point, each counting every pose once
+    bars = [p for p in ax.patches if p.get_label() != "_nolegend_"]
+    assert len(bars) == len(acc["points"]) == 3
+    for patch in bars:
+        assert "rms" in patch.get_label()
+    # the rows the solve used (--exclude left one out)
+    assert acc["configurations"] == sum(r["used"] for r in solved["residuals"]["rows"])
+    for p in acc["points"].values():
+        assert len(p["distances"]) == acc["configurations"]
+    # the bound's largest and median values as vertical lines, at or beyond every distance
+    xs = [line.get_xdata()[0] for line in ax.lines]
+    assert xs == [pytest.approx(acc["bound"]["max"]), pytest.approx(acc["bound"]["median"])]
+    after = max(acc["points"]["least_squares"]["distances"])
+    assert acc["bound"]["max"] >= after
+    assert ax.get_xlim()[1] >= acc["bound"]["max"]
+
+
 def test_all_kinds_in_one_figure(solved, validated):
-    assert available(solved) == ["domains", "residuals", "history"]
+    assert available(solved) == ["domains", "residuals", "accuracy", "history"]
     assert available(validated) == ["prediction"]
     fig = figure(solved)
-    assert len(fig.subfigs) == 3
+    assert len(fig.subfigs) == 4
     assert [ax.get_label() for ax in fig.axes] == ["domains", "domains:true", "residuals",
-                                                  "history"]
+                                                  "accuracy", "history"]
 
 
 @pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml"),
@@ -166,7 +202,7 @@ def test_plot_command_writes_the_format_of_the_extension(solved, tmp_path, suffi
 def test_solve_and_validate_draw_with_plot(arm, tmp_path):
     out = tmp_path / "s.png"
     res = run("solve", arm, "--exclude", OUTLIER_ROW, "--plot", out)
-    assert res.exit_code == 0 and "drew domains, residuals, history" in res.output
+    assert res.exit_code == 0 and "drew domains, residuals, accuracy, history" in res.output
     assert out.stat().st_size > 1000
 
 

@@ -12,7 +12,7 @@ parameter vector of the box fits that measurement: the row is an outlier of the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,6 +34,9 @@ class Ranges:
     lo: np.ndarray
     hi: np.ndarray
     bound: np.ndarray
+    # per measured value, an upper bound on how much the prediction of a vector of the box
+    # moves as the readings move within their error bounds (inf: not known)
+    slack: np.ndarray | None = None
 
     def outside(self) -> np.ndarray:
         """Per measured value: whether its whole range lies outside [-bound, bound]."""
@@ -57,15 +60,15 @@ def residual_ranges(prog: Program, box: dict[str, tuple[float, float]]) -> Range
     reading = 0.5 * s.lo[side] + 0.5 * s.hi[side]
     bound = np.maximum(reading - s.lo[side], s.hi[side] - reading)  # e, rounded outward
     lo[side], hi[side] = reading, reading
-    f_lo, f_hi = _row_ranges(prog, lo, hi, ind, side)
+    f_lo, f_hi, slack = _row_ranges(prog, lo, hi, ind, side)
     assert s.row_keys is not None and s.col_keys is not None
     keys = [sides[int(k)] for k in side]
     return Ranges([s.row_keys[r][0] for r, _ in keys], [s.row_keys[r][1] for r, _ in keys],
-                  [s.col_keys[c][1] for _, c in keys], -f_hi, -f_lo, bound)
+                  [s.col_keys[c][1] for _, c in keys], -f_hi, -f_lo, bound, slack)
 
 
 def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
-                side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                side: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Enclosures of f - m over the box for the rows whose target is one of `side` (the
     first row of each: a cell capped twice keeps its first constraint's). A side no row
     targets (its constraint became a merge of slots, as y == q where x = 0) gets the whole
@@ -76,10 +79,13 @@ def _row_ranges(prog: Program, lo: np.ndarray, hi: np.ndarray, ind: np.ndarray,
         first.setdefault(t, i)
     pick = np.array([first.get(int(k), -1) for k in side], dtype=np.int64)
     none = pick < 0
-    f_lo, f_hi = ranges.lo[np.maximum(pick, 0)], ranges.hi[np.maximum(pick, 0)]
-    if len(ranges.lo) == 0:
-        f_lo, f_hi = np.zeros(len(side)), np.zeros(len(side))
-    return np.where(none, -np.inf, f_lo), np.where(none, np.inf, f_hi)
+    if len(ranges.lo) == 0:  # (every side is then one no row targets)
+        f_lo = f_hi = slack = np.zeros(len(side))
+    else:
+        at = np.maximum(pick, 0)
+        f_lo, f_hi, slack = ranges.lo[at], ranges.hi[at], ranges.slack[at]
+    return (np.where(none, -np.inf, f_lo), np.where(none, np.inf, f_hi),
+            np.where(none, np.inf, slack))
 
 
 @dataclass(frozen=True)
@@ -91,6 +97,8 @@ class RowEnclosures:
     lo: np.ndarray
     hi: np.ndarray
     ev: Evaluated
+    # per row, a bound on its change as the readings move within their error bounds
+    slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def row_enclosures(prog: Program, lo: np.ndarray, hi: np.ndarray,
@@ -105,7 +113,9 @@ def row_enclosures(prog: Program, lo: np.ndarray, hi: np.ndarray,
     qmax = np.concatenate([np.maximum(np.abs(r[2][0]), np.abs(r[2][1])) for r in rows])
     w = np.maximum(center - lo[ind], hi[ind] - center) * (1 + 4 * RHS_REL)
     with np.errstate(invalid="ignore"):  # 0 * inf: an unbounded unknown a row ignores
-        spread = gmax @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
+        moved = qmax @ ev.e if qmax.shape[1] else np.zeros(len(dlo))
+        spread = gmax @ w + moved
     spread = np.where(np.isnan(spread), np.inf, spread)
     err = RHS_REL * (spread + np.abs(dlo) + np.abs(dhi)) + 1e-300
-    return RowEnclosures(dlo - spread - err, dhi + spread + err, ev)
+    moved = np.where(np.isnan(moved), np.inf, moved) * (1 + 4 * RHS_REL) + 1e-300
+    return RowEnclosures(dlo - spread - err, dhi + spread + err, ev, moved)

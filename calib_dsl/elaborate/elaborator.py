@@ -90,7 +90,9 @@ def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path
     return Model(path=str(path), dag=run.dag, tables=run.tables, formulation=formulation,
                  simulation=simulate_rows is not None, consts=dict(run.const_values),
                  batch=run.batch, sources=tuple(run.sources),
-                 joint_limits=dict(run.joint_limits), row_counts_read=run.row_counts_read,
+                 joint_limits=dict(run.joint_limits),
+                 units=dict(run.units) if run.units_loc else None,
+                 row_counts_read=run.row_counts_read,
                  tolerances={c: cols for c, (n, cols) in run.tolerance_of.items()
                              if n == run.const_reads.get(c)})
 

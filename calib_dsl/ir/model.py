@@ -65,6 +65,8 @@ class Model:
     # the top-level consts read only as the whole error bound of columns (`x, y : +- e`),
     # with those columns (table, column): setting one changes those cells alone
     tolerances: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
+    # the model's unit of each dimension ("length", "angle"); None where it states none
+    units: dict[str, str] | None = None
 
 
 @dataclass

@@ -258,3 +258,20 @@ def _reaching(c: np.ndarray, points: list[tuple[np.ndarray, Any]],
     hits = np.flatnonzero(values >= box - 1e-9 * (1.0 + abs(box)))
     return int(hits[0]) if len(hits) else None
 
+
+
+def lp_solutions(rel: LinearRelaxation, objectives: np.ndarray,
+                 lp: LPSettings | None = None) -> list[tuple]:
+    """lp_bounds' LPs, each objective's result kept: (i, sign, certified max of sign * c.p,
+    its multipliers, its optimum in the LP's columns or None), for the LPs that gave
+    multipliers (an objective whose box bound an earlier optimum reached has none). For a
+    caller that bounds many nearby objectives with a few LPs' multipliers."""
+    lp = lp or LPSettings()
+    _, _, tasks = box_bounds(rel, objectives)
+    workers = max(1, min(lp.workers, len(tasks)))
+    share_of = {i: k % workers for k, i in enumerate(dict.fromkeys(t[0] for t in tasks))}
+    shares = [[t for t in tasks if share_of[t[0]] == w] for w in range(workers)]
+    with ThreadPoolExecutor(workers) as pool:
+        results = list(pool.map(lambda share: _solve_share(rel, share, lp), shares))
+    return [(i, sign, bound, y, point) for share in results
+            for i, sign, bound, y, _, point in share]

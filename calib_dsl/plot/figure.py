@@ -2,7 +2,7 @@
 `validate --plot`.
 
 All the kinds asked for go into one figure, one band per kind, top to bottom (domains,
-residuals, prediction, history): one file holds everything the result can show, and
+residuals, accuracy, prediction, history): one file holds everything the result can show, and
 `--kind` picks one. `figure()` returns the matplotlib Figure (the tests read what it draws).
 """
 
@@ -12,17 +12,28 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.plot import backend, domains, history, prediction, residuals
+from calib_dsl.plot import (
+    accuracy,
+    backend,
+    domains,
+    history,
+    prediction,
+    residuals,
+    workspace,
+)
 
-KINDS = {"domains": domains, "residuals": residuals, "prediction": prediction,
-         "history": history}
+KINDS = {"domains": domains, "residuals": residuals, "accuracy": accuracy,
+         "prediction": prediction, "history": history, "workspace": workspace}
 CHOICES = (*KINDS, "all")
 WIDTH = 10.0  # inches
 # how to get each kind into a result's JSON
 HOW = {"domains": "calibc solve MODEL --json FILE",
        "residuals": "calibc solve MODEL --residuals --json FILE",
+       "accuracy": "calibc solve MODEL --json FILE (a model that compares predictions with "
+                   "measured columns)",
        "prediction": "calibc validate MODEL --at HELDOUT --json FILE",
-       "history": "calibc solve MODEL --json FILE (the tight strategy)"}
+       "history": "calibc solve MODEL --json FILE (the tight strategy)",
+       "workspace": "calibc predict MODEL --grid NAME=a:b:step,... --json FILE"}
 
 
 def available(data: dict[str, Any]) -> list[str]:
@@ -50,6 +61,8 @@ def _height(kind: str, data: dict[str, Any]) -> float:
     n = KINDS[kind].count(data)
     if kind == "domains":
         return max(2.5, 1.2 + 0.2 * n)
+    if kind in ("accuracy", "workspace"):
+        return 3.5
     return 3.0 * n if kind == "history" else 2.8 * n
 
 

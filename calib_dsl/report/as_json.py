@@ -10,6 +10,7 @@ from typing import Any
 from calib_dsl.analysis.identify import identifiability_json
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
+from calib_dsl.report.accuracy import accuracy_json
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
 from calib_dsl.report.tightness import tightness
@@ -71,6 +72,8 @@ def result_json(prog: Program, res: Solution, strategy: str,
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}
+    if extra.accuracy is not None:
+        out["accuracy"] = accuracy_json(extra.accuracy, extra.length_unit)
     if res.history is not None:
         out["history"] = history_json(prog, res)
     if res.emptied is not None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from calib_dsl.accuracy.statement import Accuracy
 from calib_dsl.analysis.leverage import Leverage
 from calib_dsl.inner.bounds import Inner
 from calib_dsl.inner.shave import Shaved
@@ -27,6 +28,9 @@ class Extras:
         self.skipped: list[str] = []  # a line each: a section not computed, and why
         # parameters one data row carries (a warning names them), with those rows
         self.heavy: list[tuple[Leverage, Row]] = []
+        self.accuracy: Accuracy | None = None
+        self.length_unit: str | None = None  # the model's, where it states one
+        self.accuracy_seconds = 0.0
 
     def inner_of(self, name: str) -> tuple[float, float] | None:
         """The certified inner interval of an unknown (None: none certified, or not asked)."""

@@ -6,8 +6,10 @@ from typing import Any
 
 import numpy as np
 
+from calib_dsl.accuracy.certified import tightness
+from calib_dsl.accuracy.grid import pose_bounds
+from calib_dsl.accuracy.predict import Prediction
 from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.studies.predict import Prediction
 
 
 def widths(p: Prediction) -> dict[str, float | None]:
@@ -15,6 +17,30 @@ def widths(p: Prediction) -> dict[str, float | None]:
     w = (p.hi - p.lo).ravel()
     return {"median": float(np.median(w)), "max": float(np.max(w))} if w.size else \
         {"median": None, "max": None}
+
+
+def tightness_of(p: Prediction) -> dict[str, Any] | None:
+    """outer/inner over the predicted coordinates (None: no certified points)."""
+    if p.inner_lo is None or p.inner_hi is None:
+        return None
+    return tightness(p.lo, p.hi, p.inner_lo, p.inner_hi)
+
+
+def _inner(p: Prediction, k: int) -> dict[str, list[float] | None] | None:
+    if p.inner_lo is None or p.inner_hi is None:
+        return None
+    return {c: None if np.isnan(p.inner_lo[k, j]) else
+            [float(p.inner_lo[k, j]), float(p.inner_hi[k, j])]
+            for j, c in enumerate(p.columns)}
+
+
+def _tightness_line(p: Prediction) -> list[str]:
+    t = tightness_of(p)
+    if t is None or t["median_ratio"] is None:
+        return ["outer/inner: no certified inner intervals (no certified point)"]
+    return [f"outer/inner over {t['coordinates']} predicted coordinates: median "
+            f"{t['median_ratio']:.3f}, worst {t['worst_ratio']:.3f} (inner: the predictions "
+            "at the solve's certified points, values the model truly takes)"]
 
 
 def _shown(x: float | None) -> str:
@@ -46,6 +72,7 @@ def render_prediction(p: Prediction) -> str:
     w = widths(p)
     lines.append(f"widths: median {_shown(w['median'])}, max {_shown(w['max'])} "
                  "(the model's units)")
+    lines += _tightness_line(p)
     return "\n".join(lines)
 
 
@@ -60,9 +87,10 @@ def prediction_csv(p: Prediction) -> str:
 
 def prediction_json(p: Prediction) -> dict[str, Any]:
     return {"at": p.file, "columns": p.columns, "width": widths(p),
+            "tightness": tightness_of(p),
             "rows": [{"row": row, "line": line,
                       **{c: [float(p.lo[k, j]), float(p.hi[k, j])]
-                         for j, c in enumerate(p.columns)}}
+                         for j, c in enumerate(p.columns)}, "inner": _inner(p, k)}
                      for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True))]}
 
 
@@ -70,7 +98,7 @@ def validation_json(p: Prediction) -> dict[str, Any]:
     comparable(p)
     covered = p.covered()
     return {"at": p.file, "rows": len(covered), "coverage": float(covered.mean()),
-            "width": widths(p),
+            "width": widths(p), "tightness": tightness_of(p),
             "not_covered": [{"row": p.rows[k], "line": p.lines[k]}
                             for k in np.flatnonzero(~covered)],
             "held_out": held_out(p, covered)}
@@ -83,9 +111,13 @@ def held_out(p: Prediction, covered: np.ndarray) -> list[dict[str, Any]]:
     with np.errstate(invalid="ignore"):
         lo = np.nextafter(p.measured - p.hi, -np.inf)
         hi = np.nextafter(p.measured - p.lo, np.inf)
+    inner = [_inner(p, k) or {} for k in range(len(p.rows))]
     return [{"row": row, "line": line, "covered": bool(covered[k]),
              "columns": {c: {"error": [_num(lo[k, j]), _num(hi[k, j])],
-                             "bound": float(p.bound[j])}
+                             "bound": float(p.bound[j]),
+                             "predicted": [_num(p.lo[k, j]), _num(p.hi[k, j])],
+                             "inner": inner[k].get(c),
+                             "measured": float(p.measured[k, j])}
                          for j, c in enumerate(p.columns) if not np.isnan(p.measured[k, j])}}
             for k, (row, line) in enumerate(zip(p.rows, p.lines, strict=True))]
 
@@ -102,9 +134,44 @@ def render_validation(p: Prediction) -> str:
              "predicted box widened by its error bound",
              f"  box widths: median {_shown(v['width']['median'])}, "
              f"max {_shown(v['width']['max'])} "
-             "(the model's units)"]
+             "(the model's units)", *("  " + t for t in _tightness_line(p))]
     for r in v["not_covered"][:20]:
         lines.append(f"  not covered: {p.file}:{r['line']} (data row {r['row']})")
     if len(v["not_covered"]) > 20:
         lines.append(f"  ... and {len(v['not_covered']) - 20} more")
     return "\n".join(lines)
+
+
+def grid_json(p: Prediction, poses: list[tuple[float, ...]], names: list[str]
+              ) -> dict[str, Any]:
+    """`predict --grid --json`: prediction_json with, per pose, its inputs (`pose`), the
+    guaranteed error `bound` and `with_e` (accuracy/grid.py), and their summary."""
+    bound, with_e = pose_bounds(p)
+    out = prediction_json(p)
+    out["inputs"] = names
+    for row, pose, b, w in zip(out["rows"], poses, bound, with_e, strict=True):
+        row.update(pose=dict(zip(names, pose, strict=True)), bound=_num(float(b)),
+                   with_e=_num(float(w)))
+    finite = bound[np.isfinite(bound)]
+    out["bound"] = {"median": float(np.median(finite)) if finite.size else None,
+                    "max": float(np.max(finite)) if finite.size else None,
+                    "unbounded": int(len(bound) - finite.size)}
+    return out
+
+
+def grid_csv(doc: dict[str, Any]) -> str:
+    cols, names = doc["columns"], doc["inputs"]
+    out = [",".join([*names, *(f"{c}_lo,{c}_hi" for c in cols), "bound", "with_e"])]
+    for r in doc["rows"]:
+        cells = [*(repr(r["pose"][n]) for n in names),
+                 *(repr(v) for c in cols for v in r[c]), str(r["bound"]), str(r["with_e"])]
+        out.append(",".join(cells))
+    return "\n".join(out) + "\n"
+
+
+def render_grid(doc: dict[str, Any]) -> str:
+    b = doc["bound"]
+    return (f"guaranteed error bound at {len(doc['rows'])} poses of {doc['at']}: the distance "
+            "from the middle of each predicted box to the prediction of any parameter vector "
+            f"consistent with the data: median {_shown(b['median'])}, max {_shown(b['max'])} "
+            f"(the model's units; {b['unbounded']} unbounded); per pose in --json/--csv")

@@ -8,6 +8,7 @@ from typing import Any
 
 from calib_dsl.analysis.identify import render
 from calib_dsl.ir.program import Program
+from calib_dsl.report.accuracy import accuracy_json, render_accuracy
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
 from calib_dsl.report.tightness import render_tightness, tightness, width_ratio
@@ -116,12 +117,14 @@ _NOTHING = ("note: no parameter was narrowed. The result is still guaranteed (no
 
 
 def _extra_time(extra: Extras) -> str:
-    """The inner bounds' and the shaving's own clocks, after the solve's."""
+    """The inner bounds', the shaving's and the accuracy's own clocks, after the solve's."""
     parts = []
     if extra.inner is not None:
         parts.append(f"{extra.inner.seconds:.2f} s for the inner bounds")
     if extra.shaved is not None:
         parts.append(f"{extra.shaved.seconds:.2f} s shaving")
+    if extra.accuracy is not None:
+        parts.append(f"{extra.accuracy_seconds:.2f} s for the accuracy")
     return f" (and {', '.join(parts)})" if parts else ""
 
 
@@ -159,6 +162,8 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     t = tightness(prog, res, extra)
     if t is not None:
         lines += ["", *render_tightness(t)]
+    if extra.accuracy is not None:
+        lines += ["", *render_accuracy(accuracy_json(extra.accuracy, extra.length_unit))]
     if extra.skipped:
         lines += ["", *extra.skipped]
     if extra.info is not None:

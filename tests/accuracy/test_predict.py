@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from calib_dsl.accuracy.certified import tightness
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.pipeline import predict_at
 
@@ -64,6 +65,15 @@ def test_predict_needs_no_measurements_and_validate_reports(tmp_path, calibc):
     v = json.loads(val.stdout)
     assert v["rows"] == 3 and v["coverage"] == 1.0
     assert 0 < v["width"]["median"] <= v["width"]["max"]
+    for doc in (data, v):
+        assert 1.0 <= doc["tightness"]["median_ratio"] <= doc["tightness"]["worst_ratio"]
+    for row in data["rows"]:
+        for c in data["columns"]:
+            a, b = row["inner"][c]
+            assert row[c][0] <= a <= b <= row[c][1]
+    for row in v["held_out"]:
+        for c in row["columns"].values():
+            assert c["predicted"][0] <= c["inner"][0] <= c["inner"][1] <= c["predicted"][1]
     for row in data["rows"][1::2]:  # the same configurations predict the same boxes
         assert row["x"][0] < row["x"][1]
 
@@ -95,3 +105,7 @@ def test_a_linear_model_predicts_the_truth_inside(tmp_path_factory, a, b, seed):
     assert p is not None and p.columns == ["y"]
     truth = a * new + b
     assert np.all(p.lo[:, 0] <= truth) and np.all(truth <= p.hi[:, 0])
+    # a polytope: the LPs are exact and their optima certified points, so the boxes are
+    # what the data allow (outer over inner at most the bisection's last step)
+    t = tightness(p.lo, p.hi, p.inner_lo, p.inner_hi)
+    assert t["worst_ratio"] is not None and 1.0 <= t["worst_ratio"] <= 1.05

@@ -8,21 +8,24 @@ take the solve's enclosure, its measured sides are set to 0, and each constraint
 (relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the gradients' midpoints and r
 their radii times the box's half-widths plus the joint readings' errors. The parameter
 vectors consistent with the data satisfy the calibration's own linear relaxation on the same
-box, so certified LP bounds of h.p over it (lp/bounds.py) bound f for every one of them: the
-parameters' correlations count, where the box alone would add every parameter's
-uncertainty. All of it rounded outward. Validation compares held-out measurements with
-these boxes widened by each column's error bound.
+box, so certified LP bounds of h.p over it (accuracy/batch_lp.py: one LP per coordinate)
+bound f for every one of them: the parameters' correlations count, where the box alone would
+add every parameter's uncertainty. All of it rounded outward. Validation compares held-out
+measurements with these boxes widened by each column's error bound.
 """
 
 from __future__ import annotations
 
 import csv
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from calib_dsl.accuracy.batch_lp import batch_bounds
+from calib_dsl.accuracy.certified import inner_hull
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
@@ -30,13 +33,13 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 from calib_dsl.ir.model import Model, Table
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import box_max_up
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import mid_rad
 from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation
+from calib_dsl.settings import Settings
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,14 @@ class Prediction:
     hi: np.ndarray
     measured: np.ndarray  # (rows, columns) the file's values (nan where it had none)
     bound: np.ndarray  # (columns,) each measurement's error bound
+    # (rows, columns) certified inner intervals: within the hull of the predictions at
+    # certified points (accuracy/certified.py); nan where there is none
+    inner_lo: np.ndarray | None = None
+    inner_hi: np.ndarray | None = None
+    # the certified points those are the predictions of (one a row, in `names`' order)
+    inner_points: np.ndarray | None = None
+    names: tuple[str, ...] = ()
+    inner_readings: np.ndarray | None = None  # the calibration's readings each was proven at
 
     def covered(self) -> np.ndarray:
         """Per row: every measured value within its box widened by its bound."""
@@ -58,18 +69,34 @@ class Prediction:
         return np.all(inside, axis=1)
 
 
-def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str | Path,
-            inputs: Inputs, formulation: str = "matrix", table: str | None = None,
-            at_rows: Selection | None = None,
-            data: tuple[LinearRelaxation, np.ndarray | None] | None = None) -> Prediction:
+Certified = tuple[np.ndarray, np.ndarray]  # a certified point and the readings of its proof
+
+
+@dataclass(frozen=True)
+class Calibrated:
+    """What a prediction takes from the calibration: its enclosure `box` (name: (lo, hi));
+    its relaxation on that box (`data`: columns the box's parameters, in its order; None:
+    every vector of the box), with `center` for a second-order one (columns t,
+    p = center + scale t); certified points (`points`: each in the box's order, with the
+    calibration's readings it was proven at), `certify` ((the predictions' gradients, the
+    LPs' optima), each a row in the box's order -> more certified points, towards the
+    predictions' extremes) and the settings."""
+
+    box: dict[str, tuple[float, float]]
+    settings: Settings
+    data: LinearRelaxation | None = None
+    center: np.ndarray | None = None
+    points: tuple[Certified, ...] = ()
+    certify: Callable[[np.ndarray, np.ndarray], list[Certified]] | None = None
+
+
+def predict(model_path: str | Path, at: str | Path, inputs: Inputs, calibrated: Calibrated,
+            formulation: str = "matrix", table: str | None = None,
+            at_rows: Selection | None = None) -> Prediction:
     """Boxes of the measurements of table `table` (the model's first) at the configurations
-    of the file `at` (its rows `at_rows`, all by default), for every parameter vector in
-    `box` (name: (lo, hi)); `inputs` as the calibration read the model (its consts). With
-    `data`, the calibration's relaxation on that box (columns: the box's parameters, in its
-    order) and its center, the vectors consistent with the data; else every vector of the
-    box. A second-order relaxation's columns are t, p = center + scale t (a first-order
-    one's center: None)."""
-    relaxation, center = data if data is not None else (None, None)
+    of the file `at` (its rows `at_rows`, all by default), for every parameter vector of
+    the calibration (`calibrated`), and their certified inner intervals where it has
+    certified points; `inputs` as the calibration read the model (its consts)."""
     first = elaborate(model_path, formulation=formulation, inputs=inputs)
     t = _table(first, table)
     with tempfile.TemporaryDirectory(prefix="calibc-predict-") as tmp:
@@ -82,7 +109,7 @@ def predict(model_path: str | Path, box: dict[str, tuple[float, float]], at: str
             raise _in_file(err, str(path), str(at)) from None
     prog = compile_model(model)
     _inputs_present(prog, _table(model, t.name), present, str(at))
-    return _enclose(prog, _table(model, t.name), box, present, str(at), relaxation, center)
+    return _enclose(prog, _table(model, t.name), calibrated, present, str(at))
 
 
 def _table(model: Model, name: str | None) -> Table:
@@ -147,10 +174,10 @@ def _inputs_present(prog: Program, t: Table, present: set[str], at: str) -> None
                        f"the table's separator is {t.separator!r})")
 
 
-def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
-             present: set[str], file: str, data: LinearRelaxation | None,
-             center_t: np.ndarray | None) -> Prediction:
+def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
+             file: str) -> Prediction:
     s = prog.slots
+    box = cal.box
     ind = independents(prog)
     lo, hi = s.lo.copy(), s.hi.copy()
     for k in ind:
@@ -176,23 +203,36 @@ def _enclose(prog: Program, t: Table, box: dict[str, tuple[float, float]],
         rad = hrad @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
     use = np.flatnonzero(measured_side[targets])
     # h.p over the box, or over the data's relaxation (certified LP bounds)
-    lin_lo, lin_hi = _linear_range(h[use], lo[ind], hi[ind], data, center_t,
-                                   [s.names[k] for k in ind], list(box))
+    lin_lo, lin_hi, optima = _linear_range(h[use], lo[ind], hi[ind], cal,
+                                           [s.names[k] for k in ind])
     hc = h[use] @ center
     err = RHS_REL * (rad[use] + np.abs(dlo[use]) + np.abs(dhi[use]) + np.abs(h[use])
                      @ np.abs(center) + np.abs(lin_lo) + np.abs(lin_hi)) + 1e-300
     plo, phi = np.full(len(dlo), -np.inf), np.full(len(dlo), np.inf)
     plo[use] = dlo[use] - hc + lin_lo - rad[use] - err
     phi[use] = dhi[use] - hc + lin_hi + rad[use] + err
-    return _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
+    found = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
+    order = np.array([list(box).index(s.names[k]) for k in ind])
+    directions = np.zeros((len(use), len(box)))
+    directions[:, order] = h[use]
+    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
+    if not known:
+        return found
+    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
+    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
+    some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
+    return replace(found, inner_lo=np.where(some, inner.lo, np.nan),
+                   inner_hi=np.where(some, inner.hi, np.nan),
+                   inner_points=np.array([p[order] for p, _ in known]),
+                   names=tuple(s.names[k] for k in ind),
+                   inner_readings=np.array([r for _, r in known]))
 
 
-def _arrange(prog: Program, t: Table, targets: np.ndarray,
-             ranges: tuple[np.ndarray, np.ndarray], original: tuple[np.ndarray, np.ndarray],
-             measured_side: np.ndarray, present: set[str], file: str) -> Prediction:
-    """The rows' enclosures [plo, phi] (`ranges`) as a (configuration, measured column)
-    table."""
-    plo, phi = ranges
+def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],
+             original: tuple[np.ndarray, np.ndarray], measured_side: np.ndarray,
+             present: set[str], file: str) -> Prediction:
+    """The rows' enclosures `ends` as a (configuration, measured column) table."""
+    plo, phi = ends
     s = prog.slots
     assert s.row_keys is not None and s.col_keys is not None
     sides = s.measured_sides or {}
@@ -214,25 +254,26 @@ def _arrange(prog: Program, t: Table, targets: np.ndarray,
     return Prediction(file, list(t.numbers), list(t.lines), cols, lo, hi, measured, bound)
 
 
-def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray,
-                  data: LinearRelaxation | None, center: np.ndarray | None,
-                  names: list[str], order: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray, cal: Calibrated,
+                  names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each row of h . p: over the data's relaxation (its columns in
-    `order`), else over the box."""
+    the box's order), else over the box; and the LPs' optima (parameter vectors in the
+    box's order, one a row: candidates, not proofs)."""
+    data = cal.data
     if data is None:
         lo = np.array([-box_max_up(-c, -c, plo, phi) for c in h])
         hi = np.array([box_max_up(c, c, plo, phi) for c in h])
-        return lo, hi
-    cols = np.array([order.index(n) for n in names])
+        return lo, hi, np.zeros((0, len(names)))
+    cols = np.array([list(cal.box).index(n) for n in names])
     obj = np.zeros((len(h), data.main))
     if data.family != SECOND_ORDER:
         obj[:, cols] = h
-        return lp_bounds(data, obj)
+        return batch_bounds(data, obj, cal.settings)
     # a second-order relaxation's columns are t (p = c + w t): h.p = h.c + (h w).t
-    assert data.scale is not None and center is not None
-    c, w = center[cols], data.scale[cols]
+    assert data.scale is not None and cal.center is not None
+    c, w = cal.center[cols], data.scale[cols]
     obj[:, cols] = h * w
     err = RHS_REL * (np.abs(h * w) @ np.ones(len(w)) + np.abs(h) @ np.abs(c)) + 1e-300
-    lo, hi = lp_bounds(data, obj)
+    lo, hi, optima = batch_bounds(data, obj, cal.settings)
     hc = h @ c
-    return lo + hc - err, hi + hc + err
+    return lo + hc - err, hi + hc + err, cal.center + optima * data.scale

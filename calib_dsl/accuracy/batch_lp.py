@@ -1,0 +1,146 @@
+"""Certified bounds of many nearby linear objectives over one relaxation: one LP each,
+solved along a path through the objectives so that each starts from its neighbour's optimum.
+
+A prediction's linear part h.p is one objective per predicted coordinate, thousands of them
+over the same relaxation. Neither another objective's multipliers nor its optimal basis
+bound one objective as tightly as its own LP (the relaxation's projection onto the
+parameters has very many vertices, and it is far narrower than the box, so a multiplier
+fitted to a neighbour leaves a residual the box charges in full: docs/decisions/22). So every
+objective gets its LP, but the objectives are visited in a nearest-neighbour order (a
+greedy path on the unit sphere) and HiGHS re-solves from the previous optimum, which a new
+cost leaves primal feasible: a few dozen pivots instead of hundreds. Each sign of the
+objectives walks the path on its own HiGHS model (its own thread). Every bound is
+certified from the LP's multipliers (lp/certify.py), so a stopped or inexact solve only
+loosens it.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from calib_dsl.lp.certify import box_max_up, certified_maxes
+from calib_dsl.lp.highs import infeasible, load, optimal
+from calib_dsl.relax.relaxation import LinearRelaxation
+from calib_dsl.settings import LPSettings, Settings
+
+_BLOCK = 2_000_000  # objectives x rows per certified_maxes call (the dense Y's size)
+
+
+def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settings
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rigorous [min, max] of each row c of `objectives` (over the relaxation's first
+    columns) of c.p over the relaxation, and the LPs' optima (in the relaxation's first
+    objectives.shape[1] columns, one row each: points of the relaxation, not proofs) of
+    settings.prediction_candidates objectives far apart in direction, both signs."""
+    n, cols = len(objectives), rel.A.shape[1]
+    C = np.zeros((n, cols))
+    C[:, : objectives.shape[1]] = objectives
+    upper = np.array([box_max_up(c, c, rel.lo, rel.hi) for c in C])
+    lower = np.array([-box_max_up(-c, -c, rel.lo, rel.hi) for c in C])
+    if n == 0:
+        return lower, upper, np.zeros((0, objectives.shape[1]))
+    order = path(objectives, settings.prediction_path_window)
+    parts = max(1, settings.lp.workers // 2)
+    tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
+             if len(seg)]
+    with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
+        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp,
+                                                     settings.prediction_lp_runs), tasks))
+    wanted = set(spread(objectives, settings.prediction_candidates))
+    points: list[np.ndarray] = []
+    for (sign, seg), (ys, solved, found) in zip(tasks, results, strict=True):
+        bound = _certified(rel, sign * C[seg[solved]], ys, settings.lp.dense_entries)
+        at = seg[solved]
+        if sign > 0:
+            upper[at] = np.minimum(upper[at], bound)
+        else:
+            lower[at] = np.maximum(lower[at], -bound)
+        points.extend(x for i, x in found if i in wanted)
+    X = np.array(points).reshape(len(points), cols)
+    return lower, upper, X[:, : objectives.shape[1]]
+
+
+def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
+          lp: LPSettings, runs: int) -> tuple[np.ndarray, np.ndarray,
+                                              list[tuple[int, np.ndarray]]]:
+    """The LPs of max sign * c.p for the objectives `seg` (rows of C) in that order, on
+    one HiGHS model, each from the last one's basis (at most `runs` runs of lp's limits
+    each: the first, from no basis, can need more pivots than one allows): their
+    multipliers (one row per LP that gave some), which of seg those are, and the LPs'
+    primal-feasible optima (with their objective's row of C)."""
+    h = load(rel, None, lp.iterations, lp.scaling)
+    # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
+    h.setOptionValue("simplex_strategy", lp.tall_simplex)
+    m, n = rel.A.shape
+    cols = np.arange(n, dtype=np.int32)
+    ys, solved, points = [], [], []
+    for k, i in enumerate(seg):
+        h.changeColsCost(n, cols, (-sign * C[i]).astype(float))  # max as min of -c.p
+        for _ in range(runs):  # a run stopped by its pivot or time limit goes on from there
+            h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
+            h.run()
+            if optimal(h) or infeasible(h):
+                break
+        sol = h.getSolution()
+        if sol.dual_valid:  # (a stopped solve's multipliers still certify a bound)
+            ys.append(-np.asarray(sol.row_dual))
+            solved.append(k)
+        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
+            points.append((int(i), np.asarray(sol.col_value)))
+    return np.array(ys).reshape(len(ys), m), np.array(solved, dtype=np.int64), points
+
+
+def _certified(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,
+               dense_entries: int) -> np.ndarray:
+    """certified_maxes in blocks (the dense products' size bounded)."""
+    out = np.empty(len(C))
+    step = max(1, _BLOCK // max(Y.shape[1], 1))
+    for a in range(0, len(C), step):
+        out[a:a + step] = certified_maxes(rel, C[a:a + step], Y[a:a + step], dense_entries)
+    return out
+
+
+def path(C: np.ndarray, window: int) -> np.ndarray:
+    """An order of the rows of C in which each is near the last in direction: the
+    objectives sorted along their leading principal direction, cut into windows of
+    `window`, and within each a greedy nearest-neighbour path on the unit sphere (from
+    where the last window's ended): O(n window) work, not O(n^2)."""
+    norms = np.linalg.norm(C, axis=1)
+    U = C / np.where(norms > 0, norms, 1.0)[:, None]
+    if len(U) > window:
+        lead = np.linalg.svd(U - U.mean(axis=0), full_matrices=False)[2][0]
+        coarse = np.argsort(U @ lead, kind="stable")
+    else:
+        coarse = np.arange(len(U))
+    order: list[int] = []
+    last = None
+    for a in range(0, len(U), window):
+        block = coarse[a:a + window]
+        V = U[block]
+        left = np.ones(len(block), dtype=bool)
+        cur = 0 if last is None else int(np.argmax(V @ last))
+        for _ in range(len(block)):
+            left[cur] = False
+            order.append(int(block[cur]))
+            last = V[cur]
+            if not left.any():
+                break
+            cur = int(np.argmax(np.where(left, V @ last, -np.inf)))
+    return np.array(order, dtype=np.int64)
+
+
+def spread(C: np.ndarray, k: int) -> list[int]:
+    """k objectives far apart in direction (farthest-point sampling on the unit sphere)."""
+    norms = np.linalg.norm(C, axis=1)
+    U = C / np.where(norms > 0, norms, 1.0)[:, None]
+    first = int(np.argmax(norms))
+    chosen, near = [first], 1.0 - U @ U[first]
+    while len(chosen) < min(k, len(C)):
+        nxt = int(np.argmax(near))
+        if near[nxt] <= 0.0:
+            break
+        chosen.append(nxt)
+        near = np.minimum(near, 1.0 - U @ U[nxt])
+    return chosen

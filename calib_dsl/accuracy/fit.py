@@ -1,0 +1,61 @@
+"""The least-squares point of the accuracy statement: a Levenberg–Marquardt fit in numpy,
+started near the fit (the certified centre), kept in the search domain by projection.
+
+`solve --lsq` fits with scipy (analysis/lsq.py); the statement runs in every solve, where
+importing scipy.optimize alone would cost a small model most of its inner bounds' time, so
+it polishes a near point itself. A fit that stops on its budget is said to be so
+(`converged` False), never passed off as the optimum.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib_dsl.analysis.lsq import Estimate, residuals
+from calib_dsl.ir.program import Program
+from calib_dsl.relax.layout import independents
+from calib_dsl.settings import Settings
+
+
+def polish(prog: Program, start: np.ndarray, settings: Settings) -> Estimate:
+    """The least-squares point from `start` (independents' order): damped Gauss-Newton steps
+    scaled by the Jacobian's columns (Marquardt), each projected onto the domains and taken
+    only when it lowers the sum of squares."""
+    ind = independents(prog)
+    names = [prog.slots.names[k] for k in ind]
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    x = np.clip(start, lo, hi)
+    r, jac = residuals(prog, x)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+        return Estimate(names, x, float("inf"), float("inf"), False)
+    cost, damping, converged = float(r @ r), settings.fit_damping, False
+    for _ in range(settings.fit_steps):
+        scale = np.maximum(np.linalg.norm(jac, axis=0), 1e-300)
+        step = _step(jac, r, scale, damping)
+        trial = np.clip(x + step, lo, hi)
+        tr, tj = residuals(prog, trial)
+        tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
+        if tcost < cost and np.all(np.isfinite(tj)):
+            gain = cost - tcost
+            x, r, jac, cost = trial, tr, tj, tcost
+            damping = max(damping / 3.0, 1e-12)
+            if gain <= settings.fit_tolerance * max(cost, 1e-300):
+                converged = True
+                break
+        else:
+            damping *= 4.0
+            # a step that no damping makes smaller than the floats' resolution: at the optimum
+            if np.all(np.abs(trial - x) <= 1e-15 * np.maximum(np.abs(x), 1.0)):
+                converged = True
+                break
+    n = max(len(r), 1)
+    return Estimate(names, x, float(np.sqrt(cost / n)) if len(r) else 0.0,
+                    float(np.max(np.abs(r))) if len(r) else 0.0, converged)
+
+
+def _step(jac: np.ndarray, r: np.ndarray, scale: np.ndarray, damping: float) -> np.ndarray:
+    """The step minimizing |J s + r|^2 + damping |D s|^2, D the columns' norms: solved as
+    one least-squares system (rank-deficient Jacobians of unidentifiable parameters too)."""
+    a = np.vstack([jac, np.sqrt(damping) * np.diag(scale)])
+    b = np.concatenate([-r, np.zeros(len(scale))])
+    return np.linalg.lstsq(a, b, rcond=None)[0]
