@@ -163,7 +163,7 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     tlo, thi = exact_inside(base_lo[s], base_hi[s])
     computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
     # an implied equality (the others prove it: ir/primitives.Slots.implied) needs no proof
-    implied = computed & np.isin(s, np.fromiter(prog.slots.implied, dtype=np.int64))
+    implied = np.isin(s, np.fromiter(prog.slots.implied, dtype=np.int64))
     found = np.concatenate(owners_of) if owners else None
     a, b = (np.concatenate(c).reshape(len(s), k) for c in (clo, chi))
     lo, hi = lo.reshape(len(lo), k), hi.reshape(len(hi), k)

@@ -77,7 +77,12 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
             return np.concatenate([0.5 * (r[part][0] + r[part][1]) for r in done])
 
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in done])
-    return Linearized(mid(0), half, mid(1), ev.targets(), mid(2),
+    d, jac, dq = mid(0), mid(1), mid(2)
+    # a row the others imply (ir/primitives.Slots.implied: an orientation's matrix entry,
+    # its angles measured) holds wherever they do: no residual of its own for a fit
+    implied = np.isin(ev.targets(), np.fromiter(prog.slots.implied, dtype=np.int64))
+    d[implied], jac[implied], dq[implied] = 0.0, 0.0, 0.0
+    return Linearized(d, half, jac, ev.targets(), dq,
                       np.concatenate([r[3] for r in done]),
                       np.concatenate([r[0][0] for r in done]),
                       np.concatenate([r[0][1] for r in done]),

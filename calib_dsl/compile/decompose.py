@@ -55,7 +55,7 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     rep = congruence_closure(g, live, rep)
     slot_of, slots = _make_slots(dag, g, live, rep, caps)
     slots.measured_sides = _measured_sides(dag, caps, cap_cells, slot_of, slots)
-    slots.implied = _implied(dag, g, caps, cap_cells, slot_of)
+    slots.implied = _implied(dag, g, (caps, cap_owner, cap_cells), slot_of)
     temp = np.array([k == "temp" for k in slots.kinds], dtype=bool)
     prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs, temp)
     _name_temporaries(slots, arrays)
@@ -92,23 +92,31 @@ def _relations_to_caps(dag: Dag) -> tuple[list[tuple[int, float, float, Loc | No
     return caps, owner, cells
 
 
-def _implied(dag: Dag, g: DagArrays, caps: list, cells: list[int], slot_of: np.ndarray
-             ) -> set[int]:
-    """The slots that only implied equalities merge (no other constraint compares them).
-    Their proof gives the measured values they read (an orientation's angles) the values
-    the measured rows computed, so none if such a value enters any other constraint."""
+def _implied(dag: Dag, g: DagArrays, capped: tuple[list, list[int], list[int]],
+             slot_of: np.ndarray) -> set[int]:
+    """The slots that only implied equalities merge or cap (no other constraint compares
+    them; an implied entry the model computes as a constant caps the other side). Their
+    proof gives the measured values they read (an orientation's angles) the values the
+    measured rows computed, so none if such a value enters any other constraint."""
     if not any(c.implied for c in dag.constraints):
         return set()
+    caps, owners, cells = capped
     implied: set[int] = set()
     other: set[int] = set()
     own: list[int] = []
-    rest = [int(cap[0]) for cap in caps]
+    rest: list[int] = []
+    for cap, ci in zip(caps, owners, strict=True):
+        slot = int(slot_of[cap[0]])
+        (implied if dag.constraints[ci].implied else other).add(slot)
+        (own if dag.constraints[ci].implied else rest).append(int(cap[0]))
     for c in dag.constraints:
         slot = int(slot_of[c.lhs])
         if c.rel == "==" and slot >= 0 and slot == int(slot_of[c.rhs]):
             (implied if c.implied else other).add(slot)
             (own if c.implied else rest).extend((c.lhs, c.rhs))
-    moved = np.array(sorted({c for c in cells if c >= 0}), dtype=np.int64)
+    # the measured values (a constant the model computed is read anywhere: nothing moves it)
+    moved = np.array(sorted({c for c in cells if c >= 0 and dag.cells.get(c)}),
+                     dtype=np.int64)
     shared = live_nodes(dag, g, own)[moved] & live_nodes(dag, g, rest)[moved]
     return set() if shared.any() else implied - other
 
