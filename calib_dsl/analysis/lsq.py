@@ -78,9 +78,14 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
 
     half = np.concatenate([0.5 * (r[0][1] - r[0][0]) for r in done])
     d, jac, dq = mid(0), mid(1), mid(2)
-    # a row the others imply (ir/primitives.Slots.implied: an orientation's matrix entry,
-    # its angles measured) holds wherever they do: no residual of its own for a fit
-    implied = np.isin(ev.targets(), np.fromiter(prog.slots.implied, dtype=np.int64))
+    # an implied row that bounds a computed entry by a constant (ir/primitives.Slots.implied:
+    # an orientation's entry the model computes as 0, its angles measured) holds wherever
+    # the angle rows do; its bound is a few ulps, and a fit would weigh it beyond all others.
+    # (The implied rows between two computed sides keep their residuals: they guide a fit
+    # from far away, where the angles' atan2 may wrap.)
+    t = ev.targets()
+    capped = np.isfinite(prog.slots.lo[t]) | np.isfinite(prog.slots.hi[t])
+    implied = capped & np.isin(t, np.fromiter(prog.slots.implied, dtype=np.int64))
     d[implied], jac[implied], dq[implied] = 0.0, 0.0, 0.0
     return Linearized(d, half, jac, ev.targets(), dq,
                       np.concatenate([r[3] for r in done]),
