@@ -6,30 +6,20 @@ from __future__ import annotations
 
 import csv
 import json
-import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 from cli_run import run
+from planar_arm import simulated_arm, tip
 
 from calib_dsl.accuracy.grid import parse_grid
 from calib_dsl.frontend.diagnostics import CalError
-
-EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
-
-
-def tip(l1, l2, q1, q2):
-    return (l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2))
 
 
 @pytest.fixture(scope="module")
 def mapped(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("grid")
-    for name in ("planar_arm.cal", "planar_arm_robot.cal"):
-        shutil.copy(EXAMPLES / name, tmp)
-    assert run("simulate", "planar_arm.cal", "--configs", 10, "--seed", 5, "-o",
-               "planar_arm.csv", cwd=tmp).exit_code == 0
+    simulated_arm(tmp, 10, 5)
     res = run("predict", "planar_arm.cal", "-D", "e=0.01", "--grid", "q1=-1:1:0.5,q2=0:2:1",
               "--json", "g.json", "--csv", "g.csv", "-q", cwd=tmp)
     assert res.exit_code == 0, res.output

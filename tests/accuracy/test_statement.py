@@ -6,17 +6,14 @@ vector's residuals."""
 
 from __future__ import annotations
 
-import csv
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from planar_arm import simulated_arm, tip
 
-from calib_dsl import cli
 from calib_dsl.accuracy.points import certified_centre
 from calib_dsl.accuracy.statement import (
     accuracy,
@@ -34,24 +31,13 @@ from calib_dsl.report.accuracy import accuracy_json, render_accuracy
 from calib_dsl.report.strict_json import dumps, strict_loads
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLES = ROOT / "models" / "examples"
-
-
-def tip(l1, l2, q1, q2):
-    return (l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2))
 
 
 @pytest.fixture(scope="module")
 def arm(tmp_path_factory):
     """The planar arm solved on 12 simulated noisy rows: its report and the rows read."""
     tmp = tmp_path_factory.mktemp("arm")
-    for name in ("planar_arm.cal", "planar_arm_robot.cal"):
-        shutil.copy(EXAMPLES / name, tmp)
-    res = CliRunner().invoke(cli.main, ["simulate", str(tmp / "planar_arm.cal"), "--configs",
-                                        "12", "--seed", "3", "-o", str(tmp / "planar_arm.csv")])
-    assert res.exit_code == 0, res.output
-    with open(tmp / "planar_arm.csv") as f:
-        rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    rows = simulated_arm(tmp, 12, 3)
     return solve_report(SolveRequest(tmp / "planar_arm.cal")), rows
 
 

@@ -4,41 +4,25 @@ kinematics written out by hand (x = l1 cos q1 + l2 cos(q1 + q2), y likewise)."""
 
 from __future__ import annotations
 
-import csv
-import shutil
-from pathlib import Path
-
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from planar_arm import simulated_arm, tip
 
-from calib_dsl import cli
 from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.pipeline import load, solve
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 Q_ERR, XY_ERR = 1e-6, 1e-4  # planar_arm.cal's bounds
-
-
-def tip(l1, l2, q1, q2):
-    return (l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2))
 
 
 @pytest.fixture(scope="module")
 def arm(tmp_path_factory):
     """The planar arm solved on 12 simulated noisy rows: program, box, the rows read."""
     tmp = tmp_path_factory.mktemp("arm")
-    for name in ("planar_arm.cal", "planar_arm_robot.cal"):
-        shutil.copy(EXAMPLES / name, tmp)
-    res = CliRunner().invoke(cli.main, ["simulate", str(tmp / "planar_arm.cal"), "--configs",
-                                        "12", "--seed", "7", "-o", str(tmp / "planar_arm.csv")])
-    assert res.exit_code == 0, res.output
+    rows = simulated_arm(tmp, 12, 7)
     prog = load(tmp / "planar_arm.cal")
     sol = solve(prog)
     box = {n: (float(sol.lo[k]), float(sol.hi[k]))
            for n, k in zip(prog.slots.declared_names, prog.slots.declared, strict=True)}
-    with open(tmp / "planar_arm.csv") as f:
-        rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
     return prog, box, rows
 
 
