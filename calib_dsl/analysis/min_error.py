@@ -107,11 +107,24 @@ def min_error(problem: Trials, name: str, solve: Solver,
 
 def _upper(name: str, problem: Trials, prog: Program, rows: np.ndarray
            ) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
-    """The smallest bound proven feasible: the Chebyshev fit's point, or the fit continued
+    """The smallest bound proven feasible (_fitted). The fit starts from least squares,
+    which may leave a row of another bound beyond it (the const's rows weigh more); no
+    raise of the const mends that row, so where no point is proven the fit starts again
+    from the point with the least largest residual in bounds over every row."""
+    try:
+        return _fitted(name, problem, prog, rows, None)
+    except CalError:
+        start, _ = chebyshev(prog, None, normalized=True)
+        return _fitted(name, problem, prog, rows, start)
+
+
+def _fitted(name: str, problem: Trials, prog: Program, rows: np.ndarray,
+            start: np.ndarray | None) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
+    """The Chebyshev fit's point (from `start`, else least squares), or the fit continued
     with the joint readings free (their errors lower it further), whichever is certified at
     the smaller bound (a point the readings' step moves may break a row by more than its
     linear model said: then the plain fit's may be the smaller)."""
-    point, need = chebyshev(prog, rows)
+    point, need = chebyshev(prog, rows, start=start)
     step = with_readings(prog, point, rows)
     found: list[tuple[float, Program, np.ndarray, np.ndarray | None]] = []
     if step is not None and step[2] < need:
