@@ -83,10 +83,11 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
     # the angle rows do; its bound is a few ulps, and a fit would weigh it beyond all others.
     # (The implied rows between two computed sides keep their residuals: they guide a fit
     # from far away, where the angles' atan2 may wrap.)
-    t = ev.targets()
-    capped = np.isfinite(prog.slots.lo[t]) | np.isfinite(prog.slots.hi[t])
-    implied = capped & np.isin(t, np.fromiter(prog.slots.implied, dtype=np.int64))
-    d[implied], jac[implied], dq[implied] = 0.0, 0.0, 0.0
+    if prog.slots.implied:  # (a fit evaluates every row many times: only where some are)
+        t = ev.targets()
+        capped = np.isfinite(prog.slots.lo[t]) | np.isfinite(prog.slots.hi[t])
+        implied = capped & np.isin(t, np.fromiter(prog.slots.implied, dtype=np.int64))
+        d[implied], jac[implied], dq[implied] = 0.0, 0.0, 0.0
     return Linearized(d, half, jac, ev.targets(), dq,
                       np.concatenate([r[3] for r in done]),
                       np.concatenate([r[0][0] for r in done]),
