@@ -59,6 +59,7 @@ class Inputs:
     rows: Mapping[str, Selection] = field(default_factory=dict)
     consts: Mapping[str, str] = field(default_factory=dict)
     unroll: bool = False  # every loop unrolled, none compiled once for all rows (--unroll)
+    distinct_cells: bool = False  # exact cells never shared between rows (ir/dag.Dag)
 
 
 def elaborate(path: str | Path, *, formulation: str = "matrix", data: str | Path | None = None,
@@ -120,7 +121,7 @@ class Elaborator(Statements, Expressions, Loops, Batching, Robots, Tables, Measu
     """One elaboration: the shared state, and each AST node type's part."""
 
     def __init__(self, formulation: str, inputs: Inputs, simulate_rows: int | None) -> None:
-        self.dag = Dag()
+        self.dag = Dag(distinct_cells=inputs.distinct_cells)
         self.formulation = formulation
         self.data = dict(inputs.data)
         self.selections = dict(inputs.rows)

@@ -93,6 +93,11 @@ class Dag:
     # What builders derive from the DAG and may ask for again (nodes never change, so an
     # entry stays valid as long as the DAG): e.g. the robot layer's chain matrices.
     memo: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    # Every measured cell a node of its own that is never folded, exact ones too (equal exact
+    # readings of two rows otherwise share a node, and a reading of 0 folds sin(q) away):
+    # for callers that need every row's part of the program alike and depending on that
+    # row's cells only (plan's rows by configuration).
+    distinct_cells: bool = False
 
     def __post_init__(self) -> None:
         for i, node in enumerate(self.nodes):  # a DAG built from given nodes
@@ -133,7 +138,12 @@ class Dag:
     def cell(self, lo: float, hi: float, table: str, column: str, row: int) -> int:
         """A measured value [lo, hi], remembered as table.column[row] (for the tight strategy,
         which linearizes in the measurement errors of one configuration at a time)."""
-        node = self.const(lo, hi, unique=True)
+        if self.distinct_cells and lo == hi:  # as an uncertain value: every row alike
+            node = self._intern(Node("const", (), (float(lo) + 0.0, float(hi) + 0.0,
+                                                   len(self.nodes))))
+            self._points[node] = None
+        else:
+            node = self.const(lo, hi, unique=True)
         self.cells.setdefault(node, set()).add((table, column, row))
         self._folds[node] = self._points[node] is not None  # uncertain: never folded
         return node

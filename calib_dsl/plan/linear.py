@@ -77,7 +77,7 @@ def linearize(model_path: str | Path, configs: Configurations, formulation: str 
     declared ones (a solve's box, when planning after measured rows)."""
     cells = candidate_cells(_table(model_path, configs, formulation, consts), configs)
     inputs = Inputs(data={configs.table: Values(cells, "<candidates>")},  # type: ignore[arg-type]
-                    consts=dict(consts or {}))
+                    consts=dict(consts or {}), distinct_cells=True)
     model, prog = load_model(model_path, formulation, inputs=inputs, centre=False)
     t = table_of(model, configs.table)
     ind = independents(prog)
