@@ -224,7 +224,10 @@ def test_a_6dof_base_gets_its_own_block_in_mm(tmp_path):
 
 
 @pytest.mark.parametrize("data, message", [
-    ({"status": "infeasible", "parameters": {}}, "no guaranteed box"),
+    ({"status": "infeasible", "parameters": {}}, "proved the data inconsistent"),
+    ({"model": "m.cal", "min_error": {"name": "e", "bracket": [0.5, 0.52]}},
+     "a --min-error result: export a solve at a bound the bracket proves consistent, calibc "
+     "solve --json FILE -D e=0.52"),
     ({"status": "contracted", "parameters": {"x": {"result": [0, 1], "kind": "param",
                                                    "true": None}}}, "does not name its model"),
     ({"status": "contracted", "model": "nowhere.cal",

@@ -63,11 +63,22 @@ class Request:
     convention: str | None = None  # the joints in mdh or dh (default: the model's)
 
 
+def _why_none(data: dict[str, Any]) -> str:
+    found = data.get("min_error")
+    if isinstance(found, dict):
+        bracket = found.get("bracket") or [None, None]
+        hi = bracket[1] if len(bracket) == 2 and bracket[1] is not None else "UPPER"
+        return ("it is a --min-error result: export a solve at a bound the bracket proves "
+                f"consistent, calibc solve --json FILE -D {found.get('name', 'NAME')}={hi}")
+    if data.get("status") == "infeasible":
+        return "the solve proved the data inconsistent: there is no box"
+    return "calibc solve --json FILE writes one"
+
+
 def export(data: dict[str, Any], request: Request) -> str:
     """The result of a solve (its JSON, `data`) in the format asked."""
     if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
-        raise CalError("the result holds no guaranteed box to export (calibc solve --json "
-                       "writes one; an infeasible solve has none)")
+        raise CalError(f"the result holds no guaranteed box to export ({_why_none(data)})")
     kind = EXPORTS.get(request.fmt)
     if kind is None:
         raise CalError(f"unknown export format '{request.fmt}' (one of {', '.join(EXPORTS)})")
