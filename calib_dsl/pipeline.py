@@ -125,7 +125,7 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
         cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
     else:
         cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
-                                              max_cell_columns=settings.max_cell_columns),
+                                              max_cell_columns=settings.rounds.max_cell_columns),
                          points=points, certify=certify)
     return sol, predict(model, at, inputs, cal, formulation, at_rows=at_rows)
 
@@ -163,13 +163,13 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
 
 
 def conflict(model: str | Path | Problem, formulation: str = "matrix",
-             inputs: Inputs | None = None) -> Conflict | None:
+             inputs: Inputs | None = None, settings: Settings = DEFAULT) -> Conflict | None:
     """For data proven inconsistent: the worst rows without which the rest is proven
     consistent (None when the model has no table). `model`: its file, or the problem
     loaded already (then `formulation` and `inputs` are its own)."""
     problem = model if isinstance(model, Problem) else \
         Problem.load(model, formulation, inputs or Inputs())
-    return find_conflict(problem.inputs, problem.loader())
+    return find_conflict(problem.inputs, problem.loader(), settings.outliers)
 
 
 @dataclass
@@ -289,7 +289,8 @@ def outlier_report(request: SolveRequest, problem: Problem,
     if left == 0:
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
-        found_more = find_conflict(given, loader) if res.status == "infeasible" else None
+        found_more = (find_conflict(given, loader, settings.outliers)
+                      if res.status == "infeasible" else None)
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
     else:
@@ -336,7 +337,7 @@ def report_on(request: SolveRequest, problem: Problem,
         sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
     found = None
     if res.status == "infeasible" and r.diagnose:
-        found = conflict(problem)
+        found = conflict(problem, settings=settings)
     sections.leverage(extra, prog, res, elaborated, settings.routine_max_primitives)
     return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
                        verdict=verdict, problem=problem)

@@ -151,7 +151,7 @@ class _Rounds:
         self.never = (np.isin(self.ind, spec.unsolved) if spec.unsolved is not None
                       else self.skip.copy())
         self.moved = np.zeros(len(self.ind), dtype=bool)
-        self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
+        self.cellular = measured_cells(spec.prog) <= spec.settings.rounds.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
         if spec.fine_certs is not None:
             self.fine_certs = spec.fine_certs
@@ -184,7 +184,7 @@ class _Rounds:
     def relaxation(self) -> _Round | None:
         """This round's relaxation, or None when none can be built."""
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
-        self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
+        self.reuse = self.reuse and self.reused_in_a_row < s.rounds.reuse_rounds
         if self.fine:
             fine = self._fine_relaxation()
             if fine is None:  # (beyond the models' memory bound, or no readings to keep)
@@ -197,11 +197,11 @@ class _Rounds:
         first = None
         if not ((self.reuse and certs.family == SECOND_ORDER and order2) or ending):
             first = relax(prog, self.lo, self.hi, cell_variables=self.cells,
-                          max_cell_columns=s.max_cell_columns, rows=self.spec.rows)
+                          max_cell_columns=s.rounds.max_cell_columns, rows=self.spec.rows)
             if first is None:
                 return None
-        wide = order2 and (first is None or first.curvature > s.wide)
-        quad = (relax_quadratic(prog, self.lo, self.hi, s.prune, rows=self.spec.rows) if wide
+        wide = order2 and (first is None or first.curvature > s.rounds.wide)
+        quad = (relax_quadratic(prog, self.lo, self.hi, s.rounds.prune, rows=self.spec.rows) if wide
                 else None)
         if quad is None and first is None:  # (cannot happen: a first round built them)
             return None
@@ -234,10 +234,10 @@ class _Rounds:
         if this.quad is None:
             return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        wide = replace(lp, iterations=s.wide_iterations, seconds=s.wide_seconds)
+        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds)
         tl, th = _bounds(rel, n, self.skip, certs, this.fresh, wide,
-                         solver=s.wide_solver, probes=s.wide_probes,
-                         own_bases=s.wide_own_bases)
+                         solver=s.rounds.wide_solver, probes=s.rounds.wide_probes,
+                         own_bases=s.rounds.wide_own_bases)
         tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
         return to_box(ex, tl, th)
 
@@ -264,7 +264,7 @@ class _Rounds:
         self.work = self.work + Work(sweeps=res.sweeps)
         if res.status != "contracted":
             self.emptied = res.emptied or Emptied("?", None, None)
-        self.moved |= gains >= spec.settings.stalled
+        self.moved |= gains >= spec.settings.rounds.stalled
         self.last_family, self.last_fresh = this.target.family, this.fresh
         return gains
 
@@ -287,7 +287,7 @@ class _Rounds:
         if not this.fresh:  # reused multipliers: again while they pay, else the LPs again
             self.reused_in_a_row += 1
             self.work = self.work + Work(reused_rounds=1)
-            self.reuse = best >= s.reuse_gain
+            self.reuse = best >= s.rounds.reuse_gain
             return True
         self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.fine))
         self.kind_rounds += 1
@@ -299,13 +299,13 @@ class _Rounds:
         # certify anything narrower, and each try costs an expansion; docs/decisions/12)
         wide = this.quad is not None
         self.reuse = self.cells or (wide and not self.fine
-                                    and (this.first or this.target).curvature > s.wide)
+                                    and (this.first or this.target).curvature > s.rounds.wide)
         self.reused_in_a_row = 0
         if wide:
             # every unknown in the next one: rounds of LPs are rare between reused rounds,
             # and one that did not move may move after them
             self.skip = np.zeros_like(self.skip)
-            if best >= (s.fine_min_gain if self.fine else s.wide_min_gain):
+            if best >= (s.rounds.fine_min_gain if self.fine else s.rounds.wide_min_gain):
                 return True
             # else neither order contracts this box, unless the other kind of fine rounds
             # may: McCormick's where the readings' gained nothing from their first round,
@@ -341,7 +341,7 @@ class _Rounds:
         cost = self.fine_certs.remainder_cost(this.quad[0], len(self.ind))
         with np.errstate(invalid="ignore", divide="ignore"):
             share = np.where(width > 0, cost / np.where(width > 0, width, 1.0), 0.0)
-        if share.max(initial=0.0) < self.spec.settings.readings_cost:
+        if share.max(initial=0.0) < self.spec.settings.rounds.readings_cost:
             return False
         self.fine_readings = self.readings_mccormick = self.both_tried = True
         self.kind_rounds = 0
@@ -352,27 +352,27 @@ class _Rounds:
         assert this.first is not None  # built in every first-order round
         # once the model is linear over the box to within a small part of the data's
         # errors, relaxing again gives the same LP: only the cell columns can still gain
-        settled = this.first.remainder_share < s.settled
+        settled = this.first.remainder_share < s.rounds.settled
         if self.cells:
-            if best < s.min_gain or settled:
+            if best < s.rounds.min_gain or settled:
                 return self._fine_rounds(this)
-            self.skip = (gains < s.min_gain) & ~self.skip  # tried again a round later
+            self.skip = (gains < s.rounds.min_gain) & ~self.skip  # tried again a round later
             return True
         if settled and not self.cellular:
             return self._fine_rounds(this)  # the next round would solve the same LP
-        if best < s.folded_until and not self.cellular:
+        if best < s.rounds.folded_until and not self.cellular:
             # a round with the errors as columns would fold them again (too many): the same
             # relaxation; folded rounds go on while they pay
-            if best < s.min_gain:
+            if best < s.rounds.min_gain:
                 return self._fine_rounds(this)
-            self.skip = (gains < s.stalled) & ~self.skip
+            self.skip = (gains < s.rounds.stalled) & ~self.skip
             return True
-        if best < s.folded_until or settled:
+        if best < s.rounds.folded_until or settled:
             # a tighter relaxation: every unknown again, but one that no round has moved
             # (a parameter known beforehand)
             self.cells, self.skip = True, ~self.moved
         else:
-            self.skip = (gains < s.stalled) & ~self.skip
+            self.skip = (gains < s.rounds.stalled) & ~self.skip
         return True
 
 
@@ -382,9 +382,9 @@ class _Rounds:
         `remainder_readings`, with the readings' errors as LP columns)."""
         assert this.first is not None
         s, share = self.spec.settings, this.first.remainder_share
-        if not self.spec.second_order or self.fine or share < s.remainder_readings:
+        if not self.spec.second_order or self.fine or share < s.rounds.remainder_readings:
             return False
-        if share < s.remainder_wide:
+        if share < s.rounds.remainder_wide:
             self.fine_readings = True
         self.fine, self.cells, self.reuse = True, False, False
         self.skip, self.kind_rounds = np.zeros_like(self.skip), 0
@@ -410,14 +410,14 @@ def _narrowed_bounds(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray, th: n
     products of the new bounds) they certify narrower bounds, and so on while some unknown
     narrows by `narrowed_gain` (a matrix product each, no new expansion)."""
     n = rel.main
-    for _ in range(s.narrowed_rounds):
+    for _ in range(s.rounds.narrowed_rounds):
         if np.any(tl > th):
             break  # no solution: the caller says so
         lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs, s.lp.dense_entries)
         lo, hi = np.maximum(lo, tl), np.minimum(hi, th)
         gain = _gains(th - tl, hi - lo).max(initial=0.0)
         tl, th = lo, hi
-        if gain < s.narrowed_gain:
+        if gain < s.rounds.narrowed_gain:
             break
     return tl, th
 
