@@ -18,7 +18,7 @@ import numpy as np
 from calib_dsl import sections
 from calib_dsl.accuracy.extremes import linearized_optima, pulled_back
 from calib_dsl.accuracy.points import centre_witness
-from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, predict
+from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, predict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -102,16 +102,19 @@ def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps:
                        progress=progress)
 
 
-def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
+def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "matrix",
                inputs: Inputs | None = None, strategy: str = "tight",
                at_rows: Selection | None = None, progress: Progress | None = None,
                settings: Settings = DEFAULT) -> tuple[Solution, Prediction | None]:
     """Calibrate on the model's data, then predict its measurements at the configurations of
     the file `at` (its rows `at_rows`) for every parameter vector consistent with the data
     (None when the data are inconsistent), with certified inner intervals: the predictions
-    at the certified points of the solve's inner bounds."""
-    inputs = inputs or Inputs()
-    _, prog = load_model(model, formulation, inputs=inputs)
+    at the certified points of the solve's inner bounds. `model`: its file, or the problem
+    loaded already (then `formulation` and `inputs` are its own); the configurations' model
+    is derived from it where it allows (Problem.with_table)."""
+    problem = model if isinstance(model, Problem) else \
+        Problem.load(model, formulation, inputs or Inputs())
+    prog = problem.program
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == "infeasible":
         return sol, None
@@ -127,7 +130,9 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
         cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
                                               max_cell_columns=settings.rounds.max_cell_columns),
                          points=points, certify=certify)
-    return sol, predict(model, at, inputs, cal, formulation, at_rows=at_rows)
+    source = Source(problem.path, problem.formulation, problem.inputs, problem.model,
+                    problem.with_table)
+    return sol, predict(source, at, cal, at_rows=at_rows)
 
 
 Certify = Callable[[np.ndarray, np.ndarray], list]
