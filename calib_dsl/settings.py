@@ -193,7 +193,7 @@ class RoundsSettings:
 @dataclass(frozen=True)
 class SamplingSettings:
     """Work on some of a table's rows before all of them: the rounds' working set
-    (strategy/working.py)."""
+    (strategy/working.py) and the least-squares estimate's sample (analysis/lsq.py)."""
 
     # The rounds of LPs over a loop of table rows start on this many of its rows, evenly
     # spread (strategy/working.py), and rows join while the LPs' optima violate them: a
@@ -205,6 +205,17 @@ class SamplingSettings:
     # At most this many checks of the optima on every row (each a fine second-order round
     # on the working set and a point check per bound on every row).
     working_passes: int = 2
+    # A least-squares estimate (analysis/lsq.py) over many configurations starts on an
+    # evenly spread sample of them, a tenth, at least lsq_min_rows and at most lsq_rows,
+    # then is polished on every row with lsq_polish evaluations (then more if needed)
+    # (docs/decisions/11).
+    lsq_rows: int = 1000
+    lsq_min_rows: int = 100
+    lsq_polish: int = 10
+    # A Levenberg-Marquardt-type fit needs a few evaluations per unknown from a far start (its
+    # Jacobian's columns explored once each, then the nearly linear end): the smallest budget
+    # of a fit that did not stop on a tolerance, per unknown.
+    lsq_per_unknown: int = 10
 
 
 @dataclass(frozen=True)
