@@ -2,8 +2,11 @@
 
 A strategy receives one frozen `Settings` from its caller and hands the parts its contractors
 need down to them; the constants of one concern form a group of their own (`LPSettings`,
-`OutlierSettings`). Only the pipeline, the API and the command line read `DEFAULT`: below
-them every function takes its caller's settings (tests/test_house.py). These are choices of
+`RoundsSettings`, `SamplingSettings`, `OutlierSettings`, `InnerSettings`: `GROUPS`), and
+`tuned(name=value)` sets any field by its own name. Only the pipeline, the API and the
+command line read `DEFAULT`: below them every function takes its caller's settings, and a
+number bound at module level there is arithmetic, not a tuning (tests/test_house.py,
+`NOT_TUNING`; analysis/'s modules are not yet checked). These are choices of
 speed against tightness; none of them can make a result unsound (soundness rests on outward
 rounding, which has no knobs). Input limits that guard against runaway models live with the
 front end and the elaborator, not here.
