@@ -234,8 +234,8 @@ def predict(problem: Problem, at: str | Path, *, rows: Rows | None = None,
     file `at` (its `rows`) for every parameter vector consistent with the data, as
     `calibc predict`. Inconsistent data raise `Inconsistent`."""
     selection = None if rows is None else Selection(_ranges(rows))
-    _, found = pipeline.predict_at(problem.path, at, problem.formulation, problem.inputs,
-                                   strategy, selection, progress)
+    _, found = pipeline.predict_at(problem, at, strategy=strategy, at_rows=selection,
+                                   progress=progress)
     if found is None:
         raise Inconsistent("the data are inconsistent (the solve proved it): nothing to "
                            "predict")

@@ -18,7 +18,7 @@ import numpy as np
 from calib_dsl import sections
 from calib_dsl.accuracy.extremes import linearized_optima, pulled_back
 from calib_dsl.accuracy.points import centre_witness
-from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, predict
+from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, predict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -102,16 +102,19 @@ def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps:
                        progress=progress)
 
 
-def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
+def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "matrix",
                inputs: Inputs | None = None, strategy: str = "tight",
                at_rows: Selection | None = None, progress: Progress | None = None,
                settings: Settings = DEFAULT) -> tuple[Solution, Prediction | None]:
     """Calibrate on the model's data, then predict its measurements at the configurations of
     the file `at` (its rows `at_rows`) for every parameter vector consistent with the data
     (None when the data are inconsistent), with certified inner intervals: the predictions
-    at the certified points of the solve's inner bounds."""
-    inputs = inputs or Inputs()
-    _, prog = load_model(model, formulation, inputs=inputs)
+    at the certified points of the solve's inner bounds. `model`: its file, or the problem
+    loaded already (then `formulation` and `inputs` are its own); the configurations' model
+    is derived from it where it allows (Problem.with_table)."""
+    problem = model if isinstance(model, Problem) else \
+        Problem.load(model, formulation, inputs or Inputs())
+    prog = problem.program
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == "infeasible":
         return sol, None
@@ -125,9 +128,11 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
         cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
     else:
         cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
-                                              max_cell_columns=settings.max_cell_columns),
+                                              max_cell_columns=settings.rounds.max_cell_columns),
                          points=points, certify=certify)
-    return sol, predict(model, at, inputs, cal, formulation, at_rows=at_rows)
+    source = Source(problem.path, problem.formulation, problem.inputs, problem.model,
+                    problem.with_table)
+    return sol, predict(source, at, cal, at_rows=at_rows)
 
 
 Certify = Callable[[np.ndarray, np.ndarray], list]
@@ -163,13 +168,13 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
 
 
 def conflict(model: str | Path | Problem, formulation: str = "matrix",
-             inputs: Inputs | None = None) -> Conflict | None:
+             inputs: Inputs | None = None, settings: Settings = DEFAULT) -> Conflict | None:
     """For data proven inconsistent: the worst rows without which the rest is proven
     consistent (None when the model has no table). `model`: its file, or the problem
     loaded already (then `formulation` and `inputs` are its own)."""
     problem = model if isinstance(model, Problem) else \
         Problem.load(model, formulation, inputs or Inputs())
-    return find_conflict(problem.inputs, problem.loader())
+    return find_conflict(problem.inputs, problem.loader(), settings.outliers)
 
 
 @dataclass
@@ -289,7 +294,8 @@ def outlier_report(request: SolveRequest, problem: Problem,
     if left == 0:
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
-        found_more = find_conflict(given, loader) if res.status == "infeasible" else None
+        found_more = (find_conflict(given, loader, settings.outliers)
+                      if res.status == "infeasible" else None)
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
     else:
@@ -336,7 +342,7 @@ def report_on(request: SolveRequest, problem: Problem,
         sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
     found = None
     if res.status == "infeasible" and r.diagnose:
-        found = conflict(problem)
+        found = conflict(problem, settings=settings)
     sections.leverage(extra, prog, res, elaborated, settings.routine_max_primitives)
     return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
                        verdict=verdict, problem=problem)

@@ -9,7 +9,9 @@ its table left out are derived from the elaborated model where it allows
 (elaborate/subset.py: then the derived model is compiled, never elaborated), and so are
 consts that are only error bounds set to other values; other inputs (rows added, another
 file, a const read elsewhere) are elaborated anew. `on_domains` puts a program on
-another's domains (a proof about other rows must hold on the same box).
+another's domains (a proof about other rows must hold on the same box). `with_table` reads
+another file's rows as its table's (the configurations a prediction is at), derived too
+where the model allows.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
-from calib_dsl.elaborate.subset import derivable, rows_of, with_tolerance
+from calib_dsl.elaborate.subset import derivable, rows_of, with_table, with_tolerance
+from calib_dsl.elaborate.tables import CsvData
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.proof import pinned
@@ -161,6 +164,15 @@ class Problem:
         error bound of columns alone (`with_tolerance`), else elaborated anew (a const may
         fold into any node of the DAG)."""
         return self.derive(replace(self.inputs, consts={**self.inputs.consts, **values}))
+
+    def with_table(self, data: CsvData) -> tuple[Model, Program] | None:
+        """The model with the rows `data` as its table's (every column, in the file's
+        units) and its program, on the declared domains (the caller puts its own on them):
+        derived without elaborating; None where the model does not allow it (then the
+        caller elaborates it with the file)."""
+        model = with_table(self.model, data, _unrolled)
+        prog = None if model is None else _compiled(model, centre=False)
+        return None if model is None or prog is None else (model, prog)
 
     def on_domains(self, prog: Program) -> Problem:
         """This problem's program on `prog`'s domains of the declared unknowns (and its

@@ -2,8 +2,11 @@
 
 A strategy receives one frozen `Settings` from its caller and hands the parts its contractors
 need down to them; the constants of one concern form a group of their own (`LPSettings`,
-`OutlierSettings`). Only the pipeline, the API and the command line read `DEFAULT`: below
-them every function takes its caller's settings (tests/test_house.py). These are choices of
+`RoundsSettings`, `SamplingSettings`, `OutlierSettings`, `InnerSettings`: `GROUPS`), and
+`tuned(name=value)` sets any field by its own name. Only the pipeline, the API and the
+command line read `DEFAULT`: below them every function takes its caller's settings, and a
+number bound at module level there is arithmetic, not a tuning (tests/test_house.py,
+`NOT_TUNING`; analysis/'s modules are not yet checked). These are choices of
 speed against tightness; none of them can make a result unsound (soundness rests on outward
 rounding, which has no knobs). Input limits that guard against runaway models live with the
 front end and the elaborator, not here.
@@ -12,7 +15,8 @@ front end and the elaborator, not here.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -107,16 +111,29 @@ class OutlierSettings:
     # the least-squares fit satisfies is none.
     extra_candidates: int = 2
     min_residual: float = 1.0
+    # Naming what makes data inconsistent (conflict.py): rows left out at most (each count
+    # k tries the k worst rows; beyond a few, the fault is rarely rows);
+    conflict_rows: int = 3
+    # the widened domains that test the priors (prior_faults.py): this many times the
+    # declared half-widths, far enough for a wrong prior's value, near enough to fit from;
+    prior_widen: float = 10.0
+    # the units (unit_hints.py): least squares leaves data drawn within their bounds with
+    # most residuals near a bound (the largest just over it), and this quantile of them
+    # measures the bound, a few gross rows aside; a bound in the wrong unit leaves more than
+    # unit_most of the rows beyond it; a joint turns at most unit_turns turns either way (a
+    # UR's limits are +- 2 pi), readings beyond are not radians; the robust fit takes at
+    # most unit_evaluations evaluations from the least-squares estimate (nearby).
+    unit_quantile: float = 0.9
+    unit_most: float = 0.5
+    unit_turns: int = 2
+    unit_evaluations: int = 50
 
 
 @dataclass(frozen=True)
-class Settings:
-    # -- propagation ---------------------------------------------------------------------
-    # Between LP rounds: a small box is enough, not a fixed point (the next relaxation
-    # contracts far more than the last sweeps would).
-    preliminary_tol: float = 1e-2
+class RoundsSettings:
+    """The rounds of LPs (strategy/rounds.py): which relaxation each round takes, when a
+    phase ends and which follows, when the last LPs' multipliers are reused."""
 
-    # -- rounds of LPs (strategy/rounds.py) --------------------------------------------------
     max_rounds: int = 40  # rounds of LPs at most, a guard: real solves stop far sooner
     min_gain: float = 0.1  # a cell round gaining less than this (relative width) is the last
     # Measurement errors get LP columns of their own (the hull of the linearized problem)
@@ -171,12 +188,15 @@ class Settings:
     # relaxation narrowed to them, while that narrows some unknown by narrowed_gain.
     narrowed_rounds: int = 10
     narrowed_gain: float = 0.01
+    # A product goes back into the remainders when that costs no row more than this share of
+    # its width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
+    prune: float = 0.25
 
-    # A program over this many slots whose loop over table rows was compiled once is
-    # relaxed and evaluated a chunk of rows at a time (compile/chunks.py): each slot holds a
-    # gradient or a model in every unknown during a pass, so memory follows the chunk, not
-    # the rows.
-    chunk_slots: int = 150_000
+
+@dataclass(frozen=True)
+class SamplingSettings:
+    """Work on some of a table's rows before all of them: the rounds' working set
+    (strategy/working.py) and the least-squares estimate's sample (analysis/lsq.py)."""
 
     # The rounds of LPs over a loop of table rows start on this many of its rows, evenly
     # spread (strategy/working.py), and rows join while the LPs' optima violate them: a
@@ -188,6 +208,33 @@ class Settings:
     # At most this many checks of the optima on every row (each a fine second-order round
     # on the working set and a point check per bound on every row).
     working_passes: int = 2
+    # A least-squares estimate (analysis/lsq.py) over many configurations starts on an
+    # evenly spread sample of them, a tenth, at least lsq_min_rows and at most lsq_rows,
+    # then is polished on every row with lsq_polish evaluations (then more if needed)
+    # (docs/decisions/11).
+    lsq_rows: int = 1000
+    lsq_min_rows: int = 100
+    lsq_polish: int = 10
+    # A Levenberg-Marquardt-type fit needs a few evaluations per unknown from a far start (its
+    # Jacobian's columns explored once each, then the nearly linear end): the smallest budget
+    # of a fit that did not stop on a tolerance, per unknown.
+    lsq_per_unknown: int = 10
+
+
+@dataclass(frozen=True)
+class Settings:
+    # -- propagation ---------------------------------------------------------------------
+    # Between LP rounds: a small box is enough, not a fixed point (the next relaxation
+    # contracts far more than the last sweeps would).
+    preliminary_tol: float = 1e-2
+
+
+    # A program over this many slots whose loop over table rows was compiled once is
+    # relaxed and evaluated a chunk of rows at a time (compile/chunks.py): each slot holds a
+    # gradient or a model in every unknown during a pass, so memory follows the chunk, not
+    # the rows.
+    chunk_slots: int = 150_000
+
 
     # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------
     # A bound on the models' memory: slots x n(n+1)/2 coefficients (each group keeps its
@@ -195,9 +242,6 @@ class Settings:
     # and the strategies keep to first order rather than exhaust the memory.
     max_table_bytes: float = 600e6
 
-    # A product goes back into the remainders when that costs no row more than this share of
-    # its width (data error plus remainder): fewer LP columns, a slightly looser relaxation.
-    prune: float = 0.25
 
     # -- the change of unknowns (strategy/reparametrize.py) -----------------------------------
     snap: float = 1e-9  # a coefficient this close to an integer (relative) is that integer
@@ -241,6 +285,9 @@ class Settings:
     # too tight leave every row near 1; one faulty coordinate leaves its row far beyond.
     verdict_outlier_bounds: float = 2.0
     verdict_outlier_rows: int = 3  # such rows tried at most, the worst first
+    # The least-squares fit from the result's middle that a verdict starts from (near the
+    # solutions): at most this many evaluations of the residuals.
+    verdict_lsq: int = 100
     # --min-error's trials where the solves left a bracket over 2 % wide: a trial the solve
     # leaves open gets at most this share of the solve's time for a proof (fine rounds, a
     # split): the lower end is only as high as the highest bound proven infeasible, and a
@@ -269,6 +316,10 @@ class Settings:
     outliers: OutlierSettings = OutlierSettings()
     # -- inner bounds (inner/) -------------------------------------------------------------
     inner: InnerSettings = InnerSettings()
+    # -- rounds of LPs (strategy/rounds.py) ----------------------------------------------
+    rounds: RoundsSettings = RoundsSettings()
+    # -- the working set of rows (strategy/working.py) -----------------------------------
+    sampling: SamplingSettings = SamplingSettings()
 
     # -- planning a campaign (plan/) -------------------------------------------------------
     # The domains counted as information in the classical designs, in units where a uniform
@@ -281,6 +332,9 @@ class Settings:
     # whole set, not all: a member is worth leaving only for one of them.
     plan_shortlist: int = 200
     plan_tries: int = 4  # members and candidates paired per round of the LP exchange
+    # A swap of the LP exchange must lower the score by this much: less is within the LPs'
+    # tolerance, and the exchange would chase it.
+    plan_improvement: float = 1e-6
     # The LP exchange's budget, in hulls (a hull: two LPs per unknown; about 0.1 s for 23
     # unknowns and 30 configurations on a loaded host): a count, so a plan is reproducible.
     plan_lp_hulls: int = 40
@@ -322,9 +376,36 @@ class Settings:
     # boundary, where the relaxation's optima lie beyond it
     prediction_linear_lps: int = 64
 
+    def tuned(self, **changes: Any) -> Settings:
+        """These settings with some fields changed, each named by its own name whether it is
+        a field of Settings or of one of its groups (`tuned(working_rows=6, stalled=0)`):
+        the flat names callers knew before the groups, kept working. A name two groups
+        share goes to the first of GROUPS (max_rounds: the rounds'); `group__name` names
+        any group's (`outliers__max_rounds=3`)."""
+        flat = {f.name for f in fields(self)}
+        groups: dict[str, dict[str, Any]] = {}
+        mine: dict[str, Any] = {}
+        for name, value in changes.items():
+            group, _, field = name.rpartition("__")
+            if not group:
+                group = next((g for g in GROUPS if name not in flat and field in _names(g)),
+                             "")
+            if not group and name not in flat:
+                raise TypeError(f"Settings has no field {name!r}")
+            (groups.setdefault(group, {}) if group else mine)[field] = value
+        mine.update({g: replace(getattr(self, g), **v) for g, v in groups.items()})
+        return replace(self, **mine)
+
     @property
     def piece_lp_threads(self) -> int:
         return max(1, self.lp.workers // self.piece_processes)
+
+
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers")  # Settings' fields that are groups
+
+
+def _names(group: str) -> set[str]:
+    return {f.name for f in fields(getattr(Settings, group))}
 
 
 DEFAULT = Settings()

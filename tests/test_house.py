@@ -115,3 +115,75 @@ def test_the_load_check_sees_one():
                     "p = problem.load_model('a.cal')\n")
     assert loads(bad) == [2, 3]
     assert any(n.startswith("calib_dsl.outliers.") for n in ALL)
+
+
+# Module constants that are numbers: tuning constants belong in settings.py (a group per
+# concern, passed down by the caller), so that a caller's Settings reaches them. A number
+# that is not a choice of speed against tightness stays where it is used, named here with why.
+TUNED_ROOMS = ("calib_dsl.strategy", "calib_dsl.relax", "calib_dsl.lp", "calib_dsl.inner",
+               "calib_dsl.outliers", "calib_dsl.accuracy", "calib_dsl.plan")
+NOT_TUNING = {
+    # floating point and its rounding: what makes a bound outward, not a choice
+    "calib_dsl.relax.relaxation.RHS_REL": "a float dot product's rounding-error budget",
+    "calib_dsl.relax.relaxation.RHS_ABS": "the same budget's absolute floor (underflow)",
+    "calib_dsl.relax.models.U": "the unit roundoff",
+    "calib_dsl.relax.models._SUM": "a summation's rounding factor",
+    "calib_dsl.relax.models._TINY": "covers underflow in a remainder update",
+    "calib_dsl.accuracy.statement._ULP": "a double's relative spacing",
+    "calib_dsl.plan.classical.TINY": "a variance rounded to 0: its log, finite",
+    "calib_dsl.plan.classical.EXCHANGE_GAIN": "log det's rounding: a smaller gain would cycle",
+    "calib_dsl.plan.linear.ROUNDING": "a bound within the floats' width of its row's value",
+    # encodings and the solver's own constants
+    "calib_dsl.lp.highs.MANY_PIVOTS": "HiGHS's own 'no limit'",
+    "calib_dsl.lp.highs.DUAL_SIMPLEX": "HiGHS's code for the dual simplex",
+    "calib_dsl.inner.starts.CELL_KEY": "a key's radix: more columns than any table has",
+    # guards on the input and what a report shows: no result depends on them
+    "calib_dsl.accuracy.grid.MAX_POSES": "a grid this large is a mistake in its steps",
+    "calib_dsl.plan.command.SWEEP_STEP": "what `--n A..B` means without a step (the CLI's)",
+    "calib_dsl.outliers.rows.SHOWN": "rows the text report lists (the JSON has every one)",
+    "calib_dsl.accuracy.batch_lp._BLOCK": "a memory block: the bounds are the same for any",
+}
+
+
+def numeric(node: ast.expr) -> bool:
+    """A number, or arithmetic on numbers (`2.0**-52`, `1 << 20`), or a tuple of them."""
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, int | float) and not isinstance(node.value, bool)
+    if isinstance(node, ast.UnaryOp):
+        return numeric(node.operand)
+    if isinstance(node, ast.BinOp):
+        return numeric(node.left) and numeric(node.right)
+    if isinstance(node, ast.Tuple):
+        return bool(node.elts) and all(numeric(e) for e in node.elts)
+    return False
+
+
+def numeric_constants(tree: ast.Module) -> list[tuple[str, int]]:
+    """Module-level UPPER_CASE names bound to numbers, with their lines."""
+    out = []
+    for node in tree.body:
+        targets = (node.targets if isinstance(node, ast.Assign)
+                   else [node.target] if isinstance(node, ast.AnnAssign) else [])
+        value = getattr(node, "value", None)
+        for t in targets:
+            if (isinstance(t, ast.Name) and t.id.lstrip("_").isupper() and value is not None
+                    and numeric(value)):
+                out.append((t.id, node.lineno))
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(n for n in ALL if n.startswith(TUNED_ROOMS)))
+def test_no_tuning_constant_outside_the_settings(name):
+    tree = ast.parse(ALL[name].read_text(encoding="utf-8"))
+    for const, line in numeric_constants(tree):
+        assert f"{name}.{const}" in NOT_TUNING, (
+            f"{ALL[name].relative_to(PACKAGE.parent)}:{line}: {const} is a number at module "
+            "level: a tuning constant goes in settings.py (the group of its concern); one "
+            "of arithmetic goes in tests/test_house.py's NOT_TUNING, with why")
+
+
+def test_the_constant_check_sees_one():
+    bad = ast.parse("A = 1\n_B: float = 2.0**-52\nC = (1.02, 1.5)\nD = 'x'\nE = f(1)\n"
+                    "F = True\ng = 3\n")
+    assert numeric_constants(bad) == [("A", 1), ("_B", 2), ("C", 3)]
+    assert all(k.rpartition(".")[0] in ALL for k in NOT_TUNING)  # no stale entry

@@ -207,3 +207,56 @@ def test_a_const_read_elsewhere_is_elaborated_anew(monkeypatch):
     assert count == [1]
     same_program(derived.program,
                  load_model(RX90, inputs=Inputs(consts={"known": "2e-5"}))[1])
+
+
+def held_out(tmp_path: Path, measured: bool) -> Path:
+    """Planar-arm configurations the calibration did not use (its own rows' joints, moved),
+    with or without the measured columns (a prediction needs none)."""
+    lines = (ARM.parent / "planar_arm.csv").read_text().splitlines()
+    out = ["q1,q2,x,y" if measured else "q1,q2"]
+    for k, line in enumerate(lines[1:9]):
+        q1, q2, x, y = line.split(",")
+        q = f"{float(q1) + 0.01 * k!r},{float(q2) - 0.02 * k!r}"
+        out.append(f"{q},{x},{y}" if measured else q)
+    path = tmp_path / ("held.csv" if measured else "joints.csv")
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("measured", [True, False])
+def test_a_table_read_from_another_file_is_derived_as_elaborating_gives(tmp_path, monkeypatch,
+                                                                        measured):
+    """Another file's rows as the table's (held-out configurations, their measurements
+    absent or not): the derived program is the one the model elaborated with the file
+    gives, array for array (the absent columns read as 0), with no elaboration."""
+    from calib_dsl.accuracy.predict import Source, _derived, _present
+
+    problem = Problem.load(ARM)
+    at = held_out(tmp_path, measured)
+    t = problem.model.tables[0]
+    source = Source(problem.path, problem.formulation, problem.inputs, problem.model,
+                    problem.with_table)
+    _, present = _present(at, t)
+    count = counting(monkeypatch)
+    derived = _derived(source, at, t, present, None)
+    monkeypatch.undo()
+    assert count == [0] and derived is not None
+    model, prog = derived
+    if not measured:  # the file the elaborator reads: the same, its measurements 0
+        text = at.read_text().splitlines()
+        at.write_text("\n".join([text[0] + ",x,y", *(f"{ln},0,0" for ln in text[1:])]) + "\n")
+    expected = load_model(ARM, inputs=Inputs(data={"m": str(at)}), centre=False)
+    same_program(prog, expected[1])
+    assert model.tables[0].numbers == expected[0].tables[0].numbers
+    assert model.tables[0].lines == expected[0].tables[0].lines
+
+
+def test_predict_elaborates_its_model_once(tmp_path, monkeypatch):
+    """`calibc predict --at`: the calibration's model is elaborated once, and the held-out
+    configurations' model derived from it."""
+    count = counting(monkeypatch)
+    at = held_out(tmp_path, measured=False)
+    out = CliRunner().invoke(main, ["predict", "-q", str(ARM), "--at", str(at), "--json",
+                                    str(tmp_path / "p.json")])
+    assert out.exit_code == 0, out.output
+    assert count == [1]

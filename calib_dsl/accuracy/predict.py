@@ -1,8 +1,10 @@
 """Guaranteed prediction: for configurations the calibration did not use, a box proven to
 contain the model's predicted measurement for every parameter vector consistent with the data.
 
-The model is elaborated again with the configurations as its table (columns it does not
-find, the measurements a prediction is for, read as 0: they are not used). Its parameters
+The model reads the configurations as its table (columns it does not find, the
+measurements a prediction is for, read as 0: they are not used): derived from the
+calibration's elaborated model where it allows (problem.py's `with_table`), else elaborated
+once more with the file. Its parameters
 take the solve's enclosure, its measured sides are set to 0, and each constraint row
 `f(p, q) == x` gives f over the box in the mixed mean-value form of the relaxations
 (relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the gradients' midpoints and r
@@ -28,7 +30,8 @@ from calib_dsl.accuracy.batch_lp import batch_bounds
 from calib_dsl.accuracy.certified import inner_hull
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
-from calib_dsl.elaborate.rows import Selection
+from calib_dsl.elaborate.rows import EVERY_ROW, Selection
+from calib_dsl.elaborate.tables import CsvData, Dialect, read_csv
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 from calib_dsl.ir.model import Model, Table
@@ -90,26 +93,69 @@ class Calibrated:
     certify: Callable[[np.ndarray, np.ndarray], list[Certified]] | None = None
 
 
-def predict(model_path: str | Path, at: str | Path, inputs: Inputs, calibrated: Calibrated,
-            formulation: str = "matrix", table: str | None = None,
+Held = tuple[Model, Program]  # the model with the configurations as its table, compiled
+
+
+@dataclass(frozen=True)
+class Source:
+    """The calibration's model a prediction is of: its file, formulation and inputs (its
+    consts), its elaborated model (the table's declaration), and `derive`: a file's rows as
+    its table's -> that model and its program, without elaborating (None where the model
+    does not allow it: then it is elaborated once more, with the file)."""
+
+    path: str | Path
+    formulation: str
+    inputs: Inputs
+    model: Model
+    derive: Callable[[CsvData], Held | None] | None = None
+
+
+def predict(source: Source, at: str | Path, calibrated: Calibrated, table: str | None = None,
             at_rows: Selection | None = None) -> Prediction:
     """Boxes of the measurements of table `table` (the model's first) at the configurations
     of the file `at` (its rows `at_rows`, all by default), for every parameter vector of
     the calibration (`calibrated`), and their certified inner intervals where it has
-    certified points; `inputs` as the calibration read the model (its consts)."""
-    first = elaborate(model_path, formulation=formulation, inputs=inputs)
-    t = _table(first, table)
+    certified points."""
+    t = _table(source.model, table)
+    lines, present = _present(Path(at), t)
+    held = _derived(source, Path(at), t, present, at_rows) or \
+        _elaborated(source, (Path(at), lines), t, present, at_rows)
+    model, prog = held
+    _inputs_present(prog, _table(model, t.name), present, str(at))
+    return _enclose(prog, _table(model, t.name), calibrated, present, str(at))
+
+
+def _derived(source: Source, at: Path, t: Table, present: set[str],
+             at_rows: Selection | None) -> Held | None:
+    """The file's rows as the table's, derived (None where the model does not allow it):
+    read as the elaborator reads a table, the columns it lacks as 0."""
+    if source.derive is None or t is not source.model.tables[0] \
+            or any(c.derived for c in t.columns):
+        return None
+    files = [c for c in t.columns if c.name in present]
+    data = read_csv(at, [c.name for c in files], dialect=Dialect(t.separator, t.decimal),
+                    headers={c.name: c.header for c in files if c.header},
+                    selection=at_rows or EVERY_ROW)
+    for c in t.columns:
+        if c.name not in present:  # a measurement to predict: not used
+            data.enclosures[c.name] = (np.zeros(data.rows), np.zeros(data.rows))
+    return source.derive(data)
+
+
+def _elaborated(source: Source, file: tuple[Path, list[str]], t: Table, present: set[str],
+                at_rows: Selection | None) -> Held:
+    """The model elaborated once more, with the file (completed) as its table."""
+    at, lines = file
+    inputs = source.inputs
     with tempfile.TemporaryDirectory(prefix="calibc-predict-") as tmp:
-        path, present = _completed(Path(at), t, Path(tmp))
+        path = _completed(at, lines, t, present, Path(tmp))
         try:
-            model = elaborate(model_path, formulation=formulation, inputs=Inputs(
+            model = elaborate(source.path, formulation=source.formulation, inputs=Inputs(
                 data={**inputs.data, t.name: path},
                 rows={t.name: at_rows} if at_rows is not None else {}, consts=inputs.consts))
         except CalError as err:  # located in the copy: the user's file has the same lines
             raise _in_file(err, str(path), str(at)) from None
-    prog = compile_model(model)
-    _inputs_present(prog, _table(model, t.name), present, str(at))
-    return _enclose(prog, _table(model, t.name), calibrated, present, str(at))
+    return model, compile_model(model)
 
 
 def _table(model: Model, name: str | None) -> Table:
@@ -121,9 +167,8 @@ def _table(model: Model, name: str | None) -> Table:
     raise CalError(f"the model has no table '{name}'")
 
 
-def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
-    """`at` as the table reads it: a copy with the columns it lacks as 0 where it lacks some
-    (the measurements a prediction is for); and which columns it has."""
+def _present(at: Path, t: Table) -> tuple[list[str], set[str]]:
+    """The lines of `at`, and which of the table's columns it has."""
     try:
         lines = read_capped(at, MAX_TABLE_BYTES, encoding="utf-8-sig").splitlines()
     except TooLarge as err:
@@ -138,18 +183,23 @@ def _completed(at: Path, t: Table, tmp: Path) -> tuple[Path, set[str]]:
         raise CalError(f"'{at}' is empty: it has no header")
     header = [h.strip() for h in next(csv.reader([lines[0]], delimiter=t.separator))]
     files = [c for c in t.columns if not c.derived]  # (a derived column is no file's)
-    names = [c.header or c.name for c in files]
-    missing = [n for n in names if n not in header]
     present = {c.name for c in files if (c.header or c.name) in header}
     present |= {c.name for c in t.columns if c.derived and set(c.derived) <= present}
+    return lines, present
+
+
+def _completed(at: Path, lines: list[str], t: Table, present: set[str], tmp: Path) -> Path:
+    """`at` as the table reads it: a copy with the columns it lacks as 0 where it lacks some
+    (the measurements a prediction is for)."""
+    missing = [c.header or c.name for c in t.columns if not c.derived and c.name not in present]
     if not missing:
-        return at, present
+        return at
     out = tmp / at.name
     fill = t.separator + t.separator.join("0" for _ in missing)
     body = [ln + fill if ln.strip() else ln for ln in lines[1:]]  # (the same line numbers)
     out.write_text("\n".join([lines[0] + t.separator + t.separator.join(missing), *body])
                    + "\n", encoding="utf-8")
-    return out, present
+    return out
 
 
 def _in_file(err: CalError, copy: str, at: str) -> CalError:

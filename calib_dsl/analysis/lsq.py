@@ -17,6 +17,7 @@ from calib_dsl.compile.chunks import loop_rows, spread_rows
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import SamplingSettings
 
 
 @dataclass
@@ -105,19 +106,20 @@ def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
         return lin.d / scale, lin.jac / scale[:, None]
 
 
-def estimate(prog: Program, start: np.ndarray | None = None,
-             max_evaluations: int = 30) -> Estimate:
+def estimate(prog: Program, start: np.ndarray | None = None, max_evaluations: int = 30,
+             sampling: SamplingSettings | None = None) -> Estimate:
     """The least-squares estimate from `start` (the middle of the domains if None). Over
-    a loop compiled once of more than 2 x MIN_SAMPLE_ROWS configurations, it is first found
-    on an evenly spread sample of them (a tenth, from MIN_SAMPLE_ROWS to SAMPLE_ROWS), then
-    polished on all: the sample brings it near, where the problem is nearly linear and a
-    few evaluations of every row finish it, where a fit from far away would take many
-    (docs/decisions/11).
+    a loop compiled once of more than 2 x `lsq_min_rows` configurations (`sampling`'s), it
+    is first found on an evenly spread sample of them (a tenth, from `lsq_min_rows` to
+    `lsq_rows`), then polished on all (`lsq_polish` evaluations of every row): the sample
+    brings it near, where the problem is nearly linear and a few evaluations of every row
+    finish it, where a fit from far away would take many (docs/decisions/11).
 
     A fit that stops on its budget of evaluations, not on a tolerance, has not failed: it
     goes on from where it stopped, then starts again from the middle of the domains, each
-    with a budget of at least EVALUATIONS_PER_UNKNOWN per unknown; the estimate is the best
-    fit found, converged when one of them stopped on a tolerance."""
+    with a budget of at least `lsq_per_unknown` per unknown; the estimate is the best fit
+    found, converged when one of them stopped on a tolerance."""
+    s = sampling or SamplingSettings()
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     with np.errstate(invalid="ignore"):
@@ -125,13 +127,13 @@ def estimate(prog: Program, start: np.ndarray | None = None,
                           np.clip(0.0, lo, hi))
     if start is None:
         start = middle
-    budget = max(max_evaluations, EVALUATIONS_PER_UNKNOWN * len(ind))
-    sample = spread_rows(prog, min(SAMPLE_ROWS, max(MIN_SAMPLE_ROWS, loop_rows(prog) // 10)))
+    budget = max(max_evaluations, s.lsq_per_unknown * len(ind))
+    sample = spread_rows(prog, min(s.lsq_rows, max(s.lsq_min_rows, loop_rows(prog) // 10)))
     polish = budget
     if sample is not None:
         near = _fit(prog, start, budget, sample)
         if near.converged and np.all(np.isfinite(near.values)):
-            start, polish = near.values, POLISH_EVALUATIONS
+            start, polish = near.values, s.lsq_polish
     best = _fit(prog, start, polish, None)
     for again in (lambda b: b.values, lambda b: middle):
         if best.converged and np.isfinite(best.rms):
@@ -140,15 +142,6 @@ def estimate(prog: Program, start: np.ndarray | None = None,
         if nxt.converged or not best.rms <= nxt.rms:
             best = nxt
     return best
-
-
-SAMPLE_ROWS = 1000  # the largest sample a least-squares estimate starts on
-MIN_SAMPLE_ROWS = 100  # the smallest (a tenth of the configurations in between)
-POLISH_EVALUATIONS = 10  # of every row, after the sample's estimate (then more if needed)
-# A Levenberg-Marquardt-type fit needs a few evaluations per unknown from a far start (its
-# Jacobian's columns explored once each, then the nearly linear end): the smallest budget
-# of a fit that did not stop on a tolerance, per unknown.
-EVALUATIONS_PER_UNKNOWN = 10
 
 
 def _fit(prog: Program, start: np.ndarray, max_evaluations: int,

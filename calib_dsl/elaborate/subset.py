@@ -10,6 +10,11 @@ their values leaves every other node as it was. Any other use of the rows (`rows
 elsewhere, a cell read outside the loop, another table, fewer rows than a batch needs) and
 `rows_of` answers None: the caller elaborates anew.
 
+The same model can read another file's rows as its table's (`with_table`: held-out
+configurations to predict at): the template's cells and the loop's rows are the file's, the
+cells' bounds made from its readings as the elaborator makes them, where the model is
+derivable, its table's declaration selects no rows itself and has no derived column.
+
 A const read only as the whole error bound of columns (`x, y : +- e`, `Model.tolerances`)
 enters the model through those columns' cells alone: set to another value, it is the same
 DAG with those cells (never folded, never shared) widened or narrowed from the readings
@@ -26,7 +31,8 @@ import numpy as np
 
 from calib_dsl.arith.exact import enclose_fraction
 from calib_dsl.elaborate.batching import BATCH_MIN_ROWS
-from calib_dsl.elaborate.tables import cell_bounds
+from calib_dsl.elaborate.tables import CsvData, cell_bounds
+from calib_dsl.elaborate.units import convert
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, RowBatch, Table
 
@@ -57,6 +63,27 @@ def rows_of(model: Model, keep: list[int], unrolled: Callable[[], Model]) -> Mod
                          unrolled, batch.table)
     return replace(model, dag=_template_cells(model.dag, cells),
                    tables=[_rows_of_table(model.tables[0], at)], batch=new_batch)
+
+
+def with_table(model: Model, data: CsvData, unrolled: Callable[[], Model]) -> Model | None:
+    """The model with the rows `data` (every column of its table, read in the file's units)
+    as its table's, or None when it must be elaborated anew (see the module's doc)."""
+    batch = model.batch
+    if not derivable(model) or batch is None or data.rows < BATCH_MIN_ROWS:
+        return None
+    t = model.tables[0]
+    if t.selects or any(c.derived or c.name not in data.enclosures for c in t.columns):
+        return None
+    readings = {c.name: convert(*data.enclosures[c.name], c.factor) for c in t.columns}
+    bounds = {c.name: cell_bounds(*readings[c.name], c.tol) for c in t.columns}
+    cells = {key: bounds[key[1]] for key in batch.cells}
+    new_batch = RowBatch(list(range(1, data.rows + 1)), batch.template, cells, batch.loc,
+                         unrolled, batch.table)
+    table = replace(t, path=data.path, rows=data.rows, lines=list(data.lines),
+                    numbers=list(data.numbers), bounds=bounds, readings=readings,
+                    columns=list(t.columns))
+    return replace(model, dag=_template_cells(model.dag, cells), tables=[table],
+                   batch=new_batch)
 
 
 def _rows_of_table(t: Table, at: np.ndarray) -> Table:

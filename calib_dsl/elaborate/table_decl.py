@@ -75,7 +75,8 @@ class Tables(Context):
         override = self.data.get(s.name.id) or (self.data.get("") if not self.tables else None)
         path = str(override) if override is not None else \
             os.path.normpath(os.path.join(os.path.dirname(s.loc.file), s.path))
-        table = Table(s.name.id, path, columns, 0, s.loc, dialect.separator, dialect.decimal)
+        table = Table(s.name.id, path, columns, 0, s.loc, dialect.separator, dialect.decimal,
+                      selects=any(o.name.id in ("rows", "exclude") for o in s.options))
         cells: dict[str, Sequence[int]]
         if self.simulate_rows is not None:
             table.rows = self.simulate_rows

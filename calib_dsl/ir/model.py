@@ -44,6 +44,9 @@ class Table:
     bounds: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     # per column, each row's reading [lo, hi] in the model's units, before its error bound
     readings: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # the declaration selects rows itself (its `rows` or `exclude` option): another file
+    # read as this table gets that selection too
+    selects: bool = False
 
 
 @dataclass

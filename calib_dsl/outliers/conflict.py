@@ -6,11 +6,12 @@ unit makes every row look wrong, and rows are named only when neither is found.
 
 The solve proved the whole data set inconsistent. The rows are ranked by their least-squares
 residual (in units of their bounds; a configuration's rows count as one data row), and the
-k worst are left out, k = 1, 2, ... up to MAX_ROWS: once a Chebyshev fit of the rest
-satisfies every remaining row under interval evaluation (certify_point.py), the rest is
-proven consistent. Then every conflicting subset of the data contains one of the rows left
-out: they are what is wrong, or what the model does not explain. For more than one row,
-each is left in again in turn: where the rest stays unproven, that row is needed too.
+k worst are left out, k = 1, 2, ... up to OutlierSettings.conflict_rows: once a Chebyshev
+fit of the rest satisfies every remaining row under interval evaluation (certify_point.py),
+the rest is proven consistent. Then every conflicting subset of the data contains one of
+the rows left out: they are what is wrong, or what the model does not explain. For more
+than one row, each is left in again in turn: where the rest stays unproven, that row is
+needed too.
 """
 
 from __future__ import annotations
@@ -30,8 +31,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.outliers.prior_faults import PriorFault, prior_faults
 from calib_dsl.outliers.rows import Row
 from calib_dsl.outliers.unit_hints import unit_hints
-
-MAX_ROWS = 3  # rows left out at most
+from calib_dsl.settings import OutlierSettings
 
 
 @dataclass(frozen=True)
@@ -50,20 +50,20 @@ class Conflict:
     units: list[str] = field(default_factory=list)  # columns or bounds whose unit to check
 
 
-def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
-    """The smallest set of worst rows (at most MAX_ROWS) without which the data are proven
-    consistent; None when the model has no table to name rows of."""
+def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings) -> Conflict | None:
+    """The smallest set of worst rows (at most settings.conflict_rows) without which the
+    data are proven consistent; None when the model has no table to name rows of."""
     model, prog = load(inputs)
     if not model.tables:
         return None
     try:
-        priors = prior_faults(prog)
+        priors = prior_faults(prog, settings.prior_widen)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         priors = []  # not proven: the rows are looked at
     if priors:
         return Conflict([], True, None, priors)
     try:
-        units = unit_hints(model, prog)
+        units = unit_hints(model, prog, settings)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         units = []
     if units:  # every row looks wrong: naming some would mislead
@@ -75,14 +75,15 @@ def find_conflict(inputs: Inputs, load: Loader) -> Conflict | None:
     if not ranked:
         return None
     del prog
-    for k in range(1, min(MAX_ROWS, len(ranked) - 1) + 1):
+    most = settings.conflict_rows
+    for k in range(1, min(most, len(ranked) - 1) + 1):
         out = ranked[:k]
         if _consistent_without(inputs, load, out):
             needed = None if k == 1 else not any(
                 _consistent_without(inputs, load, [r for r in out if r is not back])
                 for back in out)
             return Conflict(out, True, needed)
-    return Conflict(ranked[:MAX_ROWS], False, None)
+    return Conflict(ranked[:most], False, None)
 
 
 def ranked_rows(model: Model, prog: Program) -> list[DataRow]:

@@ -3,12 +3,13 @@ search domains are widened, and which.
 
 A domain is a prior, a statement the user made about where a parameter is; when it is wrong,
 every row looks wrong, and blaming rows would have the user delete good data. So before any
-row is blamed, the fits run again with every finite domain widened WIDEN times about its
-middle: least squares, then the Chebyshev fit in units of the rows' bounds. The parameters
-that fit leaves outside their declared domains are the suspects; the fit runs once more with
-only theirs widened, and when its point is certified (certify_point.py: every row holds under
-interval evaluation at it) the data are proven consistent with those priors widened: they
-are named, with the value the data want and the end of the domain it passes.
+row is blamed, the fits run again with every finite domain widened about its middle
+(OutlierSettings.prior_widen times its half-width): least squares, then the Chebyshev fit
+in units of the rows' bounds. The parameters that fit leaves outside their declared
+domains are the suspects; the fit runs once more with only theirs widened, and when its
+point is certified (certify_point.py: every row holds under interval evaluation at it) the
+data are proven consistent with those priors widened: they are named, with the value the
+data want and the end of the domain it passes.
 """
 
 from __future__ import annotations
@@ -22,8 +23,6 @@ from calib_dsl.analysis.chebyshev import chebyshev, with_readings
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-
-WIDEN = 10.0  # the widened domains: this many times the declared half-widths
 
 
 @dataclass(frozen=True)
@@ -40,23 +39,24 @@ class PriorFault:
                 f"{self.end:+.4g} ([{self.lo:.6g}, {self.hi:.6g}], in the model's units)")
 
 
-def prior_faults(prog: Program) -> list[PriorFault]:
+def prior_faults(prog: Program, widen: float) -> list[PriorFault]:
     """The declared domains a certified point needs widened (widest miss first); empty when
     widening them does not prove the data consistent. `prog` is the caller's to change: its
-    domains are restored before the return."""
+    domains are restored before the return. `widen`: the widened domains' half-widths,
+    in declared half-widths."""
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind].copy(), prog.slots.hi[ind].copy()
     finite = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
     if not finite.any():
         return []
     try:
-        point = _fit(prog, ind, lo, hi, finite)
+        point = _fit(prog, ind, (lo, hi), finite, widen)
         if point is None:
             return []
         out = finite & ((point < lo) | (point > hi))
         if not out.any():
             return []
-        point = _fit(prog, ind, lo, hi, out)
+        point = _fit(prog, ind, (lo, hi), out, widen)
         if point is None:
             return []
     finally:
@@ -69,12 +69,14 @@ def prior_faults(prog: Program) -> list[PriorFault]:
     return sorted(found, key=lambda f: -miss[names.index(f.name)])
 
 
-def _fit(prog: Program, ind: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-         widen: np.ndarray) -> np.ndarray | None:
-    """A point certified on the program with the `widen` domains widened, else None."""
+def _fit(prog: Program, ind: np.ndarray, box: tuple[np.ndarray, np.ndarray],
+         widen: np.ndarray, factor: float) -> np.ndarray | None:
+    """A point certified on the program with the `widen` domains widened `factor` times,
+    else None."""
+    lo, hi = box
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    prog.slots.lo[ind] = np.where(widen, mid - WIDEN * half, lo)
-    prog.slots.hi[ind] = np.where(widen, mid + WIDEN * half, hi)
+    prog.slots.lo[ind] = np.where(widen, mid - factor * half, lo)
+    prog.slots.hi[ind] = np.where(widen, mid + factor * half, hi)
     start = estimate(prog, start=np.where(np.isfinite(mid), mid, 0.0), max_evaluations=200)
     if not np.all(np.isfinite(start.values)):
         return None

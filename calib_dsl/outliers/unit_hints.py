@@ -6,12 +6,12 @@ factor (1000: mm and m; 180/pi: deg and rad):
 - a measured column's values spread that many times more or less than the model's
   predictions of them at the middle of the search domains (the file's unit is not the one
   declared);
-- least squares leaves most of a measured column's residuals (BOUND_QUANTILE of them)
+- least squares leaves most of a measured column's residuals (OutlierSettings.unit_quantile)
   within that many times its error bound, by a fit that gross rows do not pull, and most
   rows beyond it (the bound is in another unit than the model's);
 - a joint reading column declared `in deg` whose values all lie within one 180/pi-th of a
-  half turn (radians declared as degrees), or declared `in rad` with values beyond TURNS
-  turns either way (degrees declared as radians);
+  half turn (radians declared as degrees), or declared `in rad` with values beyond
+  OutlierSettings.unit_turns turns either way (degrees declared as radians);
 - and least squares that does not converge from the middle of the domains is said too.
 """
 
@@ -26,35 +26,27 @@ from calib_dsl.analysis.unit_spreads import by_column, near, spreads
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-
-# Least squares leaves data drawn within their bounds with most residuals near a bound (the
-# largest just over it); this quantile of them measures the bound, a few gross rows aside.
-BOUND_QUANTILE = 0.9
-MOST = 0.5  # a bound in the wrong unit leaves more than this share of the rows beyond it
-# A joint turns at most a turn or two either way (a UR's limits are +- 2 pi): readings beyond
-# this many turns are not radians.
-TURNS = 2
-ROBUST_EVALUATIONS = 50  # of the robust fit, from the least-squares estimate (nearby)
+from calib_dsl.settings import OutlierSettings
 
 
-def unit_hints(model: Model, prog: Program) -> list[str]:
+def unit_hints(model: Model, prog: Program, settings: OutlierSettings) -> list[str]:
     """A line per column (or bound) whose unit to check; empty when no ratio points at one."""
     s = prog.slots
     ind = independents(prog)
     lo, hi = s.lo[ind], s.hi[ind]
     middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
-    out = spreads(prog, middle) + _readings(model, prog) + _turns(model, prog)
+    out = spreads(prog, middle) + _readings(model, prog) + _turns(model, prog, settings.unit_turns)
     est = estimate(prog, start=middle, max_evaluations=200)
     if not est.converged:
         out.append("least squares did not converge from the middle of the search domains: "
                    "check the units of the table's columns (`in mm`, `in deg`) and of the "
                    "error bounds")
     elif np.all(np.isfinite(est.values)):
-        out += _bounds(prog, _robust(prog, est.values))
+        out += _bounds(prog, _robust(prog, est.values, settings.unit_evaluations), settings)
     return out
 
 
-def _robust(prog: Program, start: np.ndarray) -> np.ndarray:
+def _robust(prog: Program, start: np.ndarray, evaluations: int) -> np.ndarray:
     """A fit that gross rows do not pull: least squares with a soft L1 loss past one bound
     (least squares spreads one gross row's error over every row, and most residuals would
     be large for it alone)."""
@@ -66,21 +58,21 @@ def _robust(prog: Program, start: np.ndarray) -> np.ndarray:
         sol = least_squares(lambda p: residuals(prog, p)[0], np.clip(start, lo, hi),
                             jac=lambda p: residuals(prog, p)[1], bounds=(lo, hi), method="trf",
                             x_scale="jac", loss="soft_l1", f_scale=1.0,
-                            max_nfev=ROBUST_EVALUATIONS)
+                            max_nfev=evaluations)
     return np.asarray(sol.x) if np.all(np.isfinite(sol.x)) else start
 
 
-def _bounds(prog: Program, p: np.ndarray) -> list[str]:
+def _bounds(prog: Program, p: np.ndarray, settings: OutlierSettings) -> list[str]:
     found: dict[str, list[tuple[str, float]]] = {}
     columns = by_column(prog, p)
     over = [np.abs(d) > half for _, d, half in columns.values()]
-    if not over or np.mean(np.concatenate(over)) < MOST:
+    if not over or np.mean(np.concatenate(over)) < settings.unit_most:
         return []  # most rows hold: a few gross ones, not a unit
     for name, (_, d, half) in columns.items():
         ok = half > 0
         if not ok.any():
             continue
-        ratio = float(np.quantile(np.abs(d[ok]) / half[ok], BOUND_QUANTILE))
+        ratio = float(np.quantile(np.abs(d[ok]) / half[ok], settings.unit_quantile))
         label = near(ratio) if ratio > 1 else None
         if label is not None:
             found.setdefault(label, []).append((name, ratio))
@@ -88,7 +80,8 @@ def _bounds(prog: Program, p: np.ndarray) -> list[str]:
     for label, cols in found.items():
         r = float(np.median([x for _, x in cols]))
         out.append(f"column{'s' if len(cols) > 1 else ''} {', '.join(n for n, _ in cols)}: "
-                   f"least squares leaves {BOUND_QUANTILE:.0%} of the residuals within {r:.3g} "
+                   f"least squares leaves {settings.unit_quantile:.0%} of the residuals "
+                   f"within {r:.3g} "
                    f"times the error bound, about {label}: check that the bound is in the "
                    "model's units (a -D value, a const)")
     return out
@@ -118,9 +111,9 @@ def _readings(model: Model, prog: Program) -> list[str]:
     return out
 
 
-def _turns(model: Model, prog: Program) -> list[str]:
+def _turns(model: Model, prog: Program, turns: int) -> list[str]:
     """Columns declared `in rad` that are not measured sides (joint readings) with a value
-    beyond TURNS turns either way: degrees declared as radians."""
+    beyond `turns` turns either way: degrees declared as radians."""
     s = prog.slots
     measured = {s.col_keys[c] for _, c in (s.measured_sides or {}).values()} \
         if s.col_keys is not None else set()
@@ -132,10 +125,10 @@ def _turns(model: Model, prog: Program) -> list[str]:
             lo, hi = t.bounds[c.name]
             most = float(np.max(np.maximum(np.abs(lo), np.abs(hi)))) / c.factor[0] \
                 if len(lo) else 0.0
-            if most > TURNS * 2 * math.pi:
+            if most > turns * 2 * math.pi:
                 found.append(f"{c.name} (up to {most:.4g})")
     if not found:
         return []
     return [f"column{'s' if len(found) > 1 else ''} {', '.join(found)}: declared `in rad`, "
-            f"but a joint does not turn {TURNS} turns ({TURNS * 360} deg) either way: are "
+            f"but a joint does not turn {turns} turns ({turns * 360} deg) either way: are "
             "they degrees?"]

@@ -49,7 +49,8 @@ def stages(lin: Linear, count: int, settings: Settings,
                           settings.plan_shortlist, given)
     out.append(Stage("variances", m, _score(lin, m, given), time.perf_counter() - start))
     start = time.perf_counter()
-    ref = refine(lin.blocks, m, box, settings.plan_tries, settings.plan_lp_hulls, given)
+    ref = refine(lin.blocks, m, box, settings.plan_tries, settings.plan_lp_hulls, given,
+                 settings.plan_improvement)
     out.append(Stage("lp-widths", ref.chosen, ref.score, time.perf_counter() - start))
     return out
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.lp.hull import Hull, linear_hull
+from calib_dsl.settings import Settings
 
 
 @dataclass(frozen=True)
@@ -54,11 +55,13 @@ def score(hull: Hull, box: tuple[np.ndarray, np.ndarray]) -> float:
 
 
 def refine(blocks: np.ndarray, chosen: np.ndarray, box: tuple[np.ndarray, np.ndarray],
-           tries: int, budget: int, given: np.ndarray | None = None) -> Refinement:
+           tries: int, budget: int, given: np.ndarray | None = None,
+           improvement: float = Settings.plan_improvement) -> Refinement:
     """Swap members for candidates while the score falls: each round tries the `tries`
     members the hull rests least on against the `tries` candidates that would cut it most,
     keeping the first swap that helps; it stops when a round finds none, or after
-    `budget` hulls (a count, not a time: the same inputs give the same plan)."""
+    `budget` hulls (a count, not a time: the same inputs give the same plan). A swap helps
+    when it lowers the score by `improvement`."""
     chosen = np.array(chosen, dtype=int)
     r = blocks.shape[1]
     hull = hull_of(rows_of(blocks, chosen, given), box)
@@ -80,7 +83,7 @@ def refine(blocks: np.ndarray, chosen: np.ndarray, box: tuple[np.ndarray, np.nda
                 h = hull_of(rows_of(blocks, trial, given), box)
                 hulls += 1
                 s = score(h, box)
-                if s < best - IMPROVEMENT:
+                if s < best - improvement:
                     chosen, hull, best, found = trial, h, s, True
                     swaps += 1
                     break
@@ -97,5 +100,3 @@ def _cuts(blocks: np.ndarray, points: np.ndarray) -> np.ndarray:
     v = np.abs(np.einsum("crn,kn->crk", blocks, points, optimize=True)).max(axis=1)
     return np.maximum(v - 1.0, 0.0).sum(axis=1)
 
-
-IMPROVEMENT = 1e-6  # a swap must lower the score by this much (less is the LP's tolerance)

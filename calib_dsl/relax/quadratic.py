@@ -29,7 +29,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.relax.models import Models
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import Expansion, expand
-from calib_dsl.settings import Settings
+from calib_dsl.settings import RoundsSettings
 
 FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 # LinearRelaxation.key_space of every second-order relaxation: a constraint row is known by
@@ -37,9 +37,9 @@ FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 KEY_SPACE = "expansion rows"
 
 
-def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray, prune: float = Settings.prune,
-                    mccormick: bool = False, rows: np.ndarray | None = None
-                    ) -> tuple[LinearRelaxation, Expansion] | None:
+def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray,
+                    prune: float = RoundsSettings.prune, mccormick: bool = False,
+                    rows: np.ndarray | None = None) -> tuple[LinearRelaxation, Expansion] | None:
     """Valid inequalities over the box in the columns (t, y) (of the loop's rows `rows`
     only, if given); None if the program has no second-order models (a primitive without
     one, or an unbounded unknown)."""
@@ -85,7 +85,7 @@ def _curvature(m: Models) -> float:
     """An estimate of the first-order relaxation's curvature on the same box (linearize:
     median over rows of its remainder over its first-order range) from the models: their
     second-order terms and remainder over their first-order terms. It runs below the
-    first-order one but on the same side of `Settings.wide`, so it decides the same way; it
+    first-order one but on the same side of `RoundsSettings.wide`, so it decides the same way; it
     spares a first-order relaxation only made to be measured."""
     with np.errstate(invalid="ignore", divide="ignore"):
         r = (np.abs(m.c2).sum(axis=1) + m.r) / np.abs(m.c1).sum(axis=1)

@@ -5,12 +5,14 @@ holding every solution of the given one, or the proof that there is none (`empti
 the work it did. Strategies compose them as interval libraries do (IBEX, codac): `a & b`
 is a `Sequence` (IBEX's CtcCompo), which applies its steps in order, each from the box the
 one before left, and stops at the first that proves the box empty; `FixPoint(c, ratio)`
-(CtcFixPoint) applies c again while some unknown narrows by more than `ratio` of its width.
+(CtcFixPoint) applies c again while some unknown narrows by more than `ratio` of its width
+(and until c says by its own measure that it has no more to give: `Outcome.final`).
 `with_budget(sweeps)` is the same contractor allowed that many propagation sweeps.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence as Seq
 from dataclasses import dataclass, replace
 from typing import Protocol
@@ -40,6 +42,12 @@ class Work:
                     self.reused_rounds + other.reused_rounds,
                     self.fine_rounds + other.fine_rounds)
 
+    def __sub__(self, other: Work) -> Work:
+        """The work done since `other` (a count taken earlier)."""
+        return Work(self.sweeps - other.sweeps, self.lp_rounds - other.lp_rounds,
+                    self.reused_rounds - other.reused_rounds,
+                    self.fine_rounds - other.fine_rounds)
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -54,6 +62,9 @@ class Outcome:
     # solutions: the box is their hull
     split: tuple[str, ...] = ()
     pieces: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    # the contractor has no more to give from this box by its own measure: a FixPoint over
+    # it stops (and its own outcome is not final: it may be applied again)
+    final: bool = False
 
     @property
     def empty(self) -> bool:
@@ -157,33 +168,39 @@ class Sequence(Composable):
 @dataclass(frozen=True)
 class FixPoint(Composable):
     """`ctc` applied again from the box it left while some slot narrows by more than `ratio`
-    of its width (relative to the box before that application), at most `most` times; the
-    work of all of them. `progress` is told the box after each application, labelled
-    `label` and its number."""
+    of its width (relative to the box before that application), at most `most` times, and
+    until an application says it is `final`; the work of all of them. Without a `ratio`,
+    only `ctc`'s own measure (`final`) ends it; without `most`, no count. `progress` is
+    told the box after each application, labelled `label` and its number."""
 
     ctc: Contractor
-    ratio: float
-    most: int
+    ratio: float | None
+    most: int | None
     name: str = "fixed point"
     progress: Meter | None = None
     label: str = "round"
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out, work = Outcome(lo, hi, ""), Work()
-        for k in range(1, self.most + 1):
+        for k in itertools.count(1) if self.most is None else range(1, self.most + 1):
             nxt = self.ctc.contract(out.lo, out.hi)
             work = work + nxt.work
             if nxt.empty:
-                return replace(nxt, work=work)
+                return replace(nxt, work=work, final=False)
             old = out.hi - out.lo
             out = nxt
             if self.progress is not None:
                 self.progress(f"{self.label} {k}", out.lo, out.hi)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                gained = np.where(old > 0, 1.0 - (out.hi - out.lo) / old, 0.0)
-            if not np.any(gained > self.ratio):
+            if out.final or (self.ratio is not None and not _narrowed(old, out, self.ratio)):
                 break
-        return replace(out, work=work)
+        return replace(out, work=work, final=False)
 
     def with_budget(self, sweeps: int) -> FixPoint:
         return replace(self, ctc=self.ctc.with_budget(sweeps))
+
+
+def _narrowed(old: np.ndarray, out: Outcome, ratio: float) -> bool:
+    """Whether some slot of `out` narrowed by more than `ratio` of its width `old`."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gained = np.where(old > 0, 1.0 - (out.hi - out.lo) / old, 0.0)
+    return bool(np.any(gained > ratio))

@@ -198,8 +198,8 @@ class Refuter:
             gain = float(_gains(hi[ind] - lo[ind], out.hi[ind] - out.lo[ind]).max(initial=0.0))
             done[kind].append(gain)
             lo, hi = out.lo, out.hi
-            stalled = {kind} | stalled if gain < self.settings.fine_min_gain else set()
-            if sum(map(len, done.values())) >= self.settings.max_rounds:
+            stalled = {kind} | stalled if gain < self.settings.rounds.fine_min_gain else set()
+            if sum(map(len, done.values())) >= self.settings.rounds.max_rounds:
                 break
         self.box = (lo, hi)
         for kind, gains in done.items():

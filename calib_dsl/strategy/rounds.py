@@ -22,8 +22,11 @@ A round is four named steps:
    box (a matrix product) while that pays, else from LPs solved again.
 3. `narrow`: intersect the box with them (crossing bounds prove there is no solution), and
    propagate.
-4. `next_round`: what the gains say about the next round (its phase, who sits it out), or
-   that the rounds are over.
+4. `next_round`: what the gains say about the next round (its phase: phases.py's
+   `next_phase`; who sits it out), or that the rounds are over.
+
+The rounds repeat as a `FixPoint` of one round (contractor.py): until a round says the
+rounds are over (`Outcome.final`), or the rounds of LPs or sweeps they were given are spent.
 """
 
 from __future__ import annotations
@@ -48,8 +51,9 @@ from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import LPSettings, Settings
-from calib_dsl.strategy.contractor import Composable, Outcome, Work
+from calib_dsl.strategy.contractor import Composable, FixPoint, Outcome, Work
 from calib_dsl.strategy.history import History
+from calib_dsl.strategy.phases import FINE_KINDS, Measures, Phase, next_phase
 
 SECOND_ORDER = FAMILY  # LinearRelaxation.family of quadratic.relax_quadratic's
 
@@ -91,7 +95,8 @@ class LPRounds(Composable):
     fine_certs: Certificates | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
-        return _Rounds(self, lo, hi).run()
+        rounds = FixPoint(_Rounds(self, lo, hi), ratio=None, most=None, name=self.name)
+        return rounds.contract(lo, hi)
 
     def with_budget(self, sweeps: int) -> LPRounds:
         return replace(self, max_sweeps=sweeps)
@@ -115,27 +120,24 @@ class _Round:
 
 
 @dataclass
-class _Rounds:
-    """The state the rounds carry from one to the next."""
+class _Rounds(Composable):
+    """One round (a contractor, applied again by LPRounds' FixPoint from the box it left),
+    and the state the rounds carry from one to the next."""
 
     spec: LPRounds
     lo: np.ndarray
     hi: np.ndarray
     ind: np.ndarray = field(init=False)
-    cells: bool = field(init=False)
+    phase: Phase = Phase.FOLDED
+    tried: set[Phase] = field(default_factory=set)  # the phases begun
     skip: np.ndarray = field(init=False)  # unknowns that sit out the next round's LPs
     never: np.ndarray = field(init=False)  # unknowns that get no LPs at all
     moved: np.ndarray = field(init=False)  # whether any round narrowed it by `stalled`
     cellular: bool = field(init=False)  # whether cell rounds may give errors LP columns
     reuse: bool = field(init=False)  # whether the next round tries the last multipliers
     reused_in_a_row: int = 0
-    last_family: str = ""  # of the last round
-    last_fresh: bool = True
-    fine: bool = False  # the fine second-order rounds have begun
-    fine_readings: bool = False  # ... with the readings' errors as LP columns
-    readings_mccormick: bool = False  # ... and McCormick's inequalities
-    kind_rounds: int = 0  # rounds of LPs of the present kind of fine rounds
-    both_tried: bool = False  # the readings' rounds with McCormick's inequalities began
+    last: _Round | None = None  # the last round that narrowed the box
+    kind_rounds: int = 0  # rounds of LPs in the present phase
     # the fine rounds' multipliers, kept apart: the shared `certs` keep the first-order
     # rounds' bases, which the pieces of a split (first-order rounds) start from
     fine_certs: Certificates = field(default_factory=Certificates)
@@ -146,62 +148,76 @@ class _Rounds:
     def __post_init__(self) -> None:
         spec = self.spec
         self.ind = independents(spec.prog)
-        self.cells = spec.cells
+        self.phase = Phase.CELLS if spec.cells else Phase.FOLDED
         self.skip = np.zeros(len(self.ind), dtype=bool)
         self.never = (np.isin(self.ind, spec.unsolved) if spec.unsolved is not None
                       else self.skip.copy())
         self.moved = np.zeros(len(self.ind), dtype=bool)
-        self.cellular = measured_cells(spec.prog) <= spec.settings.max_cell_columns
+        self.cellular = measured_cells(spec.prog) <= spec.settings.rounds.max_cell_columns
         self.reuse = bool(spec.certs.y)  # a piece of a split box: its whole box's multipliers
         if spec.fine_certs is not None:
             self.fine_certs = spec.fine_certs
         if spec.fine_start:
-            self.fine, self.reuse = True, False
-            self.fine_readings = spec.fine_kind in ("readings", "both")
-            self.readings_mccormick = self.both_tried = spec.fine_kind == "both"
+            self.phase, self.reuse = FINE_KINDS[spec.fine_kind], False
+        self.tried.add(self.phase)
 
-    def run(self) -> Outcome:
-        while self.emptied is None and self.work.lp_rounds < self.spec.max_rounds:
-            if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
-                self.stop = Stop.MAX_SWEEPS
-                break
-            this = self.relaxation()
-            if this is None:
-                break
-            new = self.bounds(this)
-            gains = self.narrow(new, this)
-            if gains is not None:
-                self.record(this)
-            more = gains is not None and self.next_round(this, gains)
-            if gains is not None and self.spec.progress is not None:
-                done = self.work.lp_rounds + self.work.reused_rounds
-                self.spec.progress(f"LP round {done}", self.lo, self.hi)
-            if not more:
-                break
-        return Outcome(self.lo, self.hi, self.stop, self.work, self.emptied)
+    @property
+    def name(self) -> str:
+        return "a round of LPs"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        """One round from the box the last one left (`lo`, `hi` are it): the work it did,
+        and `final` once the rounds are over."""
+        self.lo, self.hi, before = lo, hi, self.work
+        more = self.one_round()
+        return Outcome(self.lo, self.hi, self.stop, self.work - before, self.emptied,
+                       final=not more)
+
+    def one_round(self) -> bool:
+        """Run a round unless the rounds or sweeps given are spent; whether more follow."""
+        if self.emptied is not None or self.work.lp_rounds >= self.spec.max_rounds:
+            return False
+        if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
+            self.stop = Stop.MAX_SWEEPS
+            return False
+        this = self.relaxation()
+        if this is None:
+            return False
+        gains = self.narrow(self.bounds(this), this)
+        if gains is None:
+            return False
+        self.record(this)
+        more = self.next_round(this, gains)
+        if self.spec.progress is not None:
+            done = self.work.lp_rounds + self.work.reused_rounds
+            self.spec.progress(f"LP round {done}", self.lo, self.hi)
+        return more and self.emptied is None
 
     # -- 1. the relaxation -------------------------------------------------------------------
     def relaxation(self) -> _Round | None:
         """This round's relaxation, or None when none can be built."""
         s, prog, certs = self.spec.settings, self.spec.prog, self.spec.certs
-        self.reuse = self.reuse and self.reused_in_a_row < s.reuse_rounds
-        if self.fine:
+        self.reuse = self.reuse and self.reused_in_a_row < s.rounds.reuse_rounds
+        if self.phase.fine:
             fine = self._fine_relaxation()
             if fine is None:  # (beyond the models' memory bound, or no readings to keep)
                 return None
             return _Round(None, fine, True)  # (their multipliers are never reused)
-        order2 = self.spec.second_order and not self.cells
-        # the second-order phase ends with a round of LPs (reused multipliers may have left
+        cells = self.phase is Phase.CELLS
+        order2 = self.spec.second_order and not cells
+        # the second-order rounds end with a round of LPs (reused multipliers may have left
         # the box just below `wide` while the LPs would still contract it much further)
-        ending = order2 and not self.last_fresh and self.last_family == SECOND_ORDER
+        last = self.last
+        ending = (order2 and last is not None and not last.fresh
+                  and last.target.family == SECOND_ORDER)
         first = None
         if not ((self.reuse and certs.family == SECOND_ORDER and order2) or ending):
-            first = relax(prog, self.lo, self.hi, cell_variables=self.cells,
-                          max_cell_columns=s.max_cell_columns, rows=self.spec.rows)
+            first = relax(prog, self.lo, self.hi, cell_variables=cells,
+                          max_cell_columns=s.rounds.max_cell_columns, rows=self.spec.rows)
             if first is None:
                 return None
-        wide = order2 and (first is None or first.curvature > s.wide)
-        quad = (relax_quadratic(prog, self.lo, self.hi, s.prune, rows=self.spec.rows) if wide
+        wide = order2 and (first is None or first.curvature > s.rounds.wide)
+        quad = (relax_quadratic(prog, self.lo, self.hi, s.rounds.prune, rows=self.spec.rows) if wide
                 else None)
         if quad is None and first is None:  # (cannot happen: a first round built them)
             return None
@@ -214,19 +230,20 @@ class _Rounds:
         else every product tied by McCormick's inequalities. Where the readings' one cannot
         be built (no readings), McCormick's is taken instead."""
         prog, lo, hi = self.spec.prog, self.lo, self.hi
-        if self.fine_readings:
-            fine = relax_quadratic_readings(prog, lo, hi, mccormick=self.readings_mccormick,
+        if self.phase.readings:
+            fine = relax_quadratic_readings(prog, lo, hi,
+                                            mccormick=self.phase is Phase.FINE_BOTH,
                                             rows=self.spec.rows)
             if fine is not None:
                 return fine
-            self.fine_readings = self.readings_mccormick = False
+            self.phase = Phase.FINE_MCCORMICK  # (the phase goes on: its rounds not reset)
         return relax_quadratic(prog, lo, hi, prune=0.0, mccormick=True, rows=self.spec.rows)
 
     # -- 2. certified bounds -----------------------------------------------------------------
     def bounds(self, this: _Round) -> tuple[np.ndarray, np.ndarray]:
         """Certified bounds on the unknowns over this round's relaxation."""
         s, n = self.spec.settings, len(self.ind)
-        certs = self.fine_certs if self.fine else self.spec.certs
+        certs = self.fine_certs if self.phase.fine else self.spec.certs
         if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
             certs.box = (self.lo.copy(), self.hi.copy())
         self.skip = self.skip | self.never
@@ -234,10 +251,10 @@ class _Rounds:
         if this.quad is None:
             return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        wide = replace(lp, iterations=s.wide_iterations, seconds=s.wide_seconds)
+        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds)
         tl, th = _bounds(rel, n, self.skip, certs, this.fresh, wide,
-                         solver=s.wide_solver, probes=s.wide_probes,
-                         own_bases=s.wide_own_bases)
+                         solver=s.rounds.wide_solver, probes=s.rounds.wide_probes,
+                         own_bases=s.rounds.wide_own_bases)
         tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
         return to_box(ex, tl, th)
 
@@ -264,8 +281,8 @@ class _Rounds:
         self.work = self.work + Work(sweeps=res.sweeps)
         if res.status != "contracted":
             self.emptied = res.emptied or Emptied("?", None, None)
-        self.moved |= gains >= spec.settings.stalled
-        self.last_family, self.last_fresh = this.target.family, this.fresh
+        self.moved |= gains >= spec.settings.rounds.stalled
+        self.last = this
         return gains
 
     def record(self, this: _Round) -> None:
@@ -283,13 +300,13 @@ class _Rounds:
     # -- 4. the next round -------------------------------------------------------------------
     def next_round(self, this: _Round, gains: np.ndarray) -> bool:
         """Whether there is a next round, and how it runs."""
-        s, best = self.spec.settings, gains.max(initial=0.0)
+        s, best = self.spec.settings.rounds, gains.max(initial=0.0)
         if not this.fresh:  # reused multipliers: again while they pay, else the LPs again
             self.reused_in_a_row += 1
             self.work = self.work + Work(reused_rounds=1)
             self.reuse = best >= s.reuse_gain
             return True
-        self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.fine))
+        self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.phase.fine))
         self.kind_rounds += 1
         # the next round first tries this round's multipliers, unless its LPs are as cheap
         # as a relaxation (folded first-order rounds), or the second-order phase is over
@@ -298,97 +315,48 @@ class _Rounds:
         # (not in the fine rounds: there the next box is too close for old multipliers to
         # certify anything narrower, and each try costs an expansion; docs/decisions/12)
         wide = this.quad is not None
-        self.reuse = self.cells or (wide and not self.fine
-                                    and (this.first or this.target).curvature > s.wide)
+        self.reuse = self.phase is Phase.CELLS or (
+            wide and not self.phase.fine and (this.first or this.target).curvature > s.wide)
         self.reused_in_a_row = 0
-        if wide:
-            # every unknown in the next one: rounds of LPs are rare between reused rounds,
-            # and one that did not move may move after them
-            self.skip = np.zeros_like(self.skip)
-            if best >= (s.fine_min_gain if self.fine else s.wide_min_gain):
-                return True
-            # else neither order contracts this box, unless the other kind of fine rounds
-            # may: McCormick's where the readings' gained nothing from their first round,
-            # the readings' where their errors, folded into the rows' remainders, are what
-            # holds McCormick's bounds
-            return self.fine and (self._mccormick_rounds() or self._readings_rounds(this))
-        return self._next_first_order(this, gains, best)
-
-    def _mccormick_rounds(self) -> bool:
-        """Whether McCormick's fine rounds follow the readings' (without McCormick's
-        inequalities): where the readings' first round gained less than fine_min_gain, their
-        columns cannot help (exact readings: fixed at 0) and the remainders are the
-        products', which McCormick's inequalities meet. Where the readings' rounds gained
-        first and then stalled, the box is where the relaxations leave it. (Rounds that were
-        told their kind, fine_start, keep it.)"""
-        if (self.spec.fine_start or not self.fine_readings or self.readings_mccormick
-                or self.kind_rounds > 1):
+        nxt = next_phase(self.phase, self.measures(this, best), s)
+        if nxt is None:
             return False
-        self.fine_readings, self.kind_rounds = False, 0
-        self.skip = np.zeros_like(self.skip)
+        self.skip = self.sitting_out(nxt, wide, gains)
+        if nxt is not self.phase:
+            self.phase, self.kind_rounds = nxt, 0
+            self.tried.add(nxt)
+            self.reuse = self.reuse and not nxt.fine
         return True
 
-    def _readings_rounds(self, this: _Round) -> bool:
-        """The fine rounds (McCormick's) are over: whether fine rounds with the readings' errors
-        as LP columns (and McCormick's inequalities) follow. They do where the rows'
-        remainders cost some unknown's bounds `readings_cost` of its width (measured from the
-        last LPs' multipliers): on many rows with joint readings that cost is mostly the
-        readings' errors, which columns meet where a remainder pays them in every row (of the
-        working rows, on a subset; docs/decisions/10)."""
-        if self.fine_readings or self.both_tried or this.quad is None:
-            return False
+    def measures(self, this: _Round, best: float) -> Measures:
+        return Measures(best, this.quad is not None,
+                        this.first.remainder_share if this.first is not None else 0.0,
+                        self.cellular, self.kind_rounds, frozenset(self.tried),
+                        self.spec.fine_start, self.spec.second_order,
+                        lambda: self._readings_cost(this))
+
+    def sitting_out(self, nxt: Phase, wide: bool, gains: np.ndarray) -> np.ndarray:
+        """The unknowns that sit out the next round's LPs: none after a second-order round
+        (rounds of LPs are rare between reused rounds, and one that did not move may move
+        after them) or into the fine rounds; into the cell rounds, those no round has
+        moved (a parameter known beforehand); else those that gained less than `stalled`
+        (`min_gain` in the cell rounds), each tried again a round later."""
+        s = self.spec.settings.rounds
+        if wide or nxt.fine:
+            return np.zeros_like(self.skip)
+        if nxt is not self.phase:
+            return ~self.moved
+        return (gains < (s.min_gain if nxt is Phase.CELLS else s.stalled)) & ~self.skip
+
+    def _readings_cost(self, this: _Round) -> float:
+        """The largest share of an unknown's width that the rows' remainders cost its bounds,
+        measured from the last LPs' multipliers (of the working rows, on a subset)."""
+        assert this.quad is not None
         width = self.hi[self.ind] - self.lo[self.ind]
         cost = self.fine_certs.remainder_cost(this.quad[0], len(self.ind))
         with np.errstate(invalid="ignore", divide="ignore"):
             share = np.where(width > 0, cost / np.where(width > 0, width, 1.0), 0.0)
-        if share.max(initial=0.0) < self.spec.settings.readings_cost:
-            return False
-        self.fine_readings = self.readings_mccormick = self.both_tried = True
-        self.kind_rounds = 0
-        return True
-
-    def _next_first_order(self, this: _Round, gains: np.ndarray, best: float) -> bool:
-        s = self.spec.settings
-        assert this.first is not None  # built in every first-order round
-        # once the model is linear over the box to within a small part of the data's
-        # errors, relaxing again gives the same LP: only the cell columns can still gain
-        settled = this.first.remainder_share < s.settled
-        if self.cells:
-            if best < s.min_gain or settled:
-                return self._fine_rounds(this)
-            self.skip = (gains < s.min_gain) & ~self.skip  # tried again a round later
-            return True
-        if settled and not self.cellular:
-            return self._fine_rounds(this)  # the next round would solve the same LP
-        if best < s.folded_until and not self.cellular:
-            # a round with the errors as columns would fold them again (too many): the same
-            # relaxation; folded rounds go on while they pay
-            if best < s.min_gain:
-                return self._fine_rounds(this)
-            self.skip = (gains < s.stalled) & ~self.skip
-            return True
-        if best < s.folded_until or settled:
-            # a tighter relaxation: every unknown again, but one that no round has moved
-            # (a parameter known beforehand)
-            self.cells, self.skip = True, ~self.moved
-        else:
-            self.skip = (gains < s.stalled) & ~self.skip
-        return True
-
-
-    def _fine_rounds(self, this: _Round) -> bool:
-        """The first-order rounds are over: whether fine second-order rounds follow (their
-        remainder still above `remainder_wide` of the rows' widths; above
-        `remainder_readings`, with the readings' errors as LP columns)."""
-        assert this.first is not None
-        s, share = self.spec.settings, this.first.remainder_share
-        if not self.spec.second_order or self.fine or share < s.remainder_readings:
-            return False
-        if share < s.remainder_wide:
-            self.fine_readings = True
-        self.fine, self.cells, self.reuse = True, False, False
-        self.skip, self.kind_rounds = np.zeros_like(self.skip), 0
-        return True
+        return float(share.max(initial=0.0))
 
 
 def _bounds(rel: LinearRelaxation, n: int, skip: np.ndarray, certs: Certificates,
@@ -410,14 +378,14 @@ def _narrowed_bounds(rel: LinearRelaxation, ex: Expansion, tl: np.ndarray, th: n
     products of the new bounds) they certify narrower bounds, and so on while some unknown
     narrows by `narrowed_gain` (a matrix product each, no new expansion)."""
     n = rel.main
-    for _ in range(s.narrowed_rounds):
+    for _ in range(s.rounds.narrowed_rounds):
         if np.any(tl > th):
             break  # no solution: the caller says so
         lo, hi = reused_bounds(narrowed(rel, ex, tl, th), np.eye(n), certs, s.lp.dense_entries)
         lo, hi = np.maximum(lo, tl), np.minimum(hi, th)
         gain = _gains(th - tl, hi - lo).max(initial=0.0)
         tl, th = lo, hi
-        if gain < s.narrowed_gain:
+        if gain < s.rounds.narrowed_gain:
             break
     return tl, th
 

@@ -34,7 +34,6 @@ from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, fa
 from calib_dsl.strategy.solution import Solution
 
 CONSISTENT, INCONSISTENT, UNDECIDED = Consistency
-LSQ_EVALUATIONS = 100  # of the least-squares fit from the result's middle (near the solutions)
 EXIT_CODES = {CONSISTENT: 0, INCONSISTENT: 1, UNDECIDED: 4}  # docs/decisions/verdicts.md
 
 
@@ -66,16 +65,18 @@ class Verdict:
         return f"verdict: {self.verdict}: {self.reason}"
 
 
-def least_squares(prog: Program, res: Solution) -> np.ndarray | None:
+def least_squares(prog: Program, res: Solution, settings: Settings) -> np.ndarray | None:
     """The least-squares fit from the result's middle (None where it has no finite middle or
-    the fit fails): where every solution lies, it needs few steps."""
+    the fit fails), at most settings.verdict_lsq evaluations of the residuals: where every
+    solution lies, it needs few steps."""
     ind = independents(prog)
     lo, hi = res.lo[ind], res.hi[ind]
     if not np.all(np.isfinite(lo) & np.isfinite(hi)):
         return None
     try:
         with np.errstate(all="ignore"):
-            values = estimate(prog, start=0.5 * (lo + hi), max_evaluations=LSQ_EVALUATIONS).values
+            values = estimate(prog, start=0.5 * (lo + hi), max_evaluations=settings.verdict_lsq,
+                              sampling=settings.sampling).values
     except FAILURES:
         return None
     return values if np.all(np.isfinite(values)) else None
@@ -143,7 +144,7 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
         return res, Verdict(CONSISTENT, "a parameter vector is proven to satisfy every "
                             "constraint (the inner bounds' points)")
     start = time.perf_counter()
-    fit = least_squares(prog, res)
+    fit = least_squares(prog, res, effort.settings if effort else Settings())
     proven, largest = certified_point(prog, res, fit, search=certified is None)
     if proven:
         return res, Verdict(CONSISTENT, "a parameter vector is proven to satisfy every "

@@ -51,7 +51,7 @@ class WorkingRows(Composable):
     progress: Meter | None = None
     history: History | None = None
     name: str = "rounds of LPs"
-    max_rounds: int | None = None  # per pass (settings.max_rounds if None)
+    max_rounds: int | None = None  # per pass (settings.rounds.max_rounds if None)
     fine_start: bool = False  # LPRounds.fine_start: a slice of a solved box (shave.py)
 
     def with_budget(self, sweeps: int) -> WorkingRows:
@@ -59,7 +59,7 @@ class WorkingRows(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         s, work = self.settings, Work()
-        rows = start_rows(self.prog, s.working_rows)
+        rows = start_rows(self.prog, s.sampling.working_rows)
         out = Outcome(lo, hi, "")
         # a pass after a check resumes the fine rounds where the last ended (their box is
         # near its end: the first-order and wide rounds' gains are below their thresholds,
@@ -70,11 +70,11 @@ class WorkingRows(Composable):
         # start their row generation from the rows the last pass's optima bound on (a
         # working set grows by few rows, and the optima move little)
         fine = Certificates()
-        for passes in range(s.working_passes + 1):
+        for passes in range(s.sampling.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
             certs = self.certs if every else Certificates()
             rounds = LPRounds(self.prog, s, certs, self.tol, self.max_sweeps - work.sweeps,
-                              self.max_rounds or s.max_rounds, self.second_order,
+                              self.max_rounds or s.rounds.max_rounds, self.second_order,
                               unsolved=self.unsolved, progress=self.progress,
                               history=self.history, rows=None if every else rows,
                               fine_start=self.fine_start or resume,
@@ -83,7 +83,7 @@ class WorkingRows(Composable):
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
             if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
-                    or passes == s.working_passes):
+                    or passes == s.sampling.working_passes):
                 break
             # the last LPs' optima: the fine rounds' where they ran, else the first order's
             points = fine.points if fine.points else certs.points

@@ -90,6 +90,7 @@ def test_an_estimate_started_on_a_sample_is_the_estimate_of_all_rows(tmp_path, m
     from pathlib import Path
 
     from calib_dsl.analysis import lsq
+    from calib_dsl.settings import SamplingSettings
     from calib_dsl.studies.simulate import simulate
 
     model = Path(__file__).resolve().parents[2] / "models" / "ur10_simulated.cal"
@@ -106,8 +107,7 @@ def test_an_estimate_started_on_a_sample_is_the_estimate_of_all_rows(tmp_path, m
     monkeypatch.setattr(lsq, "_fit", recorded)
     sampled = lsq.estimate(prog)  # from the middle of the (centred) domains
     assert fits == [100, None]
-    monkeypatch.setattr(lsq, "MIN_SAMPLE_ROWS", 10**6)
-    whole = lsq.estimate(prog)
+    whole = lsq.estimate(prog, sampling=SamplingSettings(lsq_min_rows=10**6))
     assert fits == [100, None, None]
     assert sampled.converged and whole.converged
     assert np.allclose(sampled.values, whole.values, rtol=0, atol=1e-6)

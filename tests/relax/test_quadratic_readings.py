@@ -126,13 +126,12 @@ def test_rx90_33_parameters_narrow_past_the_first_order_fixed_point() -> None:
     """rx90_recalibrate.cal from the box the first-order rounds end on (their fixed point,
     7 % wider than the hull): one round of these LPs narrows every identifiable parameter,
     and holds the truth."""
-    from dataclasses import replace
 
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy.tight import solve_tight
 
     prog = compile_model(elaborate(ROOT / "models" / "rx90_recalibrate.cal"))
-    first = solve_tight(prog, settings=replace(DEFAULT, remainder_readings=1.0))
+    first = solve_tight(prog, settings=DEFAULT.tuned(remainder_readings=1.0))
     assert first.status == "contracted"
     ind = independents(prog)
     p_true = np.array([prog.true_values[prog.slots.names[i]] for i in ind])
@@ -165,14 +164,13 @@ def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory, after_
     share), from the start or after McCormick's fine rounds (then with McCormick's
     inequalities too, whatever the remainders cost): the result holds the truth every time,
     and those rounds ran in most solves."""
-    from dataclasses import replace
 
     from calib_dsl.settings import DEFAULT
     from calib_dsl.strategy.tight import solve_tight
 
-    forced = (replace(DEFAULT, remainder_readings=0.0, remainder_wide=0.0, readings_cost=0.0,
+    forced = (DEFAULT.tuned(remainder_readings=0.0, remainder_wide=0.0, readings_cost=0.0,
                       fine_min_gain=1.0) if after_mccormick
-              else replace(DEFAULT, remainder_readings=0.0, remainder_wide=2.0))
+              else DEFAULT.tuned(remainder_readings=0.0, remainder_wide=2.0))
     rng = np.random.default_rng(2026)
     ran = 0
     for trial in range(12):

@@ -69,6 +69,39 @@ def test_a_fixpoint_ends_at_the_proof_of_emptiness():
     assert out.empty and len(ctc.calls) == 3 and out.work.lp_rounds == 3
 
 
+@dataclass(frozen=True)
+class Counted(Composable):
+    """Halves the box's widths; says it is final on call `final_at` (its own measure)."""
+
+    final_at: int
+    calls: list[int] = field(default_factory=list)
+    name: str = "counted"
+
+    def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
+        self.calls.append(len(self.calls) + 1)
+        return Outcome(lo, lo + 0.5 * (hi - lo), "", Work(lp_rounds=1),
+                       final=len(self.calls) == self.final_at)
+
+
+@settings(max_examples=30, deadline=None)
+@given(final_at=st.integers(1, 12), most=st.none() | st.integers(1, 12),
+       ratio=st.none() | st.sampled_from([0.1, 0.9]))
+def test_a_fixpoint_stops_where_its_contractor_says_it_is_final(final_at, most, ratio):
+    """The contractor's own measure ends the fixed point as a ratio or a count does; a
+    fixed point's outcome is never final itself (it may be applied again)."""
+    ctc = Counted(final_at)
+    out = FixPoint(ctc, ratio, most).contract(np.zeros(2), np.ones(2))
+    gaining = 1 if ratio == 0.9 else final_at  # (each call gains a half of every width)
+    assert len(ctc.calls) == min(final_at, most or final_at, gaining)
+    assert out.work.lp_rounds == len(ctc.calls) and not out.final
+    assert np.allclose(out.hi, 0.5 ** len(ctc.calls))
+
+
+def test_work_counts_since():
+    a, b = Work(3, 2, 1, 1), Work(5, 4, 2, 1)
+    assert b - a == Work(2, 2, 1, 0) and a + (b - a) == b
+
+
 def test_and_composes_sequences():
     a, b, c = Shrink(0.5, 1), Shrink(0.5, 1), Shrink(0.5, 1)
     seq = a & b & c

@@ -80,7 +80,7 @@ def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp
     assert rows is not None
     res = propagate(prog, tol=1e-5, max_sweeps=100)
     fine = Certificates()
-    LPRounds(prog, replace(DEFAULT), Certificates(), 1e-5, 100, DEFAULT.max_rounds, True,
+    LPRounds(prog, replace(DEFAULT), Certificates(), 1e-5, 100, DEFAULT.rounds.max_rounds, True,
              rows=rows, fine_certs=fine).contract(res.lo, res.hi)
     outside = np.setdiff1d(np.arange(loop_rows(prog)), rows)
     found = violated_rows(prog, fine, outside)

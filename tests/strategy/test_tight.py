@@ -298,7 +298,7 @@ def test_a_nonlinear_model_on_a_wide_box_is_not_settled(tmp_path):
 
 def test_without_cell_columns_a_settled_folded_round_is_the_last(tmp_path):
     prog = _plane_model(tmp_path, "plane")
-    res = solve_tight(prog, settings=replace(DEFAULT, max_cell_columns=0))  # as with 1000 rows
+    res = solve_tight(prog, settings=DEFAULT.tuned(max_cell_columns=0))  # as with 1000 rows
     assert res.status == "contracted" and res.lp_rounds == 1  # a second round: the same LP
     for name, true in (("a", 0.3), ("b", -0.2), ("c", 0.1)):
         i = prog.slots.names.index(name)
@@ -379,7 +379,7 @@ def test_reused_multipliers_save_lp_rounds_and_keep_the_truth(tmp_path_factory, 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         reusing = solve_tight(prog)
-        plain = solve_tight(prog, settings=replace(DEFAULT, reuse_rounds=0))  # LPs every round
+        plain = solve_tight(prog, settings=DEFAULT.tuned(reuse_rounds=0))  # LPs every round
     assert reusing.reused_rounds > 0 and plain.reused_rounds == 0
     assert reusing.lp_rounds < plain.lp_rounds
     domain = prog.slots.hi[ind] - prog.slots.lo[ind]
@@ -460,7 +460,7 @@ def test_split_of_a_non_identifiable_parameter(tmp_path_factory, seed):
 
     # (without the fine rounds that keep the readings as LP columns: they take most of the
     # same slack out of the unsplit result, and this is about the split)
-    alone = replace(DEFAULT, remainder_readings=1.0)
+    alone = DEFAULT.tuned(remainder_readings=1.0)
     prog, p_true, ind, names, whole, cut = arm_solved_twice(
         tmp_path_factory.mktemp("par"), seed,
         {"split": False, "combinations": False, "settings": alone},

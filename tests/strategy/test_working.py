@@ -5,8 +5,6 @@ join; and a UR10 campaign of thousands of rows gets the second-order rounds."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -17,7 +15,7 @@ from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import solve_tight
 from tests.relax.test_linearize import random_robot, robot_draws
 
-SMALL = replace(DEFAULT, working_rows=6)  # a working set of 6 rows, grown by the checks
+SMALL = DEFAULT.tuned(working_rows=6)  # a working set of 6 rows, grown by the checks
 
 
 @settings(max_examples=12, deadline=None,
@@ -51,7 +49,7 @@ def test_the_working_set_reaches_the_all_rows_fixed_point(tmp_path_factory, seed
     prog = sim.prog
     if prog.rows is None:
         return
-    grown = solve_tight(prog, settings=replace(SMALL, working_passes=6), combinations=False,
+    grown = solve_tight(prog, settings=SMALL.tuned(working_passes=6), combinations=False,
                         split=False)
     whole = solve_tight(prog, combinations=False, split=False)
     if grown.status == "infeasible" or whole.status == "infeasible":
@@ -96,7 +94,7 @@ def test_ur10_campaigns_of_several_sizes_hold_the_truth(tmp_path_factory, rows, 
              campaign=Campaign(shape, 4, systematic=amplitude))
     prog = load(TRACKER, inputs=Inputs(data={"m": table},
                                        consts={"e": repr(amplitude + 0.05)}))
-    sol = solve_tight(prog, settings=replace(DEFAULT, working_rows=10))
+    sol = solve_tight(prog, settings=DEFAULT.tuned(working_rows=10))
     assert sol.status == "contracted"
     for name, t in truth().items():
         i = prog.slots.names.index(name)

@@ -1,0 +1,41 @@
+"""The settings' groups (settings.py): each concern's constants in a frozen group, and the
+flat names callers knew before the groups still set them (`Settings.tuned`)."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import pytest
+
+from calib_dsl.settings import DEFAULT, GROUPS, Settings
+
+
+def test_tuned_routes_each_name_to_its_group():
+    s = DEFAULT.tuned(working_rows=6, stalled=0.5, verdict_share=0.0, wide_iterations=7,
+                      outliers__max_rounds=3, unit_turns=5, plan_improvement=1e-3)
+    assert s.sampling.working_rows == 6 and s.rounds.stalled == 0.5
+    assert s.rounds.wide_iterations == 7 and s.verdict_share == 0.0
+    assert s.outliers.max_rounds == 3 and s.outliers.unit_turns == 5
+    assert s.plan_improvement == 1e-3
+    # everything else as it was, and DEFAULT itself unchanged (frozen)
+    assert s.rounds.max_rounds == DEFAULT.rounds.max_rounds
+    assert s.sampling.working_passes == DEFAULT.sampling.working_passes
+    assert DEFAULT.sampling.working_rows != 6 or DEFAULT.rounds.stalled != 0.5
+
+
+def test_a_shared_name_goes_to_the_first_group():
+    s = DEFAULT.tuned(max_rounds=7)
+    assert s.rounds.max_rounds == 7 and s.outliers.max_rounds == DEFAULT.outliers.max_rounds
+
+
+def test_an_unknown_name_is_refused():
+    with pytest.raises(TypeError, match="no field 'nope'"):
+        DEFAULT.tuned(nope=1)
+
+
+def test_every_group_is_a_field_and_no_name_is_both_flat_and_grouped():
+    flat = {f.name for f in fields(Settings)}
+    assert set(GROUPS) <= flat
+    for g in GROUPS:
+        inner = {f.name for f in fields(getattr(DEFAULT, g))}
+        assert not inner & flat, f"{g}: {inner & flat} is both a group's field and a flat one"
