@@ -65,18 +65,19 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
     """Bracket the smallest value of the const `name` for which the data are consistent
     (`progress`: each trial solve's stages, labelled with the trial's number). `model`: its
     file, or the problem loaded already (then `formulation` and `inputs` are its own). A
-    trial the solve leaves open spends settings.min_error_share of its time on a proof."""
+    trial the solve leaves open spends settings.min_error_share of its time on a proof (the
+    first, at the goal, that of every trial after it)."""
     trials = 0
 
-    def run(prog: Program, effort: bool = False) -> str:
+    def run(prog: Program, effort: float = 0.0) -> str:
         nonlocal trials
         trials += 1
         res = solve(prog, strategy, settings=settings,
                     progress=labelled(progress, f"trial {trials}: "))
-        if not effort or res.status == "infeasible" or settings.min_error_share <= 0:
+        if effort <= 0 or res.status == "infeasible" or settings.min_error_share <= 0:
             return res.status
-        # a proof of inconsistency within the trial's budget (fine rounds, a split)
-        budget = settings.min_error_share * res.seconds
+        # a proof of inconsistency within `effort` trials' budgets (fine rounds, a split)
+        budget = effort * settings.min_error_share * res.seconds
         found = Refuter(prog, res, None, None, settings, 1e-5, 1000, budget,
                         time.perf_counter()).run([])
         return "infeasible" if found.proof is not None else res.status
@@ -86,7 +87,7 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
     # every trial asks about the same priors (centred anew on each trial's data, a domain
     # along a direction the data do not see moves by millimetres, and a point certified in
     # one is outside the next)
-    prove = (lambda prog: run(prog, effort=True)) if strategy == "tight" else None
+    prove = run if strategy == "tight" else None
     return find_min_error(problem.keeping_priors(), name, run, prove)
 
 

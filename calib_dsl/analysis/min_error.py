@@ -6,9 +6,9 @@
   of the rows whose bound is the const, every other row within its own bound, and a last
   step of it with the joint readings free within their intervals.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
-  are tried from the top down, then by bisection, within a budget of solves; a bracket they
-  leave wider than WIDE is bisected further by the caller's `prove` (a solve with a proof
-  effort), within PROOFS trials.
+  are tried from the top down, then by bisection, within a budget of solves; where they
+  leave a bracket wider than WIDE, the caller's `prove` (a solve with a proof effort) tries
+  the value WIDE below hi, then bisects below it, within PROOFS trials.
 
 The rows whose residual at hi is within BINDING of it are the ones that set it. Every trial
 is the problem with the const set (problem.py's `Problem.with_const`: the cells' bounds
@@ -45,6 +45,7 @@ MAX_SOLVES = 8  # tight solves to prove the lower end, at most
 # is to meet
 WIDE = 0.02
 PROOFS = 4
+GOAL_INSIDE = 1e-6  # the goal trial sits this share above hi / (1 + WIDE): within it, rounded
 CERTIFY_TRIES = 4  # raises of the bound by the point's excess before the upper end gives up
 
 
@@ -69,6 +70,8 @@ class MinError:
 
 Loader = Callable[[Inputs], tuple[Model, Program]]  # the model with other inputs
 Solver = Callable[[Program], str]  # the status of a solve
+# the status of a solve with a proof effort of `weight` trials' budgets (the caller's share)
+Prover = Callable[[Program, float], str]
 
 
 class Trials(Protocol):
@@ -85,7 +88,7 @@ class Trials(Protocol):
 
 
 def min_error(problem: Trials, name: str, solve: Solver,
-              prove: Solver | None = None) -> MinError:
+              prove: Prover | None = None) -> MinError:
     model, prog = problem.model, problem.program
     if name not in model.consts:
         have = ", ".join(sorted(model.consts)) or "none"
@@ -217,23 +220,29 @@ def _trial(problem: Trials, name: str, value: float) -> Program:
     return problem.with_const(**{name: str(Fraction(value))}).program
 
 
-def raise_lower(out: MinError, problem: Trials, prove: Solver) -> None:
-    """Bisect between the refuted lo and the certified hi with `prove` (the values the
-    solves left open may be refuted by it)."""
+def raise_lower(out: MinError, problem: Trials, prove: Prover) -> None:
+    """Raise the refuted lo towards the certified hi with `prove` (the values the solves
+    left open may be refuted by it): first the goal itself, hi / (1 + WIDE), with the
+    budget of every trial after it (PROOFS - 1: where it is proven they are not needed),
+    and a proof ends the search; where it stays open, bisection below it, a trial's budget
+    each."""
     assert out.lo is not None
     refuted, open_ = out.lo, out.hi
-    for _ in range(PROOFS):
+    goal = out.hi / (1 + WIDE) * (1 + GOAL_INSIDE)
+    for k in range(PROOFS):
         if open_ / refuted <= 1.005:
             break
-        e = math.sqrt(refuted * open_)
-        status = prove(_trial(problem, out.name, e))
+        aim = k == 0 and goal > refuted
+        e = goal if aim else math.sqrt(refuted * open_)
+        status = prove(_trial(problem, out.name, e), PROOFS - 1.0 if aim else 1.0)
         out.trials.append((e, status))
         if status == "infeasible":
             refuted = e
+            if e >= goal:
+                break
         else:
             open_ = e
     out.lo = refuted
-
 
 
 def _binding(model: Model, prog: Program, point: np.ndarray, readings: np.ndarray | None,

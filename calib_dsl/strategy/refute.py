@@ -15,6 +15,13 @@ Within a budget of seconds, in this order:
    half contracted by propagation and rounds of LPs, and the halves left cut again: the
    data are inconsistent once every piece is proven empty.
 
+Where the solve ran in unknowns along the identifiable combinations (strategy/reparametrize.py:
+the solution carries their bounds), the rounds and the split run in those unknowns too, on
+the solve's box and the combinations' bounds (`in_solve_unknowns`): the change is exact, so
+a proof there is one of the program as written, and the relaxations no longer pay for the
+parameters the data cannot separate over their whole domains. The members the change left
+free (the model barely depends on them) are not cut.
+
 A step starts only if, at the mean cost of the steps before it (the solve's time before
 any), it ends within the budget; the first always starts.
 """
@@ -23,7 +30,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -38,6 +45,7 @@ from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence
+from calib_dsl.strategy.reparametrize import along_combinations
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import solve_tight
@@ -78,6 +86,7 @@ class Refuter:
     found: Found = field(default_factory=Found)
     box: tuple[np.ndarray, np.ndarray] | None = None  # the result after the fine rounds
     steps: int = 0  # the steps started
+    uncut: np.ndarray | None = None  # slots the split leaves whole (members left free)
 
     def run(self, far: Attempts) -> Found:
         self.found.far = far
@@ -85,11 +94,35 @@ class Refuter:
             if self.found.proof is not None:
                 break
             try:
+                if attempt != self._outliers:
+                    self.in_solve_unknowns()
                 attempt()
             except FAILURES as err:  # a failure proves nothing: the next attempt runs
                 self.found.tried.append(f"{attempt.__name__.strip('_')}: stopped "
                                         f"({type(err).__name__}: {err})")
         return self.found
+
+    def in_solve_unknowns(self) -> None:
+        """Move to the unknowns the solve ran in (once): the program along the identifiable
+        combinations, on the solve's box (its first slots) and the combinations' certified
+        bounds; the new temporaries keep their whole domains. Nothing changes where the
+        solve ran in the unknowns as written, or where the change now finds other
+        combinations than the solve's."""
+        if not self.res.combinations or self.uncut is not None:
+            return
+        rep = along_combinations(self.prog, self.settings)
+        self.uncut = np.zeros(0, dtype=np.int64)
+        if rep is None or [c[0] for c in rep.combinations] != [c[0] for c in
+                                                                 self.res.combinations]:
+            return
+        lo, hi = rep.prog.slots.lo.copy(), rep.prog.slots.hi.copy()
+        n = rep.old_slots
+        lo[:n], hi[:n] = self.res.lo, self.res.hi
+        for (_, a, b), (_, slot, _, _) in zip(self.res.combinations, rep.combinations,
+                                              strict=True):
+            lo[slot], hi[slot] = max(lo[slot], a), min(hi[slot], b)
+        self.prog, self.res = rep.prog, replace(self.res, lo=lo, hi=hi)
+        self.uncut = np.array(rep.free, dtype=np.int64)
 
     # -- the budget ---------------------------------------------------------------------------
     def affords(self, cost: float) -> bool:
@@ -244,6 +277,8 @@ class Refuter:
     def _widest(self, a: np.ndarray, b: np.ndarray) -> int | None:
         """The slot of the unknown widest within its domain (None: the box is a point)."""
         ind = independents(self.prog)
+        if self.uncut is not None:
+            ind = ind[~np.isin(ind, self.uncut)]
         dom = self.prog.slots.hi[ind] - self.prog.slots.lo[ind]
         with np.errstate(all="ignore"):
             rel = np.where(dom > 0, (b[ind] - a[ind]) / dom, 0.0)
