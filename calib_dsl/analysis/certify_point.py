@@ -99,10 +99,10 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     if not len(points):
         return []
     k = len(points)
-    if not owners and len(prog.slots.lo) * k > CHUNK_CELLS:
+    if len(prog.slots.lo) * k > CHUNK_CELLS:
         chunks = chunked(prog, max(1, CHUNK_CELLS // k))
         if chunks is not None:
-            return _verdicts(prog, _chunked(prog, chunks, points, readings, box))
+            return _verdicts(prog, _chunked(prog, chunks, points, readings, owners, box))
     at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))
     if k > at_once:
         return [c for j in range(0, k, at_once)
@@ -131,7 +131,8 @@ class _Rows:
 
 
 def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
-             readings: np.ndarray | None, box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
+             readings: np.ndarray | None, owners: bool,
+             box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
     """The rows of the whole program, evaluated a chunk of its rows at a time and put in
     the order one pass over the whole program gives them (each group output's rows: the
     shared part's, then row after row)."""
@@ -142,11 +143,13 @@ def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
     for ch in chunks:
         mine = None if readings is None else \
             readings[:, np.searchsorted(at, ch.slots(reading_slots(ch.prog)))]
-        r = _evaluate(ch.prog, points, mine, False, (ch.box(base[0]), ch.box(base[1])))
+        r = _evaluate(ch.prog, points, mine, owners, (ch.box(base[0]), ch.box(base[1])))
         keep = ch.kept(r.s)
         parts.append(np.repeat(np.arange(len(r.parts)), r.parts)[keep])
         got.append(_Rows(ch.slots(r.s[keep]), r.a[keep], r.b[keep], r.tlo[keep],
-                         r.thi[keep], r.computed[keep], None, r.in_domain, []))
+                         r.thi[keep], r.computed[keep],
+                         None if r.owners is None else ch.row_ids(r.owners[keep]),
+                         r.in_domain, []))
     # (a stable sort by group output keeps each one's rows in the chunks' order: the rows')
     order = np.argsort(np.concatenate(parts), kind="stable")
 
@@ -154,7 +157,8 @@ def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
         return np.concatenate([getattr(g, field) for g in got])[order]
 
     return _Rows(joined("s"), joined("a"), joined("b"), joined("tlo"), joined("thi"),
-                 joined("computed"), None, got[0].in_domain, [])
+                 joined("computed"), joined("owners") if owners else None, got[0].in_domain,
+                 [])
 
 
 def _evaluate(prog: Program, points: np.ndarray, readings: np.ndarray | None, owners: bool,
