@@ -263,9 +263,10 @@ class Settings:
 
     # -- shaving (inner/shave.py) ---------------------------------------------------------
     # After the inner bounds, the unknowns whose result is wider than shave_above times their
-    # inner interval (at most shave_unknowns, the loosest first) have each end's gap
-    # contracted as a slice of its own, by at most shave_rounds fine rounds of LPs; an end
-    # whose gap is under shave_min_gap of the result's width is left as it is. By default an
+    # inner interval (at most shave_unknowns) have each end's gap contracted as a slice of
+    # its own by at most shave_rounds fine rounds of LPs, the next end always the worst
+    # outer/inner ratio's in the box shaved so far; an end whose gap is under shave_min_gap
+    # of the result's width is left as it is. By default an
     # end starts only if, at the mean cost of the ends before, shaving stays within
     # shave_share of the solve's time (an end costs rounds of LPs of its own). Three rounds
     # close most of a gap; a fourth adds little for a third more time (docs/decisions/15).

@@ -20,6 +20,7 @@ from functools import reduce
 import numpy as np
 
 from calib_dsl.arith.projections import forward
+from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.gradients import OUTPUTS
 from calib_dsl.relax.layout import definitions, independents
@@ -80,6 +81,10 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
 # Slots times points evaluated in one pass at most (each array of the pass 8 bytes a cell): a
 # program of many slots checks fewer points at once (32 MB an array)
 CHECK_CELLS = 4_000_000
+# Slots times points of a pass over a chunk of a loop's rows: a pass's arrays (2 MB each)
+# stay in the cache, where a pass over the whole program reads its slots from memory once
+# per primitive that reads them
+CHUNK_CELLS = 250_000
 
 
 def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None = None,
@@ -87,16 +92,78 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
                  box: tuple[np.ndarray, np.ndarray] | None = None) -> list[PointCheck]:
     """check_point for each row of `points` (with the same row of `readings`): one pass over
     the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
-    pass over the primitives, not the points in it). `box`: the slots' domains and measured
-    intervals (the program's own if None: a chunk's program is given its rows')."""
+    pass over the primitives, not the points in it). A program of a loop compiled once
+    larger than CHUNK_CELLS is checked a chunk of its rows at a time, every point in one
+    pass over a chunk. `box`: the slots' domains and measured intervals (the program's own
+    if None: a chunk's program is given its rows')."""
     if not len(points):
         return []
+    k = len(points)
+    if len(prog.slots.lo) * k > CHUNK_CELLS:
+        chunks = chunked(prog, max(1, CHUNK_CELLS // k))
+        if chunks is not None:
+            return _verdicts(prog, _chunked(prog, chunks, points, readings, owners, box))
     at_once = max(1, CHECK_CELLS // max(1, len(prog.slots.lo)))
-    if len(points) > at_once:
-        return [c for k in range(0, len(points), at_once)
-                for c in check_points(prog, points[k:k + at_once],
-                                      None if readings is None else readings[k:k + at_once],
+    if k > at_once:
+        return [c for j in range(0, k, at_once)
+                for c in check_points(prog, points[j:j + at_once],
+                                      None if readings is None else readings[j:j + at_once],
                                       owners, box)]
+    return _verdicts(prog, _evaluate(prog, points, readings, owners, box))
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """The checked rows of a pass, each point a column: their slots, the computed side
+    [a, b], the other side [tlo, thi], whether it is computed too, their configurations
+    (None unless asked); `parts`: how many rows each group output gave (then the capped
+    temporaries), in order."""
+
+    s: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    tlo: np.ndarray
+    thi: np.ndarray
+    computed: np.ndarray
+    owners: np.ndarray | None
+    in_domain: np.ndarray
+    parts: list[int]
+
+
+def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
+             readings: np.ndarray | None, owners: bool,
+             box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
+    """The rows of the whole program, evaluated a chunk of its rows at a time and put in
+    the order one pass over the whole program gives them (each group output's rows: the
+    shared part's, then row after row)."""
+    base = box if box is not None else (prog.slots.lo, prog.slots.hi)
+    at = reading_slots(prog)
+    got: list[_Rows] = []
+    parts: list[np.ndarray] = []  # each kept row's group output
+    for ch in chunks:
+        mine = None if readings is None else \
+            readings[:, np.searchsorted(at, ch.slots(reading_slots(ch.prog)))]
+        r = _evaluate(ch.prog, points, mine, owners, (ch.box(base[0]), ch.box(base[1])))
+        keep = ch.kept(r.s)
+        parts.append(np.repeat(np.arange(len(r.parts)), r.parts)[keep])
+        got.append(_Rows(ch.slots(r.s[keep]), r.a[keep], r.b[keep], r.tlo[keep],
+                         r.thi[keep], r.computed[keep],
+                         None if r.owners is None else ch.row_ids(r.owners[keep]),
+                         r.in_domain, []))
+    # (a stable sort by group output keeps each one's rows in the chunks' order: the rows')
+    order = np.argsort(np.concatenate(parts), kind="stable")
+
+    def joined(field: str) -> np.ndarray:
+        return np.concatenate([getattr(g, field) for g in got])[order]
+
+    return _Rows(joined("s"), joined("a"), joined("b"), joined("tlo"), joined("thi"),
+                 joined("computed"), joined("owners") if owners else None, got[0].in_domain,
+                 [])
+
+
+def _evaluate(prog: Program, points: np.ndarray, readings: np.ndarray | None, owners: bool,
+              box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
+    """One pass over the program's primitives at every point (a column each)."""
     ind = independents(prog)
     lay = definitions(prog)
     k = len(points)
@@ -162,26 +229,31 @@ def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None 
     s = np.concatenate(slots)
     tlo, thi = exact_inside(base_lo[s], base_hi[s])
     computed = lay.temp[s] & ~caps[s]  # two computed sides: provable only as points
-    # an implied equality (the others prove it: ir/primitives.Slots.implied) needs no proof
-    implied = np.isin(s, np.fromiter(prog.slots.implied, dtype=np.int64))
     found = np.concatenate(owners_of) if owners else None
     a, b = (np.concatenate(c).reshape(len(s), k) for c in (clo, chi))
     lo, hi = lo.reshape(len(lo), k), hi.reshape(len(hi), k)
-    return [_verdict(s, (a[:, i], b[:, i]), (tlo, thi), (computed, implied),
-                     (lo[:, i], hi[:, i]), found, bool(in_domain[i])) for i in range(k)]
+    # the other side: the exact interval's inside, or the computed slot's value at each point
+    tlo, thi = np.repeat(tlo[:, None], k, axis=1), np.repeat(thi[:, None], k, axis=1)
+    tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
+    return _Rows(s, a, b, tlo, thi, computed, found, in_domain, [len(x) for x in slots])
+
+
+def _verdicts(prog: Program, r: _Rows) -> list[PointCheck]:
+    # an implied equality (the others prove it: ir/primitives.Slots.implied) needs no proof
+    implied = np.isin(r.s, np.fromiter(prog.slots.implied, dtype=np.int64))
+    return [_verdict(r.s, (r.a[:, i], r.b[:, i]), (r.tlo[:, i], r.thi[:, i]),
+                     (r.computed, implied), r.owners, bool(r.in_domain[i]))
+            for i in range(r.a.shape[1])]
 
 
 def _verdict(s: np.ndarray, side: tuple[np.ndarray, np.ndarray],
              target: tuple[np.ndarray, np.ndarray], kinds: tuple[np.ndarray, np.ndarray],
-             at: tuple[np.ndarray, np.ndarray], owners: np.ndarray | None,
-             in_domain: bool) -> PointCheck:
-    """One point's check: each row's computed side [a, b] against the other side (the exact
-    interval's inside [tlo, thi] of a measured or bounded slot; a computed slot's value, in
-    the point's slots [lo, hi]); `kinds`: the rows comparing two computed sides, and those
-    of them implied by the others (they hold where the others do)."""
-    (a, b), (lo, hi), (computed, implied) = side, at, kinds
-    tlo, thi = target[0].copy(), target[1].copy()
-    tlo[computed], thi[computed] = lo[s[computed]], hi[s[computed]]
+             owners: np.ndarray | None, in_domain: bool) -> PointCheck:
+    """One point's check: each row's computed side [a, b] against the other side [tlo, thi]
+    (the exact interval's inside of a measured or bounded slot; a computed slot's value at
+    the point); `kinds`: the rows comparing two computed sides, and those of them implied by
+    the others (they hold where the others do)."""
+    (a, b), (tlo, thi), (computed, implied) = side, target, kinds
     with np.errstate(invalid="ignore"):
         excess = np.maximum(np.maximum(b - thi, tlo - a), 0.0)
         ok = (a >= tlo) & (b <= thi)

@@ -11,8 +11,11 @@ solution set in a box loose in its tails; docs/decisions/15). The slice's own lo
 the new lo (a itself lies in the slice: a sound contraction keeps it); the upper end likewise.
 
 Only the unknowns whose result is wider than `shave_above` times their inner interval are
-shaved, the loosest first, at most `shave_unknowns` of them: each end costs rounds of LPs of
-its own, so by default they fit a share of the solve's time (the first always runs). A program
+shaved, at most `shave_unknowns` of them. Each end costs rounds of LPs of its own, so by
+default they fit a share of the solve's time (the first always runs), and the order is the
+certificate's: the next end is the wider gap of the unknown whose outer/inner ratio is the
+worst *after* the ends shaved so far (one end of the loosest often brings it below the next,
+whose gap the budget then reaches before the first's other end). A program
 relaxed in chunks (thousands of rows) is shaved by default only where its solve ran fine
 rounds: there a slice's rounds cost about what the solve's did, where a solve that ended at
 its first-order fixed point says nothing of them (a slice's fine relaxation can cost many
@@ -58,19 +61,21 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
     solution's work stays the solve's: shaving's is in `Shaved`."""
     s = s or Settings()
     ind = independents(prog)
-    order = candidates(sol.lo[ind], sol.hi[ind], inside_lo, inside_hi, s)
-    if not order or (budget is not None and sol.work.fine_rounds == 0
-                     and chunked(prog, CHUNK_SLOTS, None) is not None):
+    if not candidates(sol.lo[ind], sol.hi[ind], inside_lo, inside_hi, s) or (
+            budget is not None and sol.work.fine_rounds == 0
+            and chunked(prog, CHUNK_SLOTS, None) is not None):
         return sol, None  # (unasked, see the module's docstring)
     start = time.perf_counter()
     lo, hi = sol.lo.copy(), sol.hi.copy()
     work = Work()
-    shaved: list[int] = []
-    for slot, side, value in _ends(lo, hi, ind[order], inside_lo[order], inside_hi[order], s):
+    shaved: list[tuple[int, int]] = []  # (unknown, side) in order
+    while (end := worst_end(lo[ind], hi[ind], inside_lo, inside_hi, shaved, s)) is not None:
         left = max_sweeps - sol.work.sweeps - work.sweeps  # (the solve's cap holds for all)
         if left <= 0 or _over(budget, time.perf_counter() - start, len(shaved)):
             break
-        shaved.append(slot)
+        k, side = end
+        shaved.append(end)
+        slot, value = int(ind[k]), float((inside_lo, inside_hi)[side][k])
         out = _slice(prog, (lo, hi), (slot, side, value), s, tol, left)  # from the box so far
         work = work + out.work
         # (a sound contraction of the slice keeps `value`'s solution, so its end is beyond
@@ -81,7 +86,7 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
             hi[slot] = value if out.empty else out.hi[slot]
     if not shaved:
         return sol, None
-    names = tuple(dict.fromkeys(prog.slots.names[slot] for slot in shaved))
+    names = tuple(dict.fromkeys(prog.slots.names[int(ind[k])] for k, _ in shaved))
     pieces = tuple(p for p in (_within(a, b, lo, hi) for a, b in sol.pieces) if p is not None)
     if pieces:  # every solution lies in a piece and in the shaved box: in their hull too
         lo = np.maximum(lo, np.min([p[0] for p in pieces], axis=0))
@@ -92,17 +97,23 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
                                                              time.perf_counter() - start, work)
 
 
-def _ends(lo: np.ndarray, hi: np.ndarray, slots: np.ndarray, inside_lo: np.ndarray,
-          inside_hi: np.ndarray, s: Settings) -> list[tuple[int, int, float]]:
-    """(slot, side, inner bound) of the ends to shave, in order: the unknowns as given,
-    each one's wider gap first; a gap under shave_min_gap of the width is left alone."""
-    ends = []
-    for slot, a, b in zip(slots, inside_lo, inside_hi, strict=True):
-        sides = [(int(slot), 0, float(a)), (int(slot), 1, float(b))]
-        gaps = [_gap(lo, hi, *e) for e in sides]
-        ends += [e for g, e in sorted(zip(gaps, sides, strict=True), key=lambda x: -x[0])
-                 if g > s.shave_min_gap]
-    return ends
+def worst_end(lo: np.ndarray, hi: np.ndarray, inside_lo: np.ndarray, inside_hi: np.ndarray,
+              done: list[tuple[int, int]], s: Settings) -> tuple[int, int] | None:
+    """The next end to shave (unknown, side 0 low / 1 high; the arrays are over the
+    unknowns): of the unknowns worth shaving in the box as it is now (`candidates`; at most
+    `shave_unknowns` of them counting those in `done`), the one whose outer/inner ratio is
+    the worst, its wider gap not yet shaved; None when none is left. A gap under
+    shave_min_gap of the result's width is left alone."""
+    begun = {k for k, _ in done}
+    for k in candidates(lo, hi, inside_lo, inside_hi, replace(s, shave_unknowns=len(lo))):
+        if k not in begun and len(begun) >= s.shave_unknowns:
+            continue
+        gaps = [(float(inside_lo[k] - lo[k]), 0), (float(hi[k] - inside_hi[k]), 1)]
+        ends = [side for gap, side in sorted(gaps, reverse=True)
+                if (k, side) not in done and gap > s.shave_min_gap * (hi[k] - lo[k])]
+        if ends:
+            return k, ends[0]
+    return None
 
 
 def _over(budget: float | None, spent: float, done: int) -> bool:
@@ -124,11 +135,6 @@ def candidates(lo: np.ndarray, hi: np.ndarray, inside_lo: np.ndarray, inside_hi:
     ok &= (inside_lo >= lo) & (inside_hi <= hi) & (ratio > s.shave_above)
     loosest = sorted(np.flatnonzero(ok), key=lambda k: -ratio[k])
     return [int(k) for k in loosest[:s.shave_unknowns]]
-
-
-def _gap(lo: np.ndarray, hi: np.ndarray, slot: int, side: int, value: float) -> float:
-    """The gap between an end of the result and the inner bound, over the result's width."""
-    return abs(value - (lo[slot], hi[slot])[side]) / (hi[slot] - lo[slot])
 
 
 def _slice(prog: Program, box: tuple[np.ndarray, np.ndarray], end: tuple[int, int, float],

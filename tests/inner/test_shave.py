@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from calib_dsl.cli import main
 from calib_dsl.inner.bounds import inner_bounds
-from calib_dsl.inner.shave import candidates, shave
+from calib_dsl.inner.shave import candidates, shave, worst_end
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import DEFAULT
@@ -140,6 +140,23 @@ def test_candidates_are_the_loosest_above_the_ratio_at_most_the_count():
     assert candidates(lo, hi, a, b, s) == [4, 2]
     assert candidates(lo, hi, a, b, replace(s, shave_unknowns=1)) == [4]
     assert candidates(lo, hi, a, b, replace(s, shave_above=1.01)) == [4, 2, 1]
+
+
+def test_the_next_end_is_the_worst_ratios_as_the_box_is_after_each_end():
+    # unknown 0: ratio 1.25, gaps 0.15 low and 0.05 high; unknown 1: ratio 1.2, gaps 0.1
+    # low and 1/15 high
+    lo, hi = np.zeros(2), np.ones(2)
+    a, b = np.array([0.15, 0.1]), np.array([0.95, 0.1 + 1 / 1.2])
+    s = replace(DEFAULT, shave_above=1.05, shave_unknowns=8, shave_min_gap=0.005)
+    assert worst_end(lo, hi, a, b, [], s) == (0, 0)  # the worst ratio, its wider gap
+    lo[0] = 0.14  # its low end shaved: ratio 0.86 / 0.8 = 1.075, now below unknown 1's
+    assert worst_end(lo, hi, a, b, [(0, 0)], s) == (1, 0)
+    assert worst_end(lo, hi, a, b, [(0, 0), (1, 0)], s) == (1, 1)
+    # at most shave_unknowns begun: the first one's other end, not a third unknown's
+    assert worst_end(lo, hi, a, b, [(0, 0)], replace(s, shave_unknowns=1)) == (0, 1)
+    # an end already shaved is not shaved again; a gap under shave_min_gap is left alone
+    assert worst_end(lo, hi, a, b, [(0, 0), (0, 1), (1, 0), (1, 1)], s) is None
+    assert worst_end(lo, hi, a, b, [(1, 0), (1, 1)], replace(s, shave_min_gap=0.06)) is None
 
 
 def test_no_time_and_no_count_shave_nothing(tmp_path):
