@@ -82,8 +82,8 @@ class Trials(Protocol):
 def min_error(problem: Trials, name: str, solve: Solver, prove: Prover | None = None,
               settings: MinErrorSettings | None = None,
               fits: FitSettings | None = None) -> MinError:
-    """The bracket (the module's docstring): its trials and budgets `settings`', the Chebyshev
-    fits' `fits`'."""
+    """The bracket (the module's docstring): its trials and budgets from `settings`, the
+    Chebyshev fits' steps from `fits` (each its group's defaults where None)."""
     s = settings or MinErrorSettings()
     model, prog = problem.model, problem.program
     if name not in model.consts:

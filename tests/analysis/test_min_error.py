@@ -236,3 +236,22 @@ def test_the_goal_is_tried_first_and_ends_the_search_when_refuted():
                 MinErrorSettings())
     assert len(out.trials) == 1 and out.trials[0][1] == "infeasible"
     assert out.lo is not None and out.hi <= (1 + MinErrorSettings().wide) * out.lo
+
+
+def test_the_callers_settings_reach_the_bracket(tmp_path):
+    """The bracket's budgets and its binding share are the caller's (settings.min_error):
+    one lower trial, no proof trials, and every row within half of hi binds."""
+    from calib_dsl.settings import DEFAULT
+
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-2, 2, 15)
+    y = 1.5 * x - 0.3 + rng.uniform(-0.3, 0.3, 15)
+    lines = [f"{a!r},{b!r}" for a, b in zip(x.tolist(), y.tolist(), strict=True)]
+    (tmp_path / "d.csv").write_text("x,y\n" + "\n".join(lines) + "\n")
+    (tmp_path / "line.cal").write_text(LINE)
+    tuned = DEFAULT.tuned(min_error_max_solves=1, min_error_proofs=0, min_error_binding=0.5)
+    found = min_error(tmp_path / "line.cal", "e", settings=tuned)
+    plain = min_error(tmp_path / "line.cal", "e")
+    assert len(found.trials) == 1 < len(plain.trials) and found.within == 0.5
+    assert len(found.binding) > len(plain.binding)
+    assert all(b.residual >= 0.5 * found.hi for b in found.binding)
