@@ -65,7 +65,7 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
     """Bracket the smallest value of the const `name` for which the data are consistent
     (`progress`: each trial solve's stages, labelled with the trial's number). `model`: its
     file, or the problem loaded already (then `formulation` and `inputs` are its own). A
-    trial the solve leaves open spends settings.min_error_share of its time on a proof (the
+    trial the solve leaves open spends settings.min_error.share of its time on a proof (the
     first, at the goal, that of every trial after it)."""
     trials = 0
 
@@ -74,10 +74,10 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
         trials += 1
         res = solve(prog, strategy, settings=settings,
                     progress=labelled(progress, f"trial {trials}: "))
-        if effort <= 0 or res.status == "infeasible" or settings.min_error_share <= 0:
+        if effort <= 0 or res.status == "infeasible" or settings.min_error.share <= 0:
             return res.status
         # a proof of inconsistency within `effort` trials' budgets (fine rounds, a split)
-        budget = effort * settings.min_error_share * res.seconds
+        budget = effort * settings.min_error.share * res.seconds
         found = Refuter(prog, res, None, None, settings, 1e-5, 1000, budget,
                         time.perf_counter()).run([])
         return "infeasible" if found.proof is not None else res.status
@@ -88,7 +88,8 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
     # along a direction the data do not see moves by millimetres, and a point certified in
     # one is outside the next)
     prove = run if strategy == "tight" else None
-    return find_min_error(problem.keeping_priors(), name, run, prove)
+    return find_min_error(problem.keeping_priors(), name, run, prove, settings.min_error,
+                          settings.fits)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
@@ -175,7 +176,7 @@ def conflict(model: str | Path | Problem, formulation: str = "matrix",
     loaded already (then `formulation` and `inputs` are its own)."""
     problem = model if isinstance(model, Problem) else \
         Problem.load(model, formulation, inputs or Inputs())
-    return find_conflict(problem.inputs, problem.loader(), settings.outliers)
+    return find_conflict(problem.inputs, problem.loader(), settings.outliers, settings.fits)
 
 
 @dataclass
@@ -295,7 +296,7 @@ def outlier_report(request: SolveRequest, problem: Problem,
     if left == 0:
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
-        found_more = (find_conflict(given, loader, settings.outliers)
+        found_more = (find_conflict(given, loader, settings.outliers, settings.fits)
                       if res.status == "infeasible" else None)
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
@@ -344,7 +345,7 @@ def report_on(request: SolveRequest, problem: Problem,
     found = None
     if res.status == "infeasible" and r.diagnose:
         found = conflict(problem, settings=settings)
-    sections.leverage(extra, prog, res, elaborated, settings.routine_max_primitives)
+    sections.leverage(extra, prog, res, elaborated, settings)
     return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
                        verdict=verdict, problem=problem)
 

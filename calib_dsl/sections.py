@@ -95,13 +95,14 @@ def shaved(extra: Extras, prog: Program, res: Solution, count: int | None = None
 
 
 def leverage(extra: Extras, prog: Program, res: Solution, model: Model,
-             most_primitives: int) -> None:
+             settings: Settings) -> None:
     """The parameters whose estimate one data row carries (analysis/leverage.py), with those
     rows as the user counts them: a fault there would move the result, not show as an
-    inconsistency (report/warnings.py says so). Not past `most_primitives`."""
-    if res.status == "infeasible" or not model.tables or len(prog.primitives) > most_primitives:
+    inconsistency (report/warnings.py says so). Not past settings.routine_max_primitives."""
+    if (res.status == "infeasible" or not model.tables
+            or len(prog.primitives) > settings.routine_max_primitives):
         return
-    heavy = heavy_rows(prog, res.lo, res.hi)
+    heavy = heavy_rows(prog, res.lo, res.hi, settings.fits)
     extra.heavy = list(zip(heavy, data_rows(model, prog, [h.data_row for h in heavy]),
                            strict=True))
 

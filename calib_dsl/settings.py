@@ -6,7 +6,8 @@ need down to them; the constants of one concern form a group of their own (`LPSe
 `tuned(name=value)` sets any field by its own name. Only the pipeline, the API and the
 command line read `DEFAULT`: below them every function takes its caller's settings, and a
 number bound at module level there is arithmetic, not a tuning (tests/test_house.py,
-`NOT_TUNING`; analysis/'s modules are not yet checked). These are choices of
+`NOT_TUNING`). analysis/'s groups (`FitSettings`, `MinErrorSettings`) live in
+settings_analysis.py, which keeps this module a size a reader can hold. These are choices of
 speed against tightness; none of them can make a result unsound (soundness rests on outward
 rounding, which has no knobs). Input limits that guard against runaway models live with the
 front end and the elaborator, not here.
@@ -17,6 +18,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, fields, replace
 from typing import Any
+
+from calib_dsl.settings_analysis import FitSettings, MinErrorSettings
 
 
 @dataclass(frozen=True)
@@ -289,13 +292,6 @@ class Settings:
     # The least-squares fit from the result's middle that a verdict starts from (near the
     # solutions): at most this many evaluations of the residuals.
     verdict_lsq: int = 100
-    # --min-error's trials where the solves left a bracket over 2 % wide: a trial the solve
-    # leaves open gets at most this share of the solve's time for a proof (fine rounds, a
-    # split): the lower end is only as high as the highest bound proven infeasible, and a
-    # fine round with the readings as LP columns, the one that proves most, costs about ten
-    # solves where parameters the data cannot separate keep their whole domains (the solve
-    # is quick, its rounds over them loose)
-    min_error_share: float = 12.0
 
     # -- splitting (strategy/split.py) -------------------------------------------------------
     # An unknown not identifiable alone and left wider than left_wide of its domain is cut
@@ -321,6 +317,9 @@ class Settings:
     rounds: RoundsSettings = RoundsSettings()
     # -- the working set of rows (strategy/working.py) -----------------------------------
     sampling: SamplingSettings = SamplingSettings()
+    # -- fits and the smallest error bound (analysis/; settings_analysis.py) --------------
+    fits: FitSettings = FitSettings()
+    min_error: MinErrorSettings = MinErrorSettings()
 
     # -- planning a campaign (plan/) -------------------------------------------------------
     # The domains counted as information in the classical designs, in units where a uniform
@@ -382,7 +381,8 @@ class Settings:
         a field of Settings or of one of its groups (`tuned(working_rows=6, stalled=0)`):
         the flat names callers knew before the groups, kept working. A name two groups
         share goes to the first of GROUPS (max_rounds: the rounds'); `group__name` names
-        any group's (`outliers__max_rounds=3`)."""
+        any group's (`outliers__max_rounds=3`), and so does `group_name` where no field has
+        that name (`min_error_share`: the min_error group's share)."""
         flat = {f.name for f in fields(self)}
         groups: dict[str, dict[str, Any]] = {}
         mine: dict[str, Any] = {}
@@ -391,6 +391,10 @@ class Settings:
             if not group:
                 group = next((g for g in GROUPS if name not in flat and field in _names(g)),
                              "")
+            if not group and name not in flat:  # `min_error_share`: the group's name first
+                group, field = next(((g, name[len(g) + 1:]) for g in GROUPS
+                                     if name.startswith(g + "_")
+                                     and name[len(g) + 1:] in _names(g)), ("", name))
             if not group and name not in flat:
                 raise TypeError(f"Settings has no field {name!r}")
             (groups.setdefault(group, {}) if group else mine)[field] = value
@@ -402,7 +406,8 @@ class Settings:
         return max(1, self.lp.workers // self.piece_processes)
 
 
-GROUPS = ("rounds", "sampling", "lp", "inner", "outliers")  # Settings' fields that are groups
+# Settings' fields that are groups
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error")
 
 
 def _names(group: str) -> set[str]:

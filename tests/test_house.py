@@ -121,7 +121,8 @@ def test_the_load_check_sees_one():
 # concern, passed down by the caller), so that a caller's Settings reaches them. A number
 # that is not a choice of speed against tightness stays where it is used, named here with why.
 TUNED_ROOMS = ("calib_dsl.strategy", "calib_dsl.relax", "calib_dsl.lp", "calib_dsl.inner",
-               "calib_dsl.outliers", "calib_dsl.accuracy", "calib_dsl.plan")
+               "calib_dsl.outliers", "calib_dsl.accuracy", "calib_dsl.plan",
+               "calib_dsl.analysis", "calib_dsl.studies")
 NOT_TUNING = {
     # floating point and its rounding: what makes a bound outward, not a choice
     "calib_dsl.relax.relaxation.RHS_REL": "a float dot product's rounding-error budget",
@@ -133,6 +134,10 @@ NOT_TUNING = {
     "calib_dsl.plan.classical.TINY": "a variance rounded to 0: its log, finite",
     "calib_dsl.plan.classical.EXCHANGE_GAIN": "log det's rounding: a smaller gain would cycle",
     "calib_dsl.plan.linear.ROUNDING": "a bound within the floats' width of its row's value",
+    "calib_dsl.analysis.certify_point.ROUNDING_SPAN": "float bounds ulps off their exact values",
+    "calib_dsl.studies.simulate.CHECK_RTOL": "true values satisfy a constraint to float error",
+    "calib_dsl.studies.simulate.CHECK_ATOL": "the same check's absolute floor (values near 0)",
+    "calib_dsl.analysis.unit_spreads.FACTORS": "units arithmetic: 1000 mm a m, 180/pi deg a rad",
     # encodings and the solver's own constants
     "calib_dsl.lp.highs.MANY_PIVOTS": "HiGHS's own 'no limit'",
     "calib_dsl.lp.highs.DUAL_SIMPLEX": "HiGHS's code for the dual simplex",
@@ -142,6 +147,13 @@ NOT_TUNING = {
     "calib_dsl.plan.command.SWEEP_STEP": "what `--n A..B` means without a step (the CLI's)",
     "calib_dsl.outliers.rows.SHOWN": "rows the text report lists (the JSON has every one)",
     "calib_dsl.accuracy.batch_lp._BLOCK": "a memory block: the bounds are the same for any",
+    "calib_dsl.analysis.certify_point.CHECK_CELLS": "a memory block: results the same for any",
+    "calib_dsl.analysis.certify_point.CHUNK_CELLS": "a memory block: results the same for any",
+    # what `calibc simulate --systematic` draws: the error model the data are made with (with
+    # the seed, the file), not a choice of speed against tightness
+    "calib_dsl.studies.campaign.TERMS": "sinusoids per column in the systematic error drawn",
+    "calib_dsl.studies.campaign.MAX_FREQUENCY": "their largest frequency per joint (per turn)",
+    "calib_dsl.studies.kinematics.RX90_TOOL": "the RX90 example robot's tool points: geometry",
 }
 
 

@@ -18,6 +18,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "calib_dsl"
 # ("package.module"), and its package's other modules may not import it.
 RANKS = {
     "settings": 0, "arith": 0, "frontend": 0, "progress": 0,
+    "settings_analysis": -1,  # settings.py's groups for analysis/, which settings.py imports
     "ir": 1,
     "elaborate": 2, "compile": 2,
     "propagate": 3,

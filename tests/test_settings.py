@@ -39,3 +39,14 @@ def test_every_group_is_a_field_and_no_name_is_both_flat_and_grouped():
     for g in GROUPS:
         inner = {f.name for f in fields(getattr(DEFAULT, g))}
         assert not inner & flat, f"{g}: {inner & flat} is both a group's field and a flat one"
+
+
+def test_a_groups_name_and_field_name_that_field():
+    """`min_error_share` (a flat name before the min_error group) sets the group's share;
+    a name no group's field ends refused all the same."""
+    s = DEFAULT.tuned(min_error_share=3.0, chebyshev_lps=2)
+    assert s.min_error.share == 3.0 and s.fits.chebyshev_lps == 2
+    assert s.min_error.wide == DEFAULT.min_error.wide and s.rounds == DEFAULT.rounds
+    assert DEFAULT.tuned(wide=0.5).min_error.wide == DEFAULT.min_error.wide  # the rounds'
+    with pytest.raises(TypeError, match="no field 'min_error_nope'"):
+        DEFAULT.tuned(min_error_nope=1)

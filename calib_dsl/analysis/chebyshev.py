@@ -1,7 +1,8 @@
 """A Chebyshev fit: the parameter vector that (locally) minimizes the largest residual, from
 the least-squares estimate by linear programs over the model linearized at each step (each
-step within TRUST of the domains, kept while it lowers the largest residual). A point and a
-hope, like least squares: certify_point.py proves what it claims.
+step within a trust region of the domains, FitSettings' chebyshev_*, kept while it lowers
+the largest residual). A point and a hope, like least squares: certify_point.py proves
+what it claims.
 """
 
 from __future__ import annotations
@@ -17,24 +18,23 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import minimize
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
-
-ITERATIONS = 8  # linear programs lowering the largest residual
-TRUST = 0.5  # each LP step within this share of the domains
-SHRINK = 0.25  # a step that did not lower the largest residual: the next within this share
-MIN_TRUST = 1e-4  # the fit stops once its steps would be smaller than this share
+from calib_dsl.settings_analysis import FitSettings
 
 
 def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = False,
               start: np.ndarray | None = None,
               box: tuple[np.ndarray, np.ndarray] | None = None,
-              target: float = 0.0, settle: float = 0.0) -> tuple[np.ndarray, float]:
+              target: float = 0.0, settle: float = 0.0,
+              fits: FitSettings | None = None) -> tuple[np.ndarray, float]:
     """A point with a small largest residual on `rows` (all if None; the others within their
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
     residuals in units of each row's bound. From `start`, else the least-squares estimate;
     within `box` (the unknowns' bounds), else the search domains. Stops early once the
     linearized model cannot bring the largest residual below `target` (its LP's optimum), or
     once a step's largest residual is within `settle` (relative) of what its LP predicted:
-    the model is linear there to within that, so another step would gain about as little."""
+    the model is linear there to within that, so another step would gain about as little.
+    Its steps and trust region: `fits` (FitSettings' chebyshev_*)."""
+    f = fits or FitSettings()
     lo, hi = within_domains(prog, box)
     p = estimate(prog, max_evaluations=200).values if start is None else start
     p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
@@ -43,8 +43,8 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
     unit = np.maximum(half, 1e-12) if normalized else np.ones_like(half)
     need = _largest(d, rows, unit)
     width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    n, trust = len(p), TRUST
-    for _ in range(ITERATIONS):
+    n, trust = len(p), f.chebyshev_trust
+    for _ in range(f.chebyshev_lps):
         # min s  s.t.  -s <= r + J dp <= s on `rows`, |r + J dp| <= their bound elsewhere
         # (r, J: the residuals and their Jacobian, absolute or in bounds)
         r, J = d / unit, jac / unit[:, None]
@@ -66,8 +66,8 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
             # the model was not linear over the step: a smaller one (where the domains
             # allow large steps along directions the data hardly see, the step's curvature
             # can undo the gain)
-            trust *= SHRINK
-            if trust < MIN_TRUST:
+            trust *= f.chebyshev_shrink
+            if trust < f.chebyshev_min_trust:
                 break
             continue
         p, d, jac, need = q, dq, jq, _largest(dq, rows, unit)
@@ -102,7 +102,8 @@ def _largest(d: np.ndarray, rows: np.ndarray, unit: np.ndarray) -> float:
 
 
 def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = None,
-                  box: tuple[np.ndarray, np.ndarray] | None = None
+                  box: tuple[np.ndarray, np.ndarray] | None = None,
+                  fits: FitSettings | None = None
                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """The fit continued from `point` with the joint readings free within their intervals
     (their errors lower the largest residual where the arm's lever is long): steps of linear
@@ -111,6 +112,7 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
     residual on `rows` (all if None) that the model linearized at the point gives with those
     readings; None when the model has no readings or the LP fails. A point and a hope, as
     above."""
+    f = fits or FitSettings()
     readings = Readings(prog)
     if not len(readings.at):
         return None
@@ -119,8 +121,8 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
     lin = linearized(prog, point)
     rows = np.ones(len(lin.d), dtype=bool) if rows is None else rows
     best: tuple[np.ndarray, np.ndarray, float] | None = None
-    p, trust = point, TRUST
-    for _ in range(ITERATIONS):
+    p, trust = point, f.chebyshev_trust
+    for _ in range(f.chebyshev_lps):
         got = _readings_step(lin, readings, p, rows, (np.maximum(lo - p, -trust * width),
                                                      np.minimum(hi - p, trust * width)))
         if got is None:
@@ -129,8 +131,8 @@ def with_readings(prog: Program, point: np.ndarray, rows: np.ndarray | None = No
         lin_q = linearized(prog, q)
         merit = _with_errors(lin_q, readings, got[1], rows)
         if best is not None and not merit < best[2] * (1 - 1e-6):
-            trust *= SHRINK  # (as in `chebyshev`)
-            if trust < MIN_TRUST:
+            trust *= f.chebyshev_shrink  # (as in `chebyshev`)
+            if trust < f.chebyshev_min_trust:
                 break
             continue
         best, p, lin = (q, got[1], merit), q, lin_q
@@ -190,13 +192,13 @@ def _with_errors(lin: Linearized, readings: Readings, z: np.ndarray, rows: np.nd
     return float(np.max(np.abs(moved[rows]), initial=0.0)) * scale
 
 
-def proven_consistent(prog: Program) -> bool:
+def proven_consistent(prog: Program, fits: FitSettings | None = None) -> bool:
     """Whether a point is proven to satisfy every row (certify_point.py): the Chebyshev fit
     in units of the rows' bounds, else one more step of it with the joint readings free
     (near the least error the data allow, the readings' freedom can decide whether a point
     fits at all; docs/decisions/16)."""
-    point, need = chebyshev(prog, normalized=True)
+    point, need = chebyshev(prog, normalized=True, fits=fits)
     if need <= 1.0 and check_point(prog, point).holds:
         return True
-    step = with_readings(prog, point)
+    step = with_readings(prog, point, fits=fits)
     return step is not None and check_point(prog, step[0], step[1]).holds

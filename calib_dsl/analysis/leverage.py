@@ -17,9 +17,7 @@ import numpy as np
 from calib_dsl.analysis.lsq import linearized
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-
-SHARE = 0.5  # a data row carrying more than this share of a parameter's estimate
-RCOND = 1e-8  # directions the data see less than this (relative) are not estimated
+from calib_dsl.settings_analysis import FitSettings
 
 
 @dataclass(frozen=True)
@@ -29,9 +27,11 @@ class Leverage:
     share: float
 
 
-def heavy_rows(prog: Program, lo: np.ndarray, hi: np.ndarray) -> list[Leverage]:
-    """Per parameter the data estimate, the data row with more than SHARE of its estimate
-    (none when the rows share it); largest share first."""
+def heavy_rows(prog: Program, lo: np.ndarray, hi: np.ndarray,
+               fits: FitSettings) -> list[Leverage]:
+    """Per parameter the data estimate, the data row with more than `fits.leverage_share`
+    of its estimate (none when the rows share it); largest share first. Directions the data
+    see less than `fits.leverage_rcond` (relative) are not estimated."""
     ind = independents(prog)
     free = np.flatnonzero(hi[ind] > lo[ind])
     if not len(free) or prog.slots.row_keys is None:
@@ -49,7 +49,8 @@ def heavy_rows(prog: Program, lo: np.ndarray, hi: np.ndarray) -> list[Leverage]:
     if J.shape[0] <= J.shape[1]:
         return []
     u, sv, vt = np.linalg.svd(J, full_matrices=False)
-    seen = sv > RCOND * sv[0] if len(sv) and sv[0] > 0 else np.zeros(len(sv), dtype=bool)
+    seen = (sv > fits.leverage_rcond * sv[0] if len(sv) and sv[0] > 0
+            else np.zeros(len(sv), dtype=bool))
     weights = (vt[seen].T / sv[seen]) @ u[:, seen].T  # pinv(J): parameters by rows
     out = []
     for j, k in enumerate(free):
@@ -59,6 +60,6 @@ def heavy_rows(prog: Program, lo: np.ndarray, hi: np.ndarray) -> list[Leverage]:
         by_row = np.bincount(rows, weights=w2)
         total = float(by_row.sum())
         top = int(np.argmax(by_row)) if total > 0 else -1
-        if top >= 0 and by_row[top] > (SHARE + 1e-6) * total:  # not an even split
+        if top >= 0 and by_row[top] > (fits.leverage_share + 1e-6) * total:  # not an even split
             out.append(Leverage(prog.slots.names[ind[k]], top, float(by_row[top] / total)))
     return sorted(out, key=lambda x: -x.share)

@@ -7,10 +7,11 @@
   step of it with the joint readings free within their intervals.
 - lo is *proven infeasible*: the tight solve at that bound finds no solution. Values between
   are tried from the top down, then by bisection, within a budget of solves; where they
-  leave a bracket wider than WIDE, the caller's `prove` (a solve with a proof effort) tries
-  the value WIDE below hi, then bisects below it, within PROOFS trials.
+  leave a bracket wider than `wide`, the caller's `prove` (a solve with a proof effort) tries
+  the value `wide` below hi, then bisects below it, within `proofs` trials
+  (MinErrorSettings, settings_analysis.py).
 
-The rows whose residual at hi is within BINDING of it are the ones that set it. Every trial
+The rows whose residual at hi is within `binding` of it are the ones that set it. Every trial
 is the problem with the const set (problem.py's `Problem.with_const`: the cells' bounds
 changed where the const is only an error bound, else the model elaborated anew), so any model
 whose measured values are stated `+- NAME` works, whatever else it contains.
@@ -36,17 +37,7 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
-
-BINDING = 0.01  # a row within this share of the bound's value binds it
-STEPS = (1.02, 1.05, 1.1, 1.25, 1.5, 2.0, 4.0)  # lower trials: hi divided by these, in turn
-MAX_SOLVES = 8  # tight solves to prove the lower end, at most
-# A bracket wider than this (hi / lo - 1) gets PROOFS more trials, each a solve and, where it
-# leaves the trial open, a proof effort (the caller's `prove`): the 2 % every shipped model
-# is to meet
-WIDE = 0.02
-PROOFS = 4
-GOAL_INSIDE = 1e-6  # the goal trial sits this share above hi / (1 + WIDE): within it, rounded
-CERTIFY_TRIES = 4  # raises of the bound by the point's excess before the upper end gives up
+from calib_dsl.settings_analysis import FitSettings, MinErrorSettings
 
 
 @dataclass(frozen=True)
@@ -64,6 +55,7 @@ class MinError:
     lo: float | None  # proven infeasible (None: no trial refuted)
     hi: float  # proven feasible, by `point`
     point: dict[str, float]
+    within: float  # the binding rows' residuals are within this share of hi
     binding: list[Binding] = field(default_factory=list)
     trials: list[tuple[float, str]] = field(default_factory=list)  # (value, outcome)
 
@@ -87,8 +79,12 @@ class Trials(Protocol):
     def with_const(self, **values: str) -> Trials: ...
 
 
-def min_error(problem: Trials, name: str, solve: Solver,
-              prove: Prover | None = None) -> MinError:
+def min_error(problem: Trials, name: str, solve: Solver, prove: Prover | None = None,
+              settings: MinErrorSettings | None = None,
+              fits: FitSettings | None = None) -> MinError:
+    """The bracket (the module's docstring): its trials and budgets from `settings`, the
+    Chebyshev fits' steps from `fits` (each its group's defaults where None)."""
+    s = settings or MinErrorSettings()
     model, prog = problem.model, problem.program
     if name not in model.consts:
         have = ", ".join(sorted(model.consts)) or "none"
@@ -98,47 +94,57 @@ def min_error(problem: Trials, name: str, solve: Solver,
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    hi, check_prog, point, readings = _upper(name, problem, prog, rows)
-    out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)))
-    out.binding = _binding(model, check_prog, point, readings, hi)
+    hi, check_prog, point, readings = _upper(Upper(name, problem, s, fits), prog, rows)
+    out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)),
+                   s.binding)
+    out.binding = _binding(model, check_prog, point, readings, hi, s.binding)
     del model, prog, check_prog  # (each trial derives its own)
-    _lower(out, problem, solve)
-    if prove is not None and out.lo is not None and out.hi > (1 + WIDE) * out.lo:
-        raise_lower(out, problem, prove)
+    _lower(out, problem, solve, s)
+    if prove is not None and out.lo is not None and out.hi > (1 + s.wide) * out.lo:
+        raise_lower(out, problem, prove, s)
     return out
 
 
-def _upper(name: str, problem: Trials, prog: Program, rows: np.ndarray
+@dataclass(frozen=True)
+class Upper:
+    """What the upper end's search needs: the const, the problem, the settings."""
+
+    name: str
+    problem: Trials
+    settings: MinErrorSettings
+    fits: FitSettings | None
+
+
+def _upper(up: Upper, prog: Program, rows: np.ndarray
            ) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
     """The smallest bound proven feasible (_fitted). The fit starts from least squares,
     which may leave a row of another bound beyond it (the const's rows weigh more); no
     raise of the const mends that row, so where no point is proven the fit starts again
     from the point with the least largest residual in bounds over every row."""
     try:
-        return _fitted(name, problem, prog, rows, None)
+        return _fitted(up, prog, rows, None)
     except CalError:
-        start, _ = chebyshev(prog, None, normalized=True)
-        return _fitted(name, problem, prog, rows, start)
+        start, _ = chebyshev(prog, None, normalized=True, fits=up.fits)
+        return _fitted(up, prog, rows, start)
 
 
-def _fitted(name: str, problem: Trials, prog: Program, rows: np.ndarray,
+def _fitted(up: Upper, prog: Program, rows: np.ndarray,
             start: np.ndarray | None) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
     """The Chebyshev fit's point (from `start`, else least squares), or the fit continued
     with the joint readings free (their errors lower it further), whichever is certified at
     the smaller bound (a point the readings' step moves may break a row by more than its
     linear model said: then the plain fit's may be the smaller)."""
-    point, need = chebyshev(prog, rows, start=start)
-    step = with_readings(prog, point, rows)
+    point, need = chebyshev(prog, rows, start=start, fits=up.fits)
+    step = with_readings(prog, point, rows, fits=up.fits)
     found: list[tuple[float, Program, np.ndarray, np.ndarray | None]] = []
     if step is not None and step[2] < need:
         try:
-            found.append(_certified(name, problem, step[0], step[2],
-                                    Readings(prog).by_cell(step[1])))
+            found.append(_certified(up, step[0], step[2], Readings(prog).by_cell(step[1])))
         except CalError:
             pass
     if not found or found[0][0] > need:
         try:
-            found.append(_certified(name, problem, point, need))
+            found.append(_certified(up, point, need))
         except CalError:
             if not found:
                 raise
@@ -162,16 +168,17 @@ def _bound_rows(prog: Program, e0: float) -> np.ndarray:
     return rows
 
 
-def _certified(name: str, problem: Trials, point: np.ndarray, need: float,
+def _certified(up: Upper, point: np.ndarray, need: float,
                readings: dict[int, float] | None = None
                ) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
     """The smallest tried bound (from `need` up) at which the point (with these joint
     readings, else their middles; kept within the domains) is proven feasible, the program
     that proved it, the point and the readings it was proven with."""
+    name, tries = up.name, up.settings.certify_tries
     e = need * (1 + 1e-6) + 1e-12
     computed = False
-    for _ in range(CERTIFY_TRIES):
-        prog = _trial(problem, name, e)
+    for _ in range(tries):
+        prog = _trial(up.problem, name, e)
         # an LP's point may sit a rounding outside a domain (and domains centred on least
         # squares move with the data)
         point = np.clip(point, *within_domains(prog))
@@ -185,15 +192,15 @@ def _certified(name: str, problem: Trials, point: np.ndarray, need: float,
             break
     why = ("a constraint compares two computed values, which interval evaluation cannot "
            "prove" if computed else f"the fit's point still broke a row at {name} = {e:.6g} "
-           f"after {CERTIFY_TRIES} raises of the bound")
+           f"after {tries} raises of the bound")
     raise CalError(f"--min-error {name}: no point could be proven feasible ({why})")
 
 
-def _lower(out: MinError, problem: Trials, solve: Solver) -> None:
-    """Prove infeasible the largest value below hi that the budget allows."""
+def _lower(out: MinError, problem: Trials, solve: Solver, s: MinErrorSettings) -> None:
+    """Prove infeasible the largest value below hi that the budget (`s.max_solves`) allows."""
     refuted, open_ = None, out.hi
-    for k, step in enumerate(STEPS):
-        if k >= MAX_SOLVES:
+    for k, step in enumerate(s.steps):
+        if k >= s.max_solves:
             break
         e = out.hi / step
         status = solve(_trial(problem, out.name, e))
@@ -203,7 +210,7 @@ def _lower(out: MinError, problem: Trials, solve: Solver) -> None:
             break
         open_ = e
     solves = len(out.trials)
-    while refuted is not None and solves < MAX_SOLVES and open_ / refuted > 1.005:
+    while refuted is not None and solves < s.max_solves and open_ / refuted > 1.005:
         e = math.sqrt(refuted * open_)
         status = solve(_trial(problem, out.name, e))
         out.trials.append((e, status))
@@ -220,21 +227,21 @@ def _trial(problem: Trials, name: str, value: float) -> Program:
     return problem.with_const(**{name: str(Fraction(value))}).program
 
 
-def raise_lower(out: MinError, problem: Trials, prove: Prover) -> None:
+def raise_lower(out: MinError, problem: Trials, prove: Prover, s: MinErrorSettings) -> None:
     """Raise the refuted lo towards the certified hi with `prove` (the values the solves
-    left open may be refuted by it): first the goal itself, hi / (1 + WIDE), with the
-    budget of every trial after it (PROOFS - 1: where it is proven they are not needed),
+    left open may be refuted by it): first the goal itself, hi / (1 + s.wide), with the
+    budget of every trial after it (s.proofs - 1: where it is proven they are not needed),
     and a proof ends the search; where it stays open, bisection below it, a trial's budget
     each."""
     assert out.lo is not None
     refuted, open_ = out.lo, out.hi
-    goal = out.hi / (1 + WIDE) * (1 + GOAL_INSIDE)
-    for k in range(PROOFS):
+    goal = out.hi / (1 + s.wide) * (1 + s.goal_inside)
+    for k in range(s.proofs):
         if open_ / refuted <= 1.005:
             break
         aim = k == 0 and goal > refuted
         e = goal if aim else math.sqrt(refuted * open_)
-        status = prove(_trial(problem, out.name, e), PROOFS - 1.0 if aim else 1.0)
+        status = prove(_trial(problem, out.name, e), s.proofs - 1.0 if aim else 1.0)
         out.trials.append((e, status))
         if status == "infeasible":
             refuted = e
@@ -246,9 +253,9 @@ def raise_lower(out: MinError, problem: Trials, prove: Prover) -> None:
 
 
 def _binding(model: Model, prog: Program, point: np.ndarray, readings: np.ndarray | None,
-             hi: float) -> list[Binding]:
+             hi: float, within: float) -> list[Binding]:
     """The measured rows bounded by hi whose residual at the proven point, with the joint
-    readings it was proven with, is within BINDING of hi."""
+    readings it was proven with, is within `within` of hi (MinErrorSettings.binding)."""
     if readings is not None:
         at = Readings(prog).at
         lo, up = prog.slots.lo.copy(), prog.slots.hi.copy()
@@ -257,7 +264,7 @@ def _binding(model: Model, prog: Program, point: np.ndarray, readings: np.ndarra
     d, half, _ = rows_at(prog, point)
     r = np.abs(d)
     bounded = np.abs(half - hi) <= 1e-6 * hi
-    near = np.flatnonzero(bounded & (r >= (1 - BINDING) * hi))
+    near = np.flatnonzero(bounded & (r >= (1 - within) * hi))
     owners = row_owners(prog)
     tables = {t.name: t for t in model.tables}
     seen: dict[tuple[str, int], Binding] = {}

@@ -16,14 +16,14 @@ from calib_dsl.analysis.unit_spreads import spreads
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings_analysis import FitSettings
 
-MAX_EVALUATIONS = 200  # of the residuals: from a far start the estimate needs more than 30
 
-
-def centre_on_least_squares(prog: Program) -> None:
+def centre_on_least_squares(prog: Program, fits: FitSettings | None = None) -> None:
     """Give each `lsq +- w` parameter its domain around the least-squares estimate (in place:
     the program's slots and declared domains); the other parameters keep theirs and bound
-    the estimate."""
+    the estimate (at most `fits`' prior_evaluations evaluations of the residuals)."""
+    f = fits or FitSettings()
     if not prog.priors:
         return
     ind = independents(prog)
@@ -34,11 +34,12 @@ def centre_on_least_squares(prog: Program) -> None:
                          np.clip(0.0, lo, hi))
     for name, (s, _) in prog.priors.items():
         start[names.index(name)] = s
-    est = estimate(prog, start=start, max_evaluations=MAX_EVALUATIONS)
+    est = estimate(prog, start=start, max_evaluations=f.prior_evaluations)
     values = dict(zip(names, est.values.tolist(), strict=True))
     bad = [n for n in prog.priors if not np.isfinite(values[n])]
     if bad or not est.converged:
-        units = spreads(prog, start)  # a column off by a unit's factor, named if one is
+        # a column off by a unit's factor, named if one is
+        units = spreads(prog, start, f.unit_near)
         raise CalError("the least-squares estimate that centres the lsq domains ("
                        f"{', '.join(prog.priors)}) did not converge: "
                        + ("; ".join(units) if units else

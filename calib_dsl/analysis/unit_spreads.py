@@ -14,14 +14,14 @@ from calib_dsl.analysis.lsq import linearized
 from calib_dsl.ir.program import Program
 
 FACTORS = ((1000.0, "1000 (mm and m)"), (180 / math.pi, "57 (deg and rad)"))
-NEAR = 1.5  # a ratio within this factor of a unit factor (either way) is named
 
 
-def near(ratio: float) -> str | None:
-    """The unit factor `ratio` sits within NEAR of (either way), as a label; None if none."""
+def near(ratio: float, within: float) -> str | None:
+    """The unit factor `ratio` sits within the factor `within` of (either way; FitSettings'
+    unit_near), as a label; None if none."""
     for factor, label in FACTORS:
         for f in (factor, 1 / factor):
-            if ratio > 0 and abs(math.log(ratio / f)) <= math.log(NEAR):
+            if ratio > 0 and abs(math.log(ratio / f)) <= math.log(within):
                 return label
     return None
 
@@ -43,14 +43,14 @@ def by_column(prog: Program, p: np.ndarray) -> dict[str, tuple[np.ndarray, ...]]
     return out
 
 
-def spreads(prog: Program, p: np.ndarray) -> list[str]:
-    """A line per group of measured columns whose values spread a unit's factor more or less
-    than the model predicts them at p."""
+def spreads(prog: Program, p: np.ndarray, within: float) -> list[str]:
+    """A line per group of measured columns whose values spread a unit's factor (to within
+    the factor `within`) more or less than the model predicts them at p."""
     found: dict[tuple[str, bool], list[tuple[str, float]]] = {}
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         for name, (values, d, _) in by_column(prog, p).items():
             ratio = float(np.std(values) / np.std(values + d))
-            label = near(ratio) if np.isfinite(ratio) else None
+            label = near(ratio, within) if np.isfinite(ratio) else None
             if label is not None:
                 found.setdefault((label, ratio > 1), []).append((name, ratio))
     out = []

@@ -32,6 +32,7 @@ from calib_dsl.outliers.prior_faults import PriorFault, prior_faults
 from calib_dsl.outliers.rows import Row
 from calib_dsl.outliers.unit_hints import unit_hints
 from calib_dsl.settings import OutlierSettings
+from calib_dsl.settings_analysis import FitSettings
 
 
 @dataclass(frozen=True)
@@ -50,7 +51,8 @@ class Conflict:
     units: list[str] = field(default_factory=list)  # columns or bounds whose unit to check
 
 
-def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings) -> Conflict | None:
+def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings,
+                  fits: FitSettings) -> Conflict | None:
     """The smallest set of worst rows (at most settings.conflict_rows) without which the
     data are proven consistent; None when the model has no table to name rows of."""
     model, prog = load(inputs)
@@ -63,7 +65,7 @@ def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings) -> Co
     if priors:
         return Conflict([], True, None, priors)
     try:
-        units = unit_hints(model, prog, settings)
+        units = unit_hints(model, prog, settings, fits)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         units = []
     if units:  # every row looks wrong: naming some would mislead

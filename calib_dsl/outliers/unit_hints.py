@@ -1,8 +1,8 @@
 """Units to check, for data proven inconsistent: a column or an error bound off by a unit's
 factor makes every row look wrong, and the rows are not what to blame.
 
-Each rule measures a ratio and names a column when the ratio sits within NEAR of a unit
-factor (1000: mm and m; 180/pi: deg and rad):
+Each rule measures a ratio and names a column when the ratio sits within a factor
+(FitSettings.unit_near) of a unit factor (1000: mm and m; 180/pi: deg and rad):
 - a measured column's values spread that many times more or less than the model's
   predictions of them at the middle of the search domains (the file's unit is not the one
   declared);
@@ -27,22 +27,26 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import OutlierSettings
+from calib_dsl.settings_analysis import FitSettings
 
 
-def unit_hints(model: Model, prog: Program, settings: OutlierSettings) -> list[str]:
+def unit_hints(model: Model, prog: Program, settings: OutlierSettings,
+               fits: FitSettings) -> list[str]:
     """A line per column (or bound) whose unit to check; empty when no ratio points at one."""
     s = prog.slots
     ind = independents(prog)
     lo, hi = s.lo[ind], s.hi[ind]
     middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
-    out = spreads(prog, middle) + _readings(model, prog) + _turns(model, prog, settings.unit_turns)
+    out = (spreads(prog, middle, fits.unit_near) + _readings(model, prog)
+           + _turns(model, prog, settings.unit_turns))
     est = estimate(prog, start=middle, max_evaluations=200)
     if not est.converged:
         out.append("least squares did not converge from the middle of the search domains: "
                    "check the units of the table's columns (`in mm`, `in deg`) and of the "
                    "error bounds")
     elif np.all(np.isfinite(est.values)):
-        out += _bounds(prog, _robust(prog, est.values, settings.unit_evaluations), settings)
+        out += _bounds(prog, _robust(prog, est.values, settings.unit_evaluations), settings,
+                       fits.unit_near)
     return out
 
 
@@ -62,7 +66,8 @@ def _robust(prog: Program, start: np.ndarray, evaluations: int) -> np.ndarray:
     return np.asarray(sol.x) if np.all(np.isfinite(sol.x)) else start
 
 
-def _bounds(prog: Program, p: np.ndarray, settings: OutlierSettings) -> list[str]:
+def _bounds(prog: Program, p: np.ndarray, settings: OutlierSettings,
+            within: float) -> list[str]:
     found: dict[str, list[tuple[str, float]]] = {}
     columns = by_column(prog, p)
     over = [np.abs(d) > half for _, d, half in columns.values()]
@@ -73,7 +78,7 @@ def _bounds(prog: Program, p: np.ndarray, settings: OutlierSettings) -> list[str
         if not ok.any():
             continue
         ratio = float(np.quantile(np.abs(d[ok]) / half[ok], settings.unit_quantile))
-        label = near(ratio) if ratio > 1 else None
+        label = near(ratio, within) if ratio > 1 else None
         if label is not None:
             found.setdefault(label, []).append((name, ratio))
     out = []

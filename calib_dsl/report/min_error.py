@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from calib_dsl.analysis.min_error import BINDING, MinError
+from calib_dsl.analysis.min_error import MinError
 from calib_dsl.outliers.conflict import Conflict
 
 
@@ -24,7 +24,7 @@ def render_min_error(r: MinError) -> str:
     tried = ", ".join(f"{v:.6g} {'infeasible' if s == 'infeasible' else 'not refuted'}"
                       for v, s in r.trials)
     lines.append(f"  values tried: {tried or 'none'}")
-    lines.append(f"rows that bind at the upper end (residual within {BINDING:.0%} of it): "
+    lines.append(f"rows that bind at the upper end (residual within {r.within:.0%} of it): "
                  f"{len(r.binding)}")
     for b in r.binding:
         lines.append(f"  {b.file}:{b.line} (data row {b.row}): residual {b.residual:.6g}")

@@ -83,14 +83,17 @@ def least_squares(prog: Program, res: Solution, settings: Settings) -> np.ndarra
 
 
 def certified_point(prog: Program, res: Solution | None, start: np.ndarray | None = None,
-                    search: bool = False) -> tuple[bool, float | None]:
+                    search: bool = False, settings: Settings | None = None
+                    ) -> tuple[bool, float | None]:
     """Whether a point is proven to satisfy every constraint, and the Chebyshev fit's largest
     residual in error bounds (readings at their middles; None when there is no fit). Tried
     in order of cost: the result's middle; the Chebyshev fit in units of the rows' bounds
     from `start` (else from the least-squares estimate), then one more step of it with the
     joint readings free; with `search` (the inner bounds were not computed), their search
     for points within the result, on a program of up to inner_max_primitives. (`res` None:
-    the fits alone.)"""
+    the fits alone.) The fits' steps: `settings.fits`."""
+    settings = settings or Settings()
+    fits = settings.fits
     ind = independents(prog)
     lo, hi = (res.lo[ind], res.hi[ind]) if res is not None else (prog.slots.lo[ind],) * 2
     need: float | None = None
@@ -100,11 +103,11 @@ def certified_point(prog: Program, res: Solution | None, start: np.ndarray | Non
                     prog, np.clip(0.5 * (lo + hi), lo, hi), Readings(prog).middles()):
                 return True, None
             if len(prog.primitives):
-                point, fit = chebyshev(prog, normalized=True, start=start)
+                point, fit = chebyshev(prog, normalized=True, start=start, fits=fits)
                 need = float(fit) if np.isfinite(fit) else None
                 if fit <= 1.0 and check_point(prog, point).holds:
                     return True, need
-                step = with_readings(prog, point)
+                step = with_readings(prog, point, fits=fits)
                 if step is not None and check_point(prog, step[0], step[1]).holds:
                     return True, need
     except FAILURES:
@@ -112,7 +115,7 @@ def certified_point(prog: Program, res: Solution | None, start: np.ndarray | Non
     if res is None or not search:
         return False, need
     try:
-        return inner_bounds(prog, res.lo, res.hi, res.starts).consistent, need
+        return inner_bounds(prog, res.lo, res.hi, res.starts, settings).consistent, need
     except FAILURES:
         return False, need
 
@@ -144,8 +147,9 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
         return res, Verdict(CONSISTENT, "a parameter vector is proven to satisfy every "
                             "constraint (the inner bounds' points)")
     start = time.perf_counter()
-    fit = least_squares(prog, res, effort.settings if effort else Settings())
-    proven, largest = certified_point(prog, res, fit, search=certified is None)
+    settings = effort.settings if effort else Settings()
+    fit = least_squares(prog, res, settings)
+    proven, largest = certified_point(prog, res, fit, certified is None, settings)
     if proven:
         return res, Verdict(CONSISTENT, "a parameter vector is proven to satisfy every "
                             "constraint (interval evaluation at the point)",

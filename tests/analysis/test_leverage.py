@@ -9,9 +9,10 @@ from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.analysis.leverage import SHARE, heavy_rows
+from calib_dsl.analysis.leverage import heavy_rows
 from calib_dsl.cli import main
 from calib_dsl.pipeline import load
+from calib_dsl.settings_analysis import FitSettings
 
 LINE = """param a in [-10, 10]; param b in [-10, 10];
 table m = "w.csv" { x : +- 1e-9; v : +- 0.01; }
@@ -30,19 +31,20 @@ def _write(tmp, xs):
 @given(st.lists(st.floats(-3, 3), min_size=4, max_size=9, unique=True), st.floats(-60, 60))
 def test_the_slopes_shares_are_the_closed_form(tmp_path_factory, xs, far):
     """For a line fit with equal bounds, row i's share in the slope's estimate is
-    (x_i - mean)^2 / sum (x_j - mean)^2; a row above SHARE is reported, with that share."""
+    (x_i - mean)^2 / sum (x_j - mean)^2; a row above FitSettings' leverage_share is reported,
+    with that share."""
     xs = [*xs, far]
     prog = load(_write(tmp_path_factory.mktemp("lev"), xs))
-    found = {h.parameter: h for h in heavy_rows(prog, prog.slots.lo, prog.slots.hi)}
+    found = {h.parameter: h for h in heavy_rows(prog, prog.slots.lo, prog.slots.hi, FitSettings())}
     x = np.array(xs)
     if np.ptp(x) < 1e-3:
         return
     share = (x - x.mean()) ** 2 / np.sum((x - x.mean()) ** 2)
     top = int(np.argmax(share))
-    if share[top] > SHARE + 1e-6:
+    if share[top] > FitSettings().leverage_share + 1e-6:
         assert found["a"].share == pytest.approx(share[top], rel=1e-6)
         assert prog.slots.row_keys[found["a"].data_row][1] == top + 1
-    elif share[top] < SHARE - 1e-6:
+    elif share[top] < FitSettings().leverage_share - 1e-6:
         assert "a" not in found
 
 

@@ -60,7 +60,7 @@ def test_the_bracket_holds_the_exact_smallest_bound(tmp_path, seed):
 def test_binding_residuals_are_the_proofs_with_readings_of_error(tmp_path, seed):
     """With readings that carry an error, the fit lets them move: a binding row's residual is
     the one the proof saw (at the readings it chose), never above the upper end."""
-    from calib_dsl.analysis.min_error import BINDING
+    from calib_dsl.settings_analysis import MinErrorSettings
 
     rng = np.random.default_rng(seed)
     x = rng.uniform(-2, 2, 15)
@@ -70,9 +70,9 @@ def test_binding_residuals_are_the_proofs_with_readings_of_error(tmp_path, seed)
     model = tmp_path / "line.cal"
     model.write_text(LINE.replace("x : +- 1e-9", "x : +- 0.05"))
     found = min_error(model, "e")
-    assert found.binding
+    assert found.binding and found.within == MinErrorSettings().binding
     for b in found.binding:
-        assert (1 - BINDING) * found.hi <= b.residual <= found.hi * (1 + 1e-9), b
+        assert (1 - found.within) * found.hi <= b.residual <= found.hi * (1 + 1e-9), b
 
 
 def test_a_point_outside_a_bound_is_not_proven(tmp_path):
@@ -176,6 +176,7 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     from calib_dsl.analysis import min_error as found
     from calib_dsl.analysis.chebyshev import chebyshev, with_readings
     from calib_dsl.problem import Problem
+    from calib_dsl.settings_analysis import MinErrorSettings
 
     path = MODELS / "ur10_all.cal"
     problem = Problem.load(path).keeping_priors()
@@ -184,7 +185,7 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     point, plain = chebyshev(prog, rows)
     step = with_readings(prog, point, rows)
     assert step is not None and step[2] < 0.99 * plain
-    hi, _, _, _ = found._upper("e", problem, prog, rows)
+    hi, _, _, _ = found._upper(found.Upper("e", problem, MinErrorSettings(), None), prog, rows)
     assert hi <= step[2] * 1.001
 
 
@@ -195,6 +196,7 @@ def test_a_wide_bracket_is_bisected_with_the_proof_effort():
     from fractions import Fraction
 
     from calib_dsl.analysis.min_error import MinError, raise_lower
+    from calib_dsl.settings_analysis import MinErrorSettings
 
     class Bounds:
         """A problem whose program, with the const set, is the bound itself."""
@@ -208,8 +210,8 @@ def test_a_wide_bracket_is_bisected_with_the_proof_effort():
     def prove(bound, weight=1.0):
         return "infeasible" if bound < 0.9 else "contracted"
 
-    out = MinError("e", 0.5, 1.0, {})
-    raise_lower(out, Bounds(), prove)
+    out = MinError("e", 0.5, 1.0, {}, 0.01)
+    raise_lower(out, Bounds(), prove, MinErrorSettings())
     assert 0.8 < out.lo < 0.9 and len(out.trials) == 4
     assert all((s == "infeasible") == (v < 0.9) for v, s in out.trials)
 
@@ -219,7 +221,8 @@ def test_the_goal_is_tried_first_and_ends_the_search_when_refuted():
     refutes it, the bracket is within 2 % after one trial (no bisection from far below)."""
     from fractions import Fraction
 
-    from calib_dsl.analysis.min_error import WIDE, MinError, raise_lower
+    from calib_dsl.analysis.min_error import MinError, raise_lower
+    from calib_dsl.settings_analysis import MinErrorSettings
 
     class Bounds:
         def __init__(self, e: float = 1.0) -> None:
@@ -228,7 +231,27 @@ def test_the_goal_is_tried_first_and_ends_the_search_when_refuted():
         def with_const(self, **values: str) -> Bounds:
             return Bounds(float(Fraction(values["e"])))
 
-    out = MinError("e", 0.5, 1.0, {})
-    raise_lower(out, Bounds(), lambda bound, weight: "infeasible" if bound < 0.99 else "contracted")
+    out = MinError("e", 0.5, 1.0, {}, 0.01)
+    raise_lower(out, Bounds(), lambda bound, weight: "infeasible" if bound < 0.99 else "contracted",
+                MinErrorSettings())
     assert len(out.trials) == 1 and out.trials[0][1] == "infeasible"
-    assert out.lo is not None and out.hi <= (1 + WIDE) * out.lo
+    assert out.lo is not None and out.hi <= (1 + MinErrorSettings().wide) * out.lo
+
+
+def test_the_callers_settings_reach_the_bracket(tmp_path):
+    """The bracket's budgets and its binding share are the caller's (settings.min_error):
+    one lower trial, no proof trials, and every row within half of hi binds."""
+    from calib_dsl.settings import DEFAULT
+
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-2, 2, 15)
+    y = 1.5 * x - 0.3 + rng.uniform(-0.3, 0.3, 15)
+    lines = [f"{a!r},{b!r}" for a, b in zip(x.tolist(), y.tolist(), strict=True)]
+    (tmp_path / "d.csv").write_text("x,y\n" + "\n".join(lines) + "\n")
+    (tmp_path / "line.cal").write_text(LINE)
+    tuned = DEFAULT.tuned(min_error_max_solves=1, min_error_proofs=0, min_error_binding=0.5)
+    found = min_error(tmp_path / "line.cal", "e", settings=tuned)
+    plain = min_error(tmp_path / "line.cal", "e")
+    assert len(found.trials) == 1 < len(plain.trials) and found.within == 0.5
+    assert len(found.binding) > len(plain.binding)
+    assert all(b.residual >= 0.5 * found.hi for b in found.binding)
