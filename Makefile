@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install test test-slow test-all test-random lint bench clean fetch-ur10 report-screenshot
+.PHONY: install test test-fast test-slow test-all test-random bench-checks lint bench clean fetch-ur10 report-screenshot
 
 install: $(VENV)/.installed
 
@@ -13,14 +13,17 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/pip install -q -e ".[dev]"
 	touch $@
 
-# test: every test but those marked slow, on every core (pytest-xdist, `-n auto` in
-# pyproject.toml), the same pseudo-random property cases on every run (reproducible, as CI runs
-# it): the loop to run while editing, within a few minutes on two cores; test-slow: the tests
-# marked slow (whole-CLI runs on real data, heavy property tests), which CI runs after
-# `make test`; test-all: both; test-random: fresh cases each run, to look for failures the
-# fixed ones miss.
+# test: the tests not marked slow, on every core (pytest-xdist, `-n auto` in pyproject.toml),
+# the same pseudo-random property cases on every run (reproducible, as CI runs it): the loop
+# to run while editing, within a few minutes on two cores (test-fast: the same); test-slow:
+# those marked slow (whole-CLI runs, real data, heavy property tests); test-all: both;
+# test-random: fresh cases each run, to look for failures the fixed ones miss. bench-checks:
+# the checks too heavy for the suite (the public UR10 file at scale, campaigns of thousands
+# of rows), which assert and fail loudly.
 test: install
 	$(BIN)/pytest -m "not slow"
+
+test-fast: test
 
 test-slow: install
 	$(BIN)/pytest -m slow
@@ -30,6 +33,9 @@ test-all: install
 
 test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest
+
+bench-checks: install
+	$(BIN)/pytest bench/checks
 
 # report-screenshot: docs/figures/report.png, the handover report of the shipped UR10 model
 # as chromium shows it (the browser test keeps its screenshot in build/artefacts/)
@@ -41,7 +47,8 @@ lint: install
 	$(BIN)/ruff check calib_dsl tests bench scripts
 	$(BIN)/mypy calib_dsl
 
-# bench: the RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
+# bench: the checks too heavy for the suite (bench/checks/, as `make bench-checks`), then the
+# RX90 benchmarks, then the real UR10 data against its yardstick (skipped with a
 # note where the data set is absent), then the certified inner bounds, then thousands of
 # configurations (RX90 and a Series-A-sized UR10 table) beside calibc as of $(BASELINE), the
 # last commit before rows were compiled once; then simulated UR10 campaigns of 500-12,000 rows
@@ -52,11 +59,12 @@ BASELINE ?= 404e2ec
 # (no install needed); else install first.
 ifneq ($(filter bench,$(MAKECMDGOALS)),)
 BENCH_PY := $(shell if [ -x $(BIN)/python ]; then echo $(BIN)/python; \
-	elif $(PY) -c "import calib_dsl, lark, numpy, click, scipy, highspy" 2>/dev/null; \
+	elif $(PY) -c "import calib_dsl, lark, numpy, click, scipy, highspy, pytest, hypothesis" 2>/dev/null; \
 	then echo $(PY); fi)
 endif
 
 bench: $(if $(BENCH_PY),,install)
+	$(or $(BENCH_PY),$(BIN)/python) -m pytest bench/checks
 	$(or $(BENCH_PY),$(BIN)/python) bench/run.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/ur10.py
 	$(or $(BENCH_PY),$(BIN)/python) bench/inner.py

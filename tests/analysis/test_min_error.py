@@ -104,23 +104,6 @@ def test_the_command(tmp_path, calibc):
     assert bad.returncode == 2 and "no numeric const 'nope'" in bad.stderr
 
 
-UR10 = Path(__file__).resolve().parents[3] / "shared" / "data" / "ur10" / \
-    "measurements_joint_configurations.csv"
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not UR10.exists(), reason=f"the public UR10 data set is not at "
-                    f"{UR10.parent} (make fetch-ur10 downloads it; docs/real-data.md)")
-def test_the_public_data_every_50th_row():
-    from calib_dsl.elaborate.rows import Selection, parse_ranges
-
-    root = Path(__file__).resolve().parents[2]
-    inputs = Inputs(data={"m": UR10}, rows={"m": Selection(parse_ranges("1..1495:50"), ())})
-    found = min_error(root / "models" / "ur10_tracker.cal", "e", inputs=inputs)
-    assert found.lo is not None and found.lo < found.hi < 1.0
-    assert found.binding and all(b.line == b.row + 1 for b in found.binding)
-
-
 # -- soundness of the point proof: what check_point accepts holds in exact arithmetic -------
 from fractions import Fraction  # noqa: E402
 
