@@ -26,6 +26,7 @@ import numpy as np
 
 from calib_dsl.accuracy.batch_lp import batch_bounds
 from calib_dsl.accuracy.certified import inner_hull
+from calib_dsl.accuracy.second_order import Bounds, second_order
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import Selection
@@ -190,6 +191,38 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     measured_side[list(sides)] = True
     original = (lo.copy(), hi.copy())
     lo[measured_side], hi[measured_side] = 0.0, 0.0
+    names = [s.names[k] for k in ind]
+    found = None
+    if cal.data is not None and names == list(box):  # (the relaxation's columns: the box's)
+        found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings)
+    if found is None:
+        found = _first_order(prog, lo, hi, measured_side, cal)
+    outer = _arrange(prog, t, found.targets, (found.lo, found.hi), original, measured_side,
+                     present, file)
+    order = np.array([list(box).index(n) for n in names])
+    directions = np.zeros((len(found.gradient), len(box)))
+    directions[:, order] = found.gradient
+    optima = np.zeros((len(found.optima), len(box)))
+    optima[:, order] = found.optima
+    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
+    if not known:
+        return outer
+    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
+    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
+    some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
+    return replace(outer, inner_lo=np.where(some, inner.lo, np.nan),
+                   inner_hi=np.where(some, inner.hi, np.nan),
+                   inner_points=np.array([p[order] for p, _ in known]),
+                   names=tuple(s.names[k] for k in ind),
+                   inner_readings=np.array([r for _, r in known]))
+
+
+def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,
+                 cal: Calibrated) -> Bounds:
+    """The rows' enclosures in the mixed mean-value form: f in D + h (p - p^) + [-r, r],
+    h.p bounded over the data's relaxation (or the box); `lo`, `hi` as for second_order."""
+    s = prog.slots
+    ind = independents(prog)
     center = 0.5 * (lo[ind] + hi[ind])
     ev = evaluation(prog, lo, hi, center)
     rows = ev.run()
@@ -208,24 +241,10 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     hc = h[use] @ center
     err = RHS_REL * (rad[use] + np.abs(dlo[use]) + np.abs(dhi[use]) + np.abs(h[use])
                      @ np.abs(center) + np.abs(lin_lo) + np.abs(lin_hi)) + 1e-300
-    plo, phi = np.full(len(dlo), -np.inf), np.full(len(dlo), np.inf)
-    plo[use] = dlo[use] - hc + lin_lo - rad[use] - err
-    phi[use] = dhi[use] - hc + lin_hi + rad[use] + err
-    found = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
-    order = np.array([list(box).index(s.names[k]) for k in ind])
-    directions = np.zeros((len(use), len(box)))
-    directions[:, order] = h[use]
-    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
-    if not known:
-        return found
-    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
-    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
-    some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
-    return replace(found, inner_lo=np.where(some, inner.lo, np.nan),
-                   inner_hi=np.where(some, inner.hi, np.nan),
-                   inner_points=np.array([p[order] for p, _ in known]),
-                   names=tuple(s.names[k] for k in ind),
-                   inner_readings=np.array([r for _, r in known]))
+    plo = dlo[use] - hc + lin_lo - rad[use] - err
+    phi = dhi[use] - hc + lin_hi + rad[use] + err
+    order = np.array([list(cal.box).index(s.names[k]) for k in ind])
+    return Bounds(plo, phi, targets[use], h[use], optima[:, order])
 
 
 def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],
