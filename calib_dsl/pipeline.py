@@ -120,7 +120,8 @@ def predict_at(model: str | Path, at: str | Path, formulation: str = "matrix",
     points, certify = certified_points(prog, sol, settings)
     # the data's second-order relaxation where it can be built (tighter where the remainder
     # of the first order is large, as on real data), else the first-order one
-    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
+    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0,
+                           mccormick=settings.prediction_mccormick)
     if fine is not None:
         cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
     else:

@@ -28,12 +28,15 @@ from calib_dsl.settings import LPSettings, Settings
 _BLOCK = 2_000_000  # objectives x rows per certified_maxes call (the dense Y's size)
 
 
-def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settings
+def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settings,
+                 directions: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each row c of `objectives` (over the relaxation's first
     columns) of c.p over the relaxation, and the LPs' optima (in the relaxation's first
     objectives.shape[1] columns, one row each: points of the relaxation, not proofs) of
-    settings.prediction_candidates objectives far apart in direction, both signs."""
+    settings.prediction_candidates objectives far apart in direction, both signs.
+    `directions` (one a row, default the objectives) order the path and pick those far
+    apart: a few leading columns that set the objectives' direction make both cheaper."""
     n, cols = len(objectives), rel.A.shape[1]
     C = np.zeros((n, cols))
     C[:, : objectives.shape[1]] = objectives
@@ -41,14 +44,15 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
     lower = np.array([-box_max_up(-c, -c, rel.lo, rel.hi) for c in C])
     if n == 0:
         return lower, upper, np.zeros((0, objectives.shape[1]))
-    order = path(objectives, settings.prediction_path_window)
+    near = objectives if directions is None else directions
+    order = path(near, settings.prediction_path_window)
     parts = max(1, settings.lp.workers // 2)
     tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
              if len(seg)]
     with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
         results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp,
                                                      settings.prediction_lp_runs), tasks))
-    wanted = set(spread(objectives, settings.prediction_candidates))
+    wanted = set(spread(near, settings.prediction_candidates))
     points: list[np.ndarray] = []
     for (sign, seg), (ys, solved, found) in zip(tasks, results, strict=True):
         bound = _certified(rel, sign * C[seg[solved]], ys, settings.lp.dense_entries)

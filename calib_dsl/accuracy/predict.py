@@ -207,6 +207,8 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
     if not known:
         return outer
+    if found.value is not None:  # (evaluating every point on every row is the cost)
+        known = [known[i] for i in _extremes(found.value, [p[order] for p, _ in known])]
     ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
     inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
     some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
@@ -215,6 +217,26 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
                    inner_points=np.array([p[order] for p, _ in known]),
                    names=tuple(s.names[k] for k in ind),
                    inner_readings=np.array([r for _, r in known]))
+
+
+def _extremes(value: Callable[[np.ndarray], np.ndarray], points: list[np.ndarray]) -> list[int]:
+    """The points (by place) whose approximate prediction `value` is some row's largest or
+    smallest: the inner intervals' ends are the exact predictions of these."""
+    P = np.array(points)
+    step = 32  # points at a time: the (rows, points) matrix of many rows stays small
+    best = [np.full(0, 0.0), np.full(0, 0.0)]
+    at: list[np.ndarray] = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
+    for a in range(0, len(P), step):
+        v = value(P[a:a + step])
+        for k, (pick, better) in enumerate(((np.argmax, np.greater), (np.argmin, np.less))):
+            i = pick(v, axis=1)
+            here = v[np.arange(len(v)), i]
+            if not len(best[k]):
+                best[k], at[k] = here, a + i
+                continue
+            new = better(here, best[k])
+            best[k], at[k] = np.where(new, here, best[k]), np.where(new, a + i, at[k])
+    return sorted({int(i) for i in np.concatenate(at)})
 
 
 def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,

@@ -16,6 +16,7 @@ the whole curvature over the box instead, most of a wide calibration box's width
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,13 +35,16 @@ class Bounds:
     """Enclosures [lo, hi] of the rows whose target is a measured side (`targets`: those
     slots), each row's gradient in p at the box's centre (`gradient`, the program's
     independents' order) and the LPs' optima (parameter vectors, same order: candidates
-    for certified points, not proofs)."""
+    for certified points, not proofs); `value`, where there is one: the rows' models at
+    parameter vectors (one a row) as a (rows, vectors) matrix, in floats and without their
+    remainders: which vector predicts a row's extreme, not a bound."""
 
     lo: np.ndarray
     hi: np.ndarray
     targets: np.ndarray
     gradient: np.ndarray
     optima: np.ndarray
+    value: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.ndarray,
@@ -66,7 +70,8 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
     # the products without a column, at |t_i t_j| <= 1; sums of non-negative floats rounded up
     slack = (m.r + np.abs(m.c2[:, others]).sum(axis=1)) * (1 + 2.0**-40) + 1e-300
     objectives = np.hstack([m.c1, m.c2[:, kept]])
-    low, high, optima = batch_bounds(rel, objectives, settings)
+    # (the gradients set a prediction's direction: the products' terms are small beside them)
+    low, high, optima = batch_bounds(rel, objectives, settings, m.c1)
     err = RHS_REL * (np.abs(m.c0) + np.abs(low) + np.abs(high) + slack) + 1e-300
     with np.errstate(invalid="ignore"):
         plo = dn1(dn1(m.c0 + low) - slack) - err
@@ -74,4 +79,10 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
     ok = np.isfinite(m.c0) & np.isfinite(slack)
     plo, phi = np.where(ok, plo, -np.inf), np.where(ok, phi, np.inf)
     t = np.clip(optima[:, :n], -1.0, 1.0)
-    return Bounds(plo, phi, rows.slots, m.c1 / ex.half, ex.center + ex.half * t)
+
+    def value(points: np.ndarray) -> np.ndarray:
+        t = (points - ex.center) / ex.half
+        return (m.c0[:, None] + m.c1 @ t.T
+                + m.c2 @ (t[:, ex.pairs.i] * t[:, ex.pairs.j]).T)
+
+    return Bounds(plo, phi, rows.slots, m.c1 / ex.half, ex.center + ex.half * t, value)
