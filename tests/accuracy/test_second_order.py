@@ -96,3 +96,28 @@ def test_every_consistent_vectors_prediction_lies_in_its_box(tmp_path, spy, l1, 
     # the inner interval is the hull of certified predictions, inside the box
     some = ~np.isnan(p.inner_lo)
     assert np.all(p.lo[some] <= p.inner_lo[some]) and np.all(p.inner_hi[some] <= p.hi[some])
+
+
+def _arm(tmp_path: Path, seed: int) -> tuple[Inputs, Path, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    (tmp_path / "arm.cal").write_text(MODEL)
+    q = rng.uniform(-np.pi, np.pi, (8, 2))
+    x, y = tip(1.0, 0.5, 0.1, q[:, 0], q[:, 1])
+    train = table(tmp_path / "m.csv", q, (x + rng.uniform(-E, E, len(x)),
+                                          y + rng.uniform(-E, E, len(y))))
+    qh = rng.uniform(-np.pi, np.pi, (20, 2))
+    return Inputs(data={"m": train}), table(tmp_path / "held.csv", qh, None), qh
+
+
+@pytest.mark.parametrize("seed", [3, 17])
+def test_the_first_order_form_holds_the_truth_and_the_second_is_tighter(tmp_path, monkeypatch,
+                                                                        seed):
+    inputs, held, qh = _arm(tmp_path, seed)
+    truth = np.array(tip(1.0, 0.5, 0.1, qh[:, 0], qh[:, 1])).T
+    _, fine = predict_at(tmp_path / "arm.cal", held, inputs=inputs)
+    monkeypatch.setattr(predict_module, "second_order", lambda *a, **k: None)
+    _, first = predict_at(tmp_path / "arm.cal", held, inputs=inputs)
+    assert fine is not None and first is not None
+    for p in (fine, first):
+        assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
+    assert np.median(fine.hi - fine.lo) < np.median(first.hi - first.lo)
