@@ -199,7 +199,13 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
         found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings)
     if found is None:
         found = _first_order(prog, lo, hi, measured_side, cal)
-    outer = _arrange(prog, t, found.targets, (found.lo, found.hi), original, measured_side,
+        ends = (found.targets, found.lo, found.hi)
+    else:  # and the mean-value form over the box, where an LP stopped by its limits is wide
+        box_only = _first_order(prog, lo, hi, measured_side, replace(cal, data=None))
+        ends = (np.concatenate([found.targets, box_only.targets]),
+                np.concatenate([found.lo, box_only.lo]), np.concatenate([found.hi, box_only.hi]))
+    # (_arrange keeps the intersection of a cell's enclosures)
+    outer = _arrange(prog, t, ends[0], (ends[1], ends[2]), original, measured_side,
                      present, file)
     order = np.array([list(box).index(n) for n in names])
     directions = np.zeros((len(found.gradient), len(box)))
