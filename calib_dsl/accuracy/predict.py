@@ -194,28 +194,40 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     original = (lo.copy(), hi.copy())
     lo[measured_side], hi[measured_side] = 0.0, 0.0
     names = [s.names[k] for k in ind]
+    # the mean-value form over the box: its remainder chooses the form of each row, and
+    # its box bounds a row whose LP stopped by its limits
+    box_only = _first_order(prog, lo, hi, measured_side, replace(cal, data=None))
+    parts = [box_only]
     found = None
     if cal.data is not None and names == list(box):  # (the relaxation's columns: the box's)
-        found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings)
-    if found is None:
-        found = _first_order(prog, lo, hi, measured_side, cal)
-        ends = (found.targets, found.lo, found.hi)
-    else:  # and the mean-value form over the box, where an LP stopped by its limits is wide
-        box_only = _first_order(prog, lo, hi, measured_side, replace(cal, data=None))
-        ends = (np.concatenate([found.targets, box_only.targets]),
-                np.concatenate([found.lo, box_only.lo]), np.concatenate([found.hi, box_only.hi]))
+        first = np.full(len(lo), np.inf)
+        assert box_only.charge is not None
+        first[box_only.targets] = box_only.charge
+        found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings, first)
+    rest = np.setdiff1d(box_only.targets, found.targets if found is not None else [])
+    if found is not None:
+        parts.append(found)
+    if len(rest) and cal.data is not None:
+        only = np.zeros(len(lo), dtype=bool)
+        only[rest] = True
+        parts.append(_first_order(prog, lo, hi, measured_side & only, cal))
     # (_arrange keeps the intersection of a cell's enclosures)
-    outer = _arrange(prog, t, ends[0], (ends[1], ends[2]), original, measured_side,
-                     present, file)
+    targets, plo, phi = (np.concatenate([getattr(b, a) for b in parts])
+                         for a in ("targets", "lo", "hi"))
+    outer = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
+    solved = parts[1:] if len(parts) > 1 else parts
+    gradient = np.concatenate([b.gradient for b in solved])
+    found_optima = np.concatenate([b.optima for b in solved])
     order = np.array([list(box).index(n) for n in names])
-    directions = np.zeros((len(found.gradient), len(box)))
-    directions[:, order] = found.gradient
-    optima = np.zeros((len(found.optima), len(box)))
-    optima[:, order] = found.optima
+    directions = np.zeros((len(gradient), len(box)))
+    directions[:, order] = gradient
+    optima = np.zeros((len(found_optima), len(box)))
+    optima[:, order] = found_optima
     known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
     if not known:
         return outer
-    if found.value is not None:  # (evaluating every point on every row is the cost)
+    if found is not None and found.value is not None and not len(rest):
+        # (evaluating every point on every row is the cost)
         known = [known[i] for i in _extremes(found.value, [p[order] for p, _ in known])]
     ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
     inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
@@ -274,7 +286,7 @@ def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: n
     plo = dlo[use] - hc + lin_lo - rad[use] - err
     phi = dhi[use] - hc + lin_hi + rad[use] + err
     order = np.array([list(cal.box).index(s.names[k]) for k in ind])
-    return Bounds(plo, phi, targets[use], h[use], optima[:, order])
+    return Bounds(plo, phi, targets[use], h[use], optima[:, order], charge=rad[use])
 
 
 def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],

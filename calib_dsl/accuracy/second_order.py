@@ -45,14 +45,19 @@ class Bounds:
     gradient: np.ndarray
     optima: np.ndarray
     value: Callable[[np.ndarray], np.ndarray] | None = None
+    charge: np.ndarray | None = None  # each row's part charged at the box, not the LP's
 
 
 def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.ndarray,
-                 rel: LinearRelaxation, settings: Settings) -> Bounds | None:
+                 rel: LinearRelaxation, settings: Settings,
+                 first: np.ndarray | None = None) -> Bounds | None:
     """The prediction rows' bounds over the relaxation `rel` (a second-order one over the
     same box: its columns the same t). `lo`, `hi`: the program's slots, its independents at
     the calibration's box, the measured sides 0 (`measured`: which slots those are). None
-    where the program has no second-order models or `rel` is not over the same t."""
+    where the program has no second-order models or `rel` is not over the same t.
+    `first` (by target slot): the first-order form's remainder over the box; only the rows
+    whose remainder and products' largest range this form charges less are bounded here
+    (on a narrow box the products' columns can cost more than the first order's remainder)."""
     if rel.family != FAMILY or rel.col_keys is None or rel.center is None \
             or rel.scale is None:
         return None
@@ -61,10 +66,14 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
                           and np.array_equal(ex.half, rel.scale)):
         return None
     rows = ex.rows.take(np.flatnonzero(measured[ex.rows.slots]))
-    m, n = rows.models, rel.main
+    n = rel.main
     kept = rel.col_keys[n:] - n  # the products the relaxation has a column for
-    if m.c1.shape[1] != n or (len(kept) and kept.max() >= m.c2.shape[1]):
+    if rows.models.c1.shape[1] != n or (len(kept) and kept.max() >= rows.models.c2.shape[1]):
         return None
+    if first is not None:
+        c2 = np.abs(rows.models.c2).sum(axis=1)
+        rows = rows.take(np.flatnonzero(rows.models.r + c2 < first[rows.slots]))
+    m = rows.models
     others = np.ones(m.c2.shape[1], dtype=bool)
     others[kept] = False
     # the products without a column, at |t_i t_j| <= 1; sums of non-negative floats rounded up
