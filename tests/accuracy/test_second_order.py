@@ -1,6 +1,7 @@
 """Predictions as objectives over the calibration's second-order relaxation: on simulated
 planar arms with a joint offset (the predictions curve in the parameters), the second-order
-form is the one used, the held-out true positions lie in every box, and so do the
+form is built (each row then takes the form that charges less at the box), the held-out true
+positions lie in every box, and so do the
 predictions (the kinematics written out by hand) of every parameter vector a dense sample
 of the solve's box proves consistent with the data."""
 
@@ -77,7 +78,7 @@ def test_every_consistent_vectors_prediction_lies_in_its_box(tmp_path, spy, l1, 
     inputs = Inputs(data={"m": train})
     spy.clear()
     _, p = predict_at(tmp_path / "arm.cal", held, inputs=inputs)
-    assert p is not None and spy and spy[-1] is not None  # the second-order form was used
+    assert p is not None and spy and spy[-1] is not None  # the second-order form was built
     truth = np.array(tip(l1, l2, o, qh[:, 0], qh[:, 1])).T
     assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
     # a dense sample of the solve's box: the vectors proven consistent predict inside
