@@ -204,7 +204,11 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
         assert box_only.charge is not None
         first[box_only.targets] = box_only.charge
         found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings, first)
-    rest = np.setdiff1d(box_only.targets, found.targets if found is not None else [])
+    # the first-order LP for the rows the second order did not take or did not settle (an
+    # LP stopped by its limits): the intersection of both is kept
+    rest = np.setdiff1d(box_only.targets, [] if found is None else
+                        found.targets[found.settled] if found.settled is not None
+                        else found.targets)
     if found is not None:
         parts.append(found)
     if len(rest) and cal.data is not None:
@@ -329,12 +333,12 @@ def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray, cal: Calibrat
     obj = np.zeros((len(h), data.main))
     if data.family != SECOND_ORDER:
         obj[:, cols] = h
-        return batch_bounds(data, obj, cal.settings)
+        return batch_bounds(data, obj, cal.settings)[:3]
     # a second-order relaxation's columns are t (p = c + w t): h.p = h.c + (h w).t
     assert data.scale is not None and cal.center is not None
     c, w = cal.center[cols], data.scale[cols]
     obj[:, cols] = h * w
     err = RHS_REL * (np.abs(h * w) @ np.ones(len(w)) + np.abs(h) @ np.abs(c)) + 1e-300
-    lo, hi, optima = batch_bounds(data, obj, cal.settings)
+    lo, hi, optima, _ = batch_bounds(data, obj, cal.settings)
     hc = h @ c
     return lo + hc - err, hi + hc + err, cal.center + optima * data.scale

@@ -46,6 +46,9 @@ class Bounds:
     optima: np.ndarray
     value: Callable[[np.ndarray], np.ndarray] | None = None
     charge: np.ndarray | None = None  # each row's part charged at the box, not the LP's
+    # per row: both its LPs ended optimal and its model is finite (None: all); a row not
+    # settled is bounded again by the first-order form (accuracy/predict.py)
+    settled: np.ndarray | None = None
 
 
 def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.ndarray,
@@ -80,7 +83,7 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
     slack = (m.r + np.abs(m.c2[:, others]).sum(axis=1)) * (1 + 2.0**-40) + 1e-300
     objectives = np.hstack([m.c1, m.c2[:, kept]])
     # (the gradients set a prediction's direction: the products' terms are small beside them)
-    low, high, optima = batch_bounds(rel, objectives, settings, m.c1)
+    low, high, optima, settled = batch_bounds(rel, objectives, settings, m.c1)
     err = RHS_REL * (np.abs(m.c0) + np.abs(low) + np.abs(high) + slack) + 1e-300
     with np.errstate(invalid="ignore"):
         plo = dn1(dn1(m.c0 + low) - slack) - err
@@ -94,4 +97,5 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
         return (m.c0[:, None] + m.c1 @ t.T
                 + m.c2 @ (t[:, ex.pairs.i] * t[:, ex.pairs.j]).T)
 
-    return Bounds(plo, phi, rows.slots, m.c1 / ex.half, ex.center + ex.half * t, value)
+    return Bounds(plo, phi, rows.slots, m.c1 / ex.half, ex.center + ex.half * t, value,
+                  settled=settled & ok)

@@ -7,6 +7,7 @@ of the solve's box proves consistent with the data."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -122,3 +123,34 @@ def test_the_first_order_form_holds_the_truth_and_the_second_is_tighter(tmp_path
     for p in (fine, first):
         assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
     assert np.median(fine.hi - fine.lo) < np.median(first.hi - first.lo)
+
+
+@pytest.mark.parametrize("seed", [3, 17])
+def test_a_row_whose_lp_stopped_falls_back_to_the_first_order_lp(tmp_path, monkeypatch, spy,
+                                                                  seed):
+    """The second-order LPs stopped after one pivot: their rows are not settled and take
+    the first-order LP's bound too, so no box is wider than the first-order form's."""
+    import calib_dsl.accuracy.second_order as second_module
+
+    inputs, held, qh = _arm(tmp_path, seed)
+    truth = np.array(tip(1.0, 0.5, 0.1, qh[:, 0], qh[:, 1])).T
+    with monkeypatch.context() as m:
+        m.setattr(predict_module, "second_order", lambda *a, **k: None)
+        _, first = predict_at(tmp_path / "arm.cal", held, inputs=inputs)
+    real = second_module.batch_bounds
+
+    def stopped(rel, objectives, settings, directions=None):
+        lp = replace(settings.lp, iterations=1)
+        return real(rel, objectives, replace(settings, lp=lp, prediction_lp_runs=1),
+                    directions)
+
+    monkeypatch.setattr(second_module, "batch_bounds", stopped)
+    spy.clear()
+    _, p = predict_at(tmp_path / "arm.cal", held, inputs=inputs)
+    assert p is not None and first is not None
+    found = spy[-1]
+    assert found is not None and found.settled is not None and not found.settled.all()
+    assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
+    # (the same LP's certified bound in both runs, up to HiGHS's tolerance)
+    slack = 1e-9 * (1 + np.abs(first.lo) + np.abs(first.hi))
+    assert np.all(p.hi - p.lo <= first.hi - first.lo + slack)
