@@ -151,13 +151,14 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
 
     def certify(directions: np.ndarray, optima: np.ndarray) -> list[Certified]:
         # more certified points only tighten the inner intervals: a numerical failure of
-        # their search leaves the ones the inner bounds found
+        # their search (a singular or overflowing step) leaves the ones the inner bounds
+        # found; a point outside the domains (ValueError) is a bug, not caught
         try:
             near, readings = linearized_optima(prog, box, centre, directions, settings)
             far = np.repeat(centre.readings[None], len(optima), axis=0)
             return pulled_back(prog, centre, np.concatenate([near, optima]),
                                np.concatenate([readings, far]), settings.pullback_steps)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        except (ArithmeticError, np.linalg.LinAlgError):
             return []
 
     return tuple((w.point, w.readings) for w in inner.witnesses), certify
