@@ -18,6 +18,7 @@ the others another way.
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -83,26 +84,42 @@ def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
     h = load(rel, None, lp.iterations, lp.scaling)
     # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
     h.setOptionValue("simplex_strategy", lp.tall_simplex)
-    m, n = rel.A.shape
-    cols = np.arange(n, dtype=np.int32)
-    ys, solved, points = [], [], []
+    m = rel.A.shape[0]
+    ys: dict[int, np.ndarray] = {}
+    points: list[tuple[int, np.ndarray]] = []
     ended = np.zeros(len(seg), dtype=bool)
-    for k, i in enumerate(seg):
-        h.changeColsCost(n, cols, (-sign * C[i]).astype(float))  # max as min of -c.p
-        for _ in range(runs):  # a run stopped by its pivot or time limit goes on from there
-            h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
-            h.run()
-            if optimal(h) or infeasible(h):
-                break
-        ended[k] = optimal(h)
-        sol = h.getSolution()
-        if sol.dual_valid:  # (a stopped solve's multipliers still certify a bound)
-            ys.append(-np.asarray(sol.row_dual))
-            solved.append(k)
-        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
-            points.append((int(i), np.asarray(sol.col_value)))
-    return (np.array(ys).reshape(len(ys), m), np.array(solved, dtype=np.int64), points,
-            ended)
+    for k in range(len(seg)):
+        _solve(h, C, sign, (k, int(seg[k])), (lp.seconds, runs), ys, points, ended)
+    # an LP stopped by its limits (the path's first starts from no basis) is solved once
+    # more after the walk, from the last LP's basis, usually near an optimum
+    for j in np.flatnonzero(~ended):
+        _solve(h, C, sign, (int(j), int(seg[j])), (lp.seconds, runs), ys, points, ended)
+    at = sorted(ys)
+    return (np.array([ys[k] for k in at]).reshape(len(at), m), np.array(at, dtype=np.int64),
+            points, ended)
+
+
+def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
+           limits: tuple[float, int], ys: dict[int, np.ndarray],
+           points: list[tuple[int, np.ndarray]], ended: np.ndarray) -> None:
+    """One LP of _walk: objective `which` = (its place k in the walk, its row i of C), at
+    most limits[1] runs of limits[0] seconds; its multipliers into ys[k] (a stopped solve's
+    only where there are none yet), its feasible optimum into points, ended[k]."""
+    k, i = which
+    n = C.shape[1]
+    h.changeColsCost(n, np.arange(n, dtype=np.int32), (-sign * C[i]).astype(float))
+    for _ in range(limits[1]):  # a run stopped by its pivot or time limit goes on from there
+        h.setOptionValue("time_limit", h.getRunTime() + limits[0])
+        h.run()
+        if optimal(h) or infeasible(h):
+            break
+    done = optimal(h)
+    sol = h.getSolution()
+    if sol.dual_valid and (done or k not in ys):  # (a stopped solve's still certify a bound)
+        ys[k] = -np.asarray(sol.row_dual)
+    if sol.value_valid and h.getInfo().primal_solution_status == 2:
+        points.append((i, np.asarray(sol.col_value)))
+    ended[k] = ended[k] or done
 
 
 def _certified(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,
