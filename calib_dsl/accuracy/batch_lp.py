@@ -11,7 +11,8 @@ greedy path on the unit sphere) and HiGHS re-solves from the previous optimum, w
 cost leaves primal feasible: a few dozen pivots instead of hundreds. Each sign of the
 objectives walks the path on its own HiGHS model (its own thread). Every bound is
 certified from the LP's multipliers (lp/certify.py), so a stopped or inexact solve only
-loosens it; which objectives' LPs both ended optimal is returned, so that a caller can bound
+loosens it; an LP stopped by its limits is solved once more after the walk, from a warm
+basis, and which objectives' LPs both ended optimal is returned, so that a caller can bound
 the others another way.
 """
 
