@@ -125,7 +125,8 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
     points, certify = certified_points(prog, sol, settings)
     # the data's second-order relaxation where it can be built (tighter where the remainder
     # of the first order is large, as on real data), else the first-order one
-    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0, mccormick=True)
+    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0,
+                           mccormick=settings.prediction_mccormick)
     if fine is not None:
         cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
     else:
@@ -157,13 +158,14 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
 
     def certify(directions: np.ndarray, optima: np.ndarray) -> list[Certified]:
         # more certified points only tighten the inner intervals: a numerical failure of
-        # their search leaves the ones the inner bounds found
+        # their search (a singular or overflowing step) leaves the ones the inner bounds
+        # found; a point outside the domains (ValueError) is a bug, not caught
         try:
             near, readings = linearized_optima(prog, box, centre, directions, settings)
             far = np.repeat(centre.readings[None], len(optima), axis=0)
             return pulled_back(prog, centre, np.concatenate([near, optima]),
                                np.concatenate([readings, far]), settings.pullback_steps)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        except (ArithmeticError, np.linalg.LinAlgError):
             return []
 
     return tuple((w.point, w.readings) for w in inner.witnesses), certify

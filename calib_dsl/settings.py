@@ -375,6 +375,11 @@ class Settings:
     # linearized at the certified centre become candidates too: near the solution set's
     # boundary, where the relaxation's optima lie beyond it
     prediction_linear_lps: int = 64
+    # Whether the relaxation the predictions' LPs run over (accuracy/second_order.py) ties
+    # each product column to its factors by McCormick's inequalities: they narrow the
+    # predictions a little (their extreme vertices) but give the LP four rows a product,
+    # most of its rows, and each LP's pivots cost with them.
+    prediction_mccormick: bool = False
 
     def tuned(self, **changes: Any) -> Settings:
         """These settings with some fields changed, each named by its own name whether it is

@@ -11,12 +11,15 @@ greedy path on the unit sphere) and HiGHS re-solves from the previous optimum, w
 cost leaves primal feasible: a few dozen pivots instead of hundreds. Each sign of the
 objectives walks the path on its own HiGHS model (its own thread). Every bound is
 certified from the LP's multipliers (lp/certify.py), so a stopped or inexact solve only
-loosens it.
+loosens it; an LP stopped by its limits is solved once more after the walk, from a warm
+basis, and which objectives' LPs both ended optimal is returned, so that a caller can bound
+the others another way.
 """
 
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -28,29 +31,37 @@ from calib_dsl.settings import LPSettings, Settings
 _BLOCK = 2_000_000  # objectives x rows per certified_maxes call (the dense Y's size)
 
 
-def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settings
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settings,
+                 directions: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rigorous [min, max] of each row c of `objectives` (over the relaxation's first
     columns) of c.p over the relaxation, and the LPs' optima (in the relaxation's first
     objectives.shape[1] columns, one row each: points of the relaxation, not proofs) of
-    settings.prediction_candidates objectives far apart in direction, both signs."""
+    settings.prediction_candidates objectives far apart in direction, both signs.
+    `directions` (one a row, default the objectives) order the path and pick those far
+    apart: a few leading columns that set the objectives' direction make both cheaper.
+    Fourth: per objective, whether both its LPs ended optimal (else its bounds are what a
+    stopped LP's multipliers, or the box, certify: valid, but possibly far from tight)."""
     n, cols = len(objectives), rel.A.shape[1]
     C = np.zeros((n, cols))
     C[:, : objectives.shape[1]] = objectives
     upper = np.array([box_max_up(c, c, rel.lo, rel.hi) for c in C])
     lower = np.array([-box_max_up(-c, -c, rel.lo, rel.hi) for c in C])
+    settled = np.ones(n, dtype=bool)
     if n == 0:
-        return lower, upper, np.zeros((0, objectives.shape[1]))
-    order = path(objectives, settings.prediction_path_window)
+        return lower, upper, np.zeros((0, objectives.shape[1])), settled
+    near = objectives if directions is None else directions
+    order = path(near, settings.prediction_path_window)
     parts = max(1, settings.lp.workers // 2)
     tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
              if len(seg)]
     with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
         results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp,
                                                      settings.prediction_lp_runs), tasks))
-    wanted = set(spread(objectives, settings.prediction_candidates))
+    wanted = set(spread(near, settings.prediction_candidates))
     points: list[np.ndarray] = []
-    for (sign, seg), (ys, solved, found) in zip(tasks, results, strict=True):
+    for (sign, seg), (ys, solved, found, ended) in zip(tasks, results, strict=True):
+        settled[seg] &= ended
         bound = _certified(rel, sign * C[seg[solved]], ys, settings.lp.dense_entries)
         at = seg[solved]
         if sign > 0:
@@ -59,37 +70,57 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
             lower[at] = np.maximum(lower[at], -bound)
         points.extend(x for i, x in found if i in wanted)
     X = np.array(points).reshape(len(points), cols)
-    return lower, upper, X[:, : objectives.shape[1]]
+    return lower, upper, X[:, : objectives.shape[1]], settled
 
 
 def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
           lp: LPSettings, runs: int) -> tuple[np.ndarray, np.ndarray,
-                                              list[tuple[int, np.ndarray]]]:
+                                              list[tuple[int, np.ndarray]], np.ndarray]:
     """The LPs of max sign * c.p for the objectives `seg` (rows of C) in that order, on
     one HiGHS model, each from the last one's basis (at most `runs` runs of lp's limits
     each: the first, from no basis, can need more pivots than one allows): their
     multipliers (one row per LP that gave some), which of seg those are, and the LPs'
-    primal-feasible optima (with their objective's row of C)."""
+    primal-feasible optima (with their objective's row of C), and per objective of seg
+    whether its LP ended optimal."""
     h = load(rel, None, lp.iterations, lp.scaling)
     # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
     h.setOptionValue("simplex_strategy", lp.tall_simplex)
-    m, n = rel.A.shape
-    cols = np.arange(n, dtype=np.int32)
-    ys, solved, points = [], [], []
-    for k, i in enumerate(seg):
-        h.changeColsCost(n, cols, (-sign * C[i]).astype(float))  # max as min of -c.p
-        for _ in range(runs):  # a run stopped by its pivot or time limit goes on from there
-            h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
-            h.run()
-            if optimal(h) or infeasible(h):
-                break
-        sol = h.getSolution()
-        if sol.dual_valid:  # (a stopped solve's multipliers still certify a bound)
-            ys.append(-np.asarray(sol.row_dual))
-            solved.append(k)
-        if sol.value_valid and h.getInfo().primal_solution_status == 2:  # feasible
-            points.append((int(i), np.asarray(sol.col_value)))
-    return np.array(ys).reshape(len(ys), m), np.array(solved, dtype=np.int64), points
+    m = rel.A.shape[0]
+    ys: dict[int, np.ndarray] = {}
+    points: list[tuple[int, np.ndarray]] = []
+    ended = np.zeros(len(seg), dtype=bool)
+    for k in range(len(seg)):
+        _solve(h, C, sign, (k, int(seg[k])), (lp.seconds, runs), ys, points, ended)
+    # an LP stopped by its limits (the path's first starts from no basis) is solved once
+    # more after the walk, from the last LP's basis, usually near an optimum
+    for j in np.flatnonzero(~ended):
+        _solve(h, C, sign, (int(j), int(seg[j])), (lp.seconds, runs), ys, points, ended)
+    at = sorted(ys)
+    return (np.array([ys[k] for k in at]).reshape(len(at), m), np.array(at, dtype=np.int64),
+            points, ended)
+
+
+def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
+           limits: tuple[float, int], ys: dict[int, np.ndarray],
+           points: list[tuple[int, np.ndarray]], ended: np.ndarray) -> None:
+    """One LP of _walk: objective `which` = (its place k in the walk, its row i of C), at
+    most limits[1] runs of limits[0] seconds; its multipliers into ys[k] (a stopped solve's
+    only where there are none yet), its feasible optimum into points, ended[k]."""
+    k, i = which
+    n = C.shape[1]
+    h.changeColsCost(n, np.arange(n, dtype=np.int32), (-sign * C[i]).astype(float))
+    for _ in range(limits[1]):  # a run stopped by its pivot or time limit goes on from there
+        h.setOptionValue("time_limit", h.getRunTime() + limits[0])
+        h.run()
+        if optimal(h) or infeasible(h):
+            break
+    done = optimal(h)
+    sol = h.getSolution()
+    if sol.dual_valid and (done or k not in ys):  # (a stopped solve's still certify a bound)
+        ys[k] = -np.asarray(sol.row_dual)
+    if sol.value_valid and h.getInfo().primal_solution_status == 2:
+        points.append((i, np.asarray(sol.col_value)))
+    ended[k] = ended[k] or done
 
 
 def _certified(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,

@@ -62,8 +62,8 @@ def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
     t = np.ones(len(candidates))
 
     def at(i: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return (centre.point + share[:, None] * (candidates[i] - centre.point),
-                centre.readings + share[:, None] * (readings[i] - centre.readings))
+        return (_between(centre.point, candidates[i], share),
+                _between(centre.readings, readings[i], share))
 
     for _ in range(steps + 1):
         open_ = np.flatnonzero(bad > good)
@@ -79,3 +79,10 @@ def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
     proven = np.flatnonzero(good > 0)
     points, values = at(proven, good[proven])
     return list(zip(points, values, strict=True))
+
+
+def _between(start: np.ndarray, ends: np.ndarray, share: np.ndarray) -> np.ndarray:
+    """start + share (end - start) for each row of `ends`, kept within the two (rounded, a
+    share of 1 can land an ulp beyond the end: outside the domains the check requires)."""
+    moved = start + share[:, None] * (ends - start)
+    return np.clip(moved, np.minimum(start, ends), np.maximum(start, ends))

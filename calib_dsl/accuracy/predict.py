@@ -4,15 +4,17 @@ contain the model's predicted measurement for every parameter vector consistent 
 The model reads the configurations as its table (columns it does not find, the
 measurements a prediction is for, read as 0: they are not used): derived from the
 calibration's elaborated model where it allows (problem.py's `with_table`), else elaborated
-once more with the file. Its parameters
-take the solve's enclosure, its measured sides are set to 0, and each constraint row
-`f(p, q) == x` gives f over the box in the mixed mean-value form of the relaxations
-(relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the gradients' midpoints and r
-their radii times the box's half-widths plus the joint readings' errors. The parameter
-vectors consistent with the data satisfy the calibration's own linear relaxation on the same
-box, so certified LP bounds of h.p over it (accuracy/batch_lp.py: one LP per coordinate)
-bound f for every one of them: the parameters' correlations count, where the box alone would
-add every parameter's uncertainty. All of it rounded outward. Validation compares held-out
+once more with the file. Its parameters take the solve's enclosure and its measured sides
+are set to 0. Where the calibration's
+relaxation is a second-order one, each predicted coordinate's second-order Taylor model over
+the same box is one more objective over it (accuracy/second_order.py): only the third-order
+remainder is left to the box. Otherwise each constraint row `f(p, q) == x` gives f over the
+box in the mixed mean-value form of the relaxations (relax/evaluation.py): f in D + h (p -
+p^) + [-r, r], with h the gradients' midpoints and r their radii times the box's half-widths
+plus the joint readings' errors, and certified LP bounds of h.p over the calibration's
+relaxation (accuracy/batch_lp.py: one LP per coordinate) bound f for every consistent
+vector. Either way the parameters' correlations count, where the box alone would add every
+parameter's uncertainty. All of it rounded outward. Validation compares held-out
 measurements with these boxes widened by each column's error bound.
 """
 
@@ -28,6 +30,7 @@ import numpy as np
 
 from calib_dsl.accuracy.batch_lp import batch_bounds
 from calib_dsl.accuracy.certified import inner_hull
+from calib_dsl.accuracy.second_order import Bounds, second_order
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
@@ -240,6 +243,82 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     measured_side[list(sides)] = True
     original = (lo.copy(), hi.copy())
     lo[measured_side], hi[measured_side] = 0.0, 0.0
+    names = [s.names[k] for k in ind]
+    # the mean-value form over the box: its remainder chooses the form of each row, and
+    # its box bounds a row whose LP stopped by its limits
+    box_only = _first_order(prog, lo, hi, measured_side, replace(cal, data=None))
+    parts = [box_only]
+    found = None
+    if cal.data is not None and names == list(box):  # (the relaxation's columns: the box's)
+        first = np.full(len(lo), np.inf)
+        assert box_only.charge is not None
+        first[box_only.targets] = box_only.charge
+        found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings, first)
+    # the first-order LP for the rows the second order did not take or did not settle (an
+    # LP stopped by its limits): the intersection of both is kept
+    rest = np.setdiff1d(box_only.targets, [] if found is None else
+                        found.targets[found.settled] if found.settled is not None
+                        else found.targets)
+    if found is not None:
+        parts.append(found)
+    if len(rest) and cal.data is not None:
+        only = np.zeros(len(lo), dtype=bool)
+        only[rest] = True
+        parts.append(_first_order(prog, lo, hi, measured_side & only, cal))
+    # (_arrange keeps the intersection of a cell's enclosures)
+    targets, plo, phi = (np.concatenate([getattr(b, a) for b in parts])
+                         for a in ("targets", "lo", "hi"))
+    outer = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
+    solved = parts[1:] if len(parts) > 1 else parts
+    gradient = np.concatenate([b.gradient for b in solved])
+    found_optima = np.concatenate([b.optima for b in solved])
+    order = np.array([list(box).index(n) for n in names])
+    directions = np.zeros((len(gradient), len(box)))
+    directions[:, order] = gradient
+    optima = np.zeros((len(found_optima), len(box)))
+    optima[:, order] = found_optima
+    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
+    if not known:
+        return outer
+    if found is not None and found.value is not None and not len(rest):
+        # (evaluating every point on every row is the cost)
+        known = [known[i] for i in _extremes(found.value, [p[order] for p, _ in known])]
+    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
+    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
+    some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
+    return replace(outer, inner_lo=np.where(some, inner.lo, np.nan),
+                   inner_hi=np.where(some, inner.hi, np.nan),
+                   inner_points=np.array([p[order] for p, _ in known]),
+                   names=tuple(s.names[k] for k in ind),
+                   inner_readings=np.array([r for _, r in known]))
+
+
+def _extremes(value: Callable[[np.ndarray], np.ndarray], points: list[np.ndarray]) -> list[int]:
+    """The points (by place) whose approximate prediction `value` is some row's largest or
+    smallest: the inner intervals' ends are the exact predictions of these."""
+    P = np.array(points)
+    step = 32  # points at a time: the (rows, points) matrix of many rows stays small
+    best = [np.full(0, 0.0), np.full(0, 0.0)]
+    at: list[np.ndarray] = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
+    for a in range(0, len(P), step):
+        v = value(P[a:a + step])
+        for k, (pick, better) in enumerate(((np.argmax, np.greater), (np.argmin, np.less))):
+            i = pick(v, axis=1)
+            here = v[np.arange(len(v)), i]
+            if not len(best[k]):
+                best[k], at[k] = here, a + i
+                continue
+            new = better(here, best[k])
+            best[k], at[k] = np.where(new, here, best[k]), np.where(new, a + i, at[k])
+    return sorted({int(i) for i in np.concatenate(at)})
+
+
+def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,
+                 cal: Calibrated) -> Bounds:
+    """The rows' enclosures in the mixed mean-value form: f in D + h (p - p^) + [-r, r],
+    h.p bounded over the data's relaxation (or the box); `lo`, `hi` as for second_order."""
+    s = prog.slots
+    ind = independents(prog)
     center = 0.5 * (lo[ind] + hi[ind])
     ev = evaluation(prog, lo, hi, center)
     rows = ev.run()
@@ -258,24 +337,10 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     hc = h[use] @ center
     err = RHS_REL * (rad[use] + np.abs(dlo[use]) + np.abs(dhi[use]) + np.abs(h[use])
                      @ np.abs(center) + np.abs(lin_lo) + np.abs(lin_hi)) + 1e-300
-    plo, phi = np.full(len(dlo), -np.inf), np.full(len(dlo), np.inf)
-    plo[use] = dlo[use] - hc + lin_lo - rad[use] - err
-    phi[use] = dhi[use] - hc + lin_hi + rad[use] + err
-    found = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
-    order = np.array([list(box).index(s.names[k]) for k in ind])
-    directions = np.zeros((len(use), len(box)))
-    directions[:, order] = h[use]
-    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
-    if not known:
-        return found
-    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
-    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
-    some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
-    return replace(found, inner_lo=np.where(some, inner.lo, np.nan),
-                   inner_hi=np.where(some, inner.hi, np.nan),
-                   inner_points=np.array([p[order] for p, _ in known]),
-                   names=tuple(s.names[k] for k in ind),
-                   inner_readings=np.array([r for _, r in known]))
+    plo = dlo[use] - hc + lin_lo - rad[use] - err
+    phi = dhi[use] - hc + lin_hi + rad[use] + err
+    order = np.array([list(cal.box).index(s.names[k]) for k in ind])
+    return Bounds(plo, phi, targets[use], h[use], optima[:, order], charge=rad[use])
 
 
 def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],
@@ -318,12 +383,12 @@ def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray, cal: Calibrat
     obj = np.zeros((len(h), data.main))
     if data.family != SECOND_ORDER:
         obj[:, cols] = h
-        return batch_bounds(data, obj, cal.settings)
+        return batch_bounds(data, obj, cal.settings)[:3]
     # a second-order relaxation's columns are t (p = c + w t): h.p = h.c + (h w).t
     assert data.scale is not None and cal.center is not None
     c, w = cal.center[cols], data.scale[cols]
     obj[:, cols] = h * w
     err = RHS_REL * (np.abs(h * w) @ np.ones(len(w)) + np.abs(h) @ np.abs(c)) + 1e-300
-    lo, hi, optima = batch_bounds(data, obj, cal.settings)
+    lo, hi, optima, _ = batch_bounds(data, obj, cal.settings)
     hc = h @ c
     return lo + hc - err, hi + hc + err, cal.center + optima * data.scale
