@@ -241,17 +241,17 @@ def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strate
     from dataclasses import replace
 
     from calib_dsl.accuracy.grid import grid_file, parse_grid
-    from calib_dsl.elaborate.elaborator import elaborate
     from calib_dsl.pipeline import predict_at
+    from calib_dsl.problem import Problem
 
     values = parse_grid(spec)
-    tables = elaborate(model, formulation=formulation, inputs=inputs).tables
-    if not tables:
+    problem = Problem.load(model, formulation, inputs)
+    if not problem.model.tables:
         raise CalError("the model has no table: there is nothing to predict")
-    t = tables[0]
+    t = problem.model.tables[0]
     with tempfile.TemporaryDirectory(prefix="calibc-grid-") as tmp:
         path = grid_file(values, t, Path(tmp) / "grid.csv")
-        _, found = predict_at(model, path, formulation, inputs, strategy, None, progress)
+        _, found = predict_at(problem, path, strategy=strategy, progress=progress)
     names = [c.name for c in t.columns if c.name in values and not c.derived]
     poses = list(itertools.product(*(values[n] for n in names)))
     return (None if found is None else replace(found, file=f"--grid {spec}")), poses, names

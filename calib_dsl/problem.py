@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import gc
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -210,8 +210,7 @@ class Problem:
         """The consts `inputs` set otherwise than this problem's (as `-D` reads them), when
         nothing else differs; None otherwise."""
         mine = dict(self.inputs.consts)
-        if inputs.unroll != self.inputs.unroll or not _same(inputs.data, self.inputs.data) \
-                or not _same(inputs.rows, self.inputs.rows) or set(mine) - set(inputs.consts):
+        if not _same_but(inputs, self.inputs, "consts") or set(mine) - set(inputs.consts):
             return None
         try:
             return {k: Fraction(v.strip()) for k, v in inputs.consts.items()
@@ -224,9 +223,7 @@ class Problem:
         from its own only in the selection of its table's rows and keep some of them (rows
         left out, or a set of them named); None otherwise."""
         if not derivable(self.model) or self.program.rows is None \
-                or inputs.unroll != self.inputs.unroll \
-                or not _same(inputs.data, self.inputs.data) \
-                or not _same(inputs.consts, self.inputs.consts):
+                or not _same_but(inputs, self.inputs, "rows"):
             return None
         table = self.model.tables[0]
         if set(inputs.rows) - {"", table.name}:
@@ -279,6 +276,12 @@ def _left_out(old: Selection | None, new: Selection | None,
         return None
     named = {r.first for r in new.ranges}
     return have - named if named <= have else None
+
+
+def _same_but(a: Inputs, b: Inputs, name: str) -> bool:
+    """Whether two requests agree in every field but `name` (a field added later counts)."""
+    return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a)
+               if f.name != name)
 
 
 def _same(a: object, b: object) -> bool:

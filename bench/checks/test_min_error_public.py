@@ -6,17 +6,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.pipeline import min_error
-
-UR10 = Path(__file__).resolve().parents[3] / "shared" / "data" / "ur10" / \
-    "measurements_joint_configurations.csv"
+from tests.test_ur10 import UR10, needs_ur10
 
 
-@pytest.mark.skipif(not UR10.exists(), reason=f"the public UR10 data set is not at "
-                    f"{UR10.parent} (make fetch-ur10 downloads it; docs/real-data.md)")
+@needs_ur10
 def test_the_public_data_every_50th_row():
     from calib_dsl.elaborate.rows import Selection, parse_ranges
 
