@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.lp.certify import box_max_up, certified_maxes
+from calib_dsl.lp.certify import box_maxes_up, certified_maxes
 from calib_dsl.lp.highs import infeasible, load, optimal
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings, Settings
@@ -45,8 +45,8 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
     n, cols = len(objectives), rel.A.shape[1]
     C = np.zeros((n, cols))
     C[:, : objectives.shape[1]] = objectives
-    upper = np.array([box_max_up(c, c, rel.lo, rel.hi) for c in C])
-    lower = np.array([-box_max_up(-c, -c, rel.lo, rel.hi) for c in C])
+    upper = box_maxes_up(C, C, rel.lo, rel.hi)
+    lower = -box_maxes_up(-C, -C, rel.lo, rel.hi)
     settled = np.ones(n, dtype=bool)
     if n == 0:
         return lower, upper, np.zeros((0, objectives.shape[1])), settled

@@ -39,7 +39,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
 from calib_dsl.ir.model import Model, Table
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.certify import box_max_up
+from calib_dsl.lp.certify import box_maxes_up
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import mid_rad
@@ -376,8 +376,8 @@ def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray, cal: Calibrat
     box's order, one a row: candidates, not proofs)."""
     data = cal.data
     if data is None:
-        lo = np.array([-box_max_up(-c, -c, plo, phi) for c in h])
-        hi = np.array([box_max_up(c, c, plo, phi) for c in h])
+        lo = -box_maxes_up(-h, -h, plo, phi)
+        hi = box_maxes_up(h, h, plo, phi)
         return lo, hi, np.zeros((0, len(names)))
     cols = np.array([list(cal.box).index(n) for n in names])
     obj = np.zeros((len(h), data.main))

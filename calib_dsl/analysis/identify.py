@@ -199,11 +199,11 @@ def combination_enclosures(prog: Program, info: Identifiability, lo: np.ndarray,
     if not rows:
         return []
     obj = np.array(rows)
-    from calib_dsl.lp.certify import box_max_up
+    from calib_dsl.lp.certify import box_maxes_up
 
     plo, phi = lo[ind], hi[ind]
-    upper = np.array([box_max_up(c, c, plo, phi) for c in obj])
-    lower = np.array([-box_max_up(-c, -c, plo, phi) for c in obj])
+    upper = box_maxes_up(obj, obj, plo, phi)
+    lower = -box_maxes_up(-obj, -obj, plo, phi)
     if use_lp and not set(texts) <= {t for t, _, _ in known or []}:
         from calib_dsl.lp.bounds import lp_bounds
         from calib_dsl.relax.linearize import relax

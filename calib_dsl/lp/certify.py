@@ -24,7 +24,7 @@ def dot_up(x: np.ndarray, y: np.ndarray) -> float:
 
 def box_max_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     """An upper bound on max r.p over r in [r_lo, r_hi], p in [lo, hi]."""
-    return float(_box_maxes_up(r_lo[None, :], r_hi[None, :], lo, hi)[0])
+    return float(box_maxes_up(r_lo[None, :], r_hi[None, :], lo, hi)[0])
 
 
 def certified_max(rel: LinearRelaxation, c: np.ndarray, y: np.ndarray,
@@ -52,7 +52,7 @@ def certified_maxes(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,
     AY, absAY = _times(rel.A, Y, dense_entries)
     r = C - AY
     err = RHS_REL * (np.abs(C) + absAY) + RHS_ABS  # rounding error of r, componentwise
-    return _dots_up(Y, rhs) + _box_maxes_up(r - err, r + err, rel.lo, rel.hi)
+    return _dots_up(Y, rhs) + box_maxes_up(r - err, r + err, rel.lo, rel.hi)
 
 
 def _times(A: Any, Y: np.ndarray, dense_entries: int) -> tuple[np.ndarray, np.ndarray]:
@@ -90,10 +90,12 @@ def _dots_up(X: np.ndarray, Z: np.ndarray) -> np.ndarray:
     return np.where(ok, s + RHS_REL * np.where(ok, err, 0.0) + RHS_ABS, np.inf)
 
 
-def _box_maxes_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray,
-                  hi: np.ndarray) -> np.ndarray:
+def box_maxes_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray,
+                 hi: np.ndarray) -> np.ndarray:
     """box_max_up of each row of r_lo, r_hi over the same box: per entry the largest of the
-    four corner products, summed, plus a bound on the sum's rounding error."""
+    four corner products, summed, plus a bound on the sum's rounding error; +inf for a row
+    with a coefficient that is no number (nothing bounds it)."""
+    unknown = np.isnan(r_lo).any(axis=1) | np.isnan(r_hi).any(axis=1)
     with np.errstate(invalid="ignore"):
         cand = np.stack([r_lo * lo, r_lo * hi, r_hi * lo, r_hi * hi])
     cand = np.where(np.isnan(cand), 0.0, cand)  # 0 * inf: a zero coefficient contributes 0
@@ -101,7 +103,7 @@ def _box_maxes_up(r_lo: np.ndarray, r_hi: np.ndarray, lo: np.ndarray,
     s = terms.sum(axis=1)
     with np.errstate(invalid="ignore"):
         out = s + RHS_REL * np.abs(terms).sum(axis=1) + RHS_ABS
-    return np.where(np.isfinite(s), out, np.inf)  # +inf: unbounded; -inf only by overflow
+    return np.where(np.isfinite(s) & ~unknown, out, np.inf)  # +inf: unbounded; -inf: overflow
 
 
 @dataclass

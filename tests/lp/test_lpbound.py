@@ -26,6 +26,7 @@ from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import (
     Certificates,
     box_max_up,
+    box_maxes_up,
     certified_max,
     certified_maxes,
     dot_up,
@@ -940,3 +941,15 @@ def test_remainder_cost_is_what_the_remainders_add_to_the_bounds(seed, n, m):
     # nothing is known without the slack, or for another family's relaxation
     assert not np.any(certs.remainder_cost(replace(rel, slack=None), n))
     assert not np.any(certs.remainder_cost(replace(rel, family="g"), n))
+
+
+def test_a_coefficient_that_is_no_number_bounds_nothing():
+    """A NaN coefficient (an objective or multiplier not computed) gives +inf, never a
+    finite bound; a zero coefficient over an unbounded entry still contributes 0."""
+    lo, hi = np.array([-1.0, -np.inf]), np.array([1.0, np.inf])
+    assert box_max_up(np.array([1.0, np.nan]), np.array([1.0, np.nan]), lo, hi) == np.inf
+    assert box_max_up(np.array([np.nan, 0.0]), np.array([1.0, 0.0]), lo, hi) == np.inf
+    assert 1.0 <= box_max_up(np.array([1.0, 0.0]), np.array([1.0, 0.0]), lo, hi) <= 1.0 + 1e-8
+    rows = box_maxes_up(np.array([[1.0, 0.0], [2.0, np.nan]]),
+                        np.array([[1.0, 0.0], [2.0, np.nan]]), lo, hi)
+    assert rows[0] <= 1.0 + 1e-8 and rows[1] == np.inf
