@@ -148,7 +148,7 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
     are certified (none where the search fails: the predictions then have no inner
     intervals)."""
     try:
-        inner = inner_bounds(prog, sol.lo, sol.hi, sol.starts)
+        inner = inner_bounds(prog, sol.lo, sol.hi, sol.starts, settings)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError):
         return (), None
     centre = centre_witness(inner)

@@ -403,7 +403,8 @@ class Settings:
             if not group and name not in flat:
                 raise TypeError(f"Settings has no field {name!r}")
             (groups.setdefault(group, {}) if group else mine)[field] = value
-        mine.update({g: replace(getattr(self, g), **v) for g, v in groups.items()})
+        for g, v in groups.items():  # on a group given whole as well (`lp=...`), if any
+            mine[g] = replace(mine.get(g, getattr(self, g)), **v)
         return replace(self, **mine)
 
     @property

@@ -50,3 +50,13 @@ def test_a_groups_name_and_field_name_that_field():
     assert DEFAULT.tuned(wide=0.5).min_error.wide == DEFAULT.min_error.wide  # the rounds'
     with pytest.raises(TypeError, match="no field 'min_error_nope'"):
         DEFAULT.tuned(min_error_nope=1)
+
+
+def test_a_group_given_whole_keeps_its_fields_beside_a_field_of_it():
+    from dataclasses import replace
+
+    lp = replace(DEFAULT.lp, workers=DEFAULT.lp.workers + 3)
+    first = fields(lp)[0].name if fields(lp)[0].name != "workers" else fields(lp)[1].name
+    changed = {first: getattr(lp, first)}
+    s = DEFAULT.tuned(lp=lp, **{f"lp__{first}": changed[first]})
+    assert s.lp.workers == DEFAULT.lp.workers + 3

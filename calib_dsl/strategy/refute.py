@@ -110,8 +110,11 @@ class Refuter:
         combinations than the solve's."""
         if not self.res.combinations or self.uncut is not None:
             return
-        rep = along_combinations(self.prog, self.settings)
-        self.uncut = np.zeros(0, dtype=np.int64)
+        self.uncut = np.zeros(0, dtype=np.int64)  # (tried once, whatever it gives)
+        try:
+            rep = along_combinations(self.prog, self.settings)
+        except FAILURES:  # the effort then runs in the unknowns as written
+            return
         if rep is None or [c[0] for c in rep.combinations] != [c[0] for c in
                                                                  self.res.combinations]:
             return

@@ -128,3 +128,24 @@ def test_consistent_campaigns_of_other_robots_are_never_refuted(tmp_path_factory
                       time.perf_counter())
     found = refuter.run([])
     assert found.proof is None, found.tried
+
+
+def test_a_failed_change_of_unknowns_leaves_the_effort_as_written(tmp_path, monkeypatch):
+    """A failure while building the combinations' program (memory, say) proves nothing: the
+    effort stays in the unknowns as written, and tries the change once."""
+    import calib_dsl.strategy.refute as refute
+
+    problem = Problem.load(every_parameter_free(tmp_path, 12, 3))
+    prog = problem.program
+    s = Settings()
+    res = solve(prog, settings=s)
+    assert res.combinations
+
+    def fails(*_args, **_kw):
+        raise MemoryError
+
+    monkeypatch.setattr(refute, "along_combinations", fails)
+    r = Refuter(prog, res, None, None, s, 1e-5, 1000, 0.0, 0.0)
+    r.in_solve_unknowns()
+    assert r.prog is prog and r.uncut is not None and len(r.uncut) == 0
+    r.in_solve_unknowns()  # (once: no second attempt)
