@@ -83,7 +83,7 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
         return "infeasible" if found.proof is not None else res.status
 
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs())
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
     # every trial asks about the same priors (centred anew on each trial's data, a domain
     # along a direction the data do not see moves by millimetres, and a point certified in
     # one is outside the next)
@@ -115,7 +115,7 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
     loaded already (then `formulation` and `inputs` are its own); the configurations' model
     is derived from it where it allows (Problem.with_table)."""
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs())
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
     prog = problem.program
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == "infeasible":
@@ -177,7 +177,7 @@ def conflict(model: str | Path | Problem, formulation: str = "matrix",
     consistent (None when the model has no table). `model`: its file, or the problem
     loaded already (then `formulation` and `inputs` are its own)."""
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs())
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
     return find_conflict(problem.inputs, problem.loader(), settings.outliers, settings.fits)
 
 
@@ -262,7 +262,8 @@ class SolveRequest:
 
 def solve_report(request: SolveRequest, progress: Progress | None = None) -> SolveReport:
     """Load and solve the request's model, with the report's optional sections."""
-    problem = Problem.load(request.model, request.formulation, request.inputs)
+    problem = Problem.load(request.model, request.formulation, request.inputs,
+                           request.settings.fits)
     if request.outliers > 0:
         run = outlier_report(request, problem, progress)
         if request.shave:

@@ -32,15 +32,17 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.proof import pinned
 from calib_dsl.outliers.rows import data_rows, excluding
+from calib_dsl.settings_analysis import FitSettings
 
 Loader = Callable[[Inputs], tuple[Model, Program]]
 
 
 def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
-               inputs: Inputs | None = None, centre: bool = True) -> tuple[Model, Program]:
+               inputs: Inputs | None = None, centre: bool = True,
+               fits: FitSettings | None = None) -> tuple[Model, Program]:
     """Parse, elaborate and compile a `.cal` model, with the elaborated model (its tables and
     consts); `centre=False` leaves `lsq +- w` domains unbounded (for a caller that gives
-    them another program's)."""
+    them another program's); `fits`: the settings of the fit that centres them."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
@@ -50,7 +52,7 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
     finally:
         gc.enable()
     if centre:
-        centre_on_least_squares(prog)  # `param x in lsq +- w`: domains around the data's estimate
+        centre_on_least_squares(prog, fits)  # `param x in lsq +- w`: around the data's estimate
     return elaborated, prog
 
 
@@ -63,7 +65,7 @@ def _unrolled() -> Model:
     raise _Unrolled
 
 
-def _compiled(model: Model, centre: bool) -> Program | None:
+def _compiled(model: Model, centre: bool, fits: FitSettings | None = None) -> Program | None:
     """A derived model's program (None: elaborate anew, see _Unrolled)."""
     gc.disable()
     try:
@@ -73,7 +75,7 @@ def _compiled(model: Model, centre: bool) -> Program | None:
     finally:
         gc.enable()
     if centre:
-        centre_on_least_squares(prog)
+        centre_on_least_squares(prog, fits)
     return prog
 
 
@@ -112,13 +114,14 @@ class Problem:
     program: Program  # the flat program the solvers work on
     # when set, what it derives is on these `lsq +- w` domains, not centred anew
     priors: Priors | None = None
+    fits: FitSettings | None = None  # the fit that centres `lsq +- w` domains (None: defaults)
 
     @classmethod
     def load(cls, path: str | Path, formulation: str = "matrix",
-             inputs: Inputs | None = None) -> Problem:
+             inputs: Inputs | None = None, fits: FitSettings | None = None) -> Problem:
         inputs = inputs or Inputs()
-        model, prog = load_model(path, formulation, inputs=inputs)
-        return cls(str(path), formulation, inputs, model, prog)
+        model, prog = load_model(path, formulation, inputs=inputs, fits=fits)
+        return cls(str(path), formulation, inputs, model, prog, fits=fits)
 
     @property
     def unknowns(self) -> list[str]:
@@ -141,12 +144,13 @@ class Problem:
             return self
         centre = centre and self.priors is None
         model = self._derived(inputs)
-        prog = None if model is None else _compiled(model, centre)
+        prog = None if model is None else _compiled(model, centre, self.fits)
         if model is None or prog is None:
-            model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre)
+            model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre,
+                                     fits=self.fits)
         if self.priors is not None:
             self.priors.put_on(prog)
-        return Problem(self.path, self.formulation, inputs, model, prog, self.priors)
+        return Problem(self.path, self.formulation, inputs, model, prog, self.priors, self.fits)
 
     def keeping_priors(self) -> Problem:
         """This problem, but what it derives is on its `lsq +- w` domains (a bracket's

@@ -59,7 +59,7 @@ def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings,
     if not model.tables:
         return None
     try:
-        priors = prior_faults(prog, settings.prior_widen)
+        priors = prior_faults(prog, settings.prior_widen, fits)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         priors = []  # not proven: the rows are looked at
     if priors:
@@ -80,9 +80,9 @@ def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings,
     most = settings.conflict_rows
     for k in range(1, min(most, len(ranked) - 1) + 1):
         out = ranked[:k]
-        if _consistent_without(inputs, load, out):
+        if _consistent_without(inputs, load, out, fits):
             needed = None if k == 1 else not any(
-                _consistent_without(inputs, load, [r for r in out if r is not back])
+                _consistent_without(inputs, load, [r for r in out if r is not back], fits)
                 for back in out)
             return Conflict(out, True, needed)
     return Conflict(ranked[:most], False, None)
@@ -116,7 +116,8 @@ def _ranked(prog: Program) -> list[tuple[tuple[str, int], float]]:
     return sorted(worst.items(), key=lambda kv: -kv[1])
 
 
-def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> bool:
+def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow],
+                        fits: FitSettings) -> bool:
     """Whether the data less the rows `out` are proven consistent (by a certified point)."""
     rows = dict(inputs.rows)
     for r in out:
@@ -124,7 +125,7 @@ def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow]) -> boo
         rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
     try:
         _, prog = load(replace(inputs, rows=rows))
-        return proven_consistent(prog)
+        return proven_consistent(prog, fits)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False  # not proven
 

@@ -67,7 +67,7 @@ def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Pro
     """The rows proven to fail for every vector of S_K, at most k, in the order proven
     (`load` must give programs on `prog`'s domains: `pinned`)."""
     settings = settings or Settings()
-    if k < 1 or len(model.tables) != 1 or _consistent(prog):
+    if k < 1 or len(model.tables) != 1 or _consistent(prog, settings):
         return []  # a vector satisfies every row: no row fails for all of S_K
     table = model.tables[0]
     least = settings.outliers.min_residual
@@ -89,7 +89,7 @@ def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Pro
         start = time.perf_counter()
         others = [n for n in table.numbers if n != r.row and n not in out]
         sets = [others[j::left + 1] for j in range(left + 1)]
-        progs = _unproven(inputs, load, model, [s + [r.row] for s in sets])
+        progs = _unproven(inputs, load, model, [s + [r.row] for s in sets], settings)
         if progs is not None and all(
                 _inconsistent(p, settings, labelled(progress, f"outlier proof, row {r.row}, "
                                                               f"set {j + 1}/{len(sets)}: "))
@@ -99,8 +99,8 @@ def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Pro
     return proven
 
 
-def _unproven(inputs: Inputs, load: Loader, model: Model, sets: list[list[int]]
-              ) -> list[Program] | None:
+def _unproven(inputs: Inputs, load: Loader, model: Model, sets: list[list[int]],
+              settings: Settings) -> list[Program] | None:
     """The programs of these sets of data rows, or None when one is proven consistent (a
     certified point: no proof can follow; a few LPs instead of a solve)."""
     progs = []
@@ -109,16 +109,16 @@ def _unproven(inputs: Inputs, load: Loader, model: Model, sets: list[list[int]]
             _, prog = load(only(inputs, model, numbers))
         except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
             return None
-        if _consistent(prog):
+        if _consistent(prog, settings):
             return None
         progs.append(prog)
     return progs
 
 
-def _consistent(prog: Program) -> bool:
+def _consistent(prog: Program, settings: Settings) -> bool:
     """A point proven to satisfy every row (analysis/chebyshev.py)."""
     try:
-        return proven_consistent(prog)
+        return proven_consistent(prog, settings.fits)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False
 

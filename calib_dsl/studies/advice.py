@@ -23,12 +23,6 @@ from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 
-SEEN = Settings.seen
-WELL_SEEN = Settings.well_seen
-COND_MAX = Settings.subset_cond
-LEADS = Settings.leads
-ABSORBED = Settings.absorbs
-
 
 @dataclass(frozen=True)
 class Absorbed:
@@ -49,13 +43,15 @@ class Advice:
     rank: int
     condition: float  # of the rank's directions
     absorbed: list[Absorbed]
-    faint: dict[str, float]  # parameter: error bounds it adds over its domain, < WELL_SEEN
-    unseen: list[str]  # parameters that alone move the measurements by less than SEEN
+    faint: dict[str, float]  # parameter: error bounds it adds over its domain, < well_seen
+    unseen: list[str]  # parameters that alone move the measurements by less than `seen`
     subset: list[str]
     subset_condition: float
+    seen: float  # the settings' `seen`: less moves the measurements by nothing seen
 
 
-def advise(prog: Program) -> Advice:
+def advise(prog: Program, settings: Settings | None = None) -> Advice:
+    st = settings or Settings()
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     point, where = _point(prog, ind)
@@ -69,13 +65,13 @@ def advise(prog: Program) -> Advice:
         overflow = np.isnan(r) & bounded
         js = finite_jacobian(np.where(overflow[:, None], np.nan, jac * half), where)
     s = np.linalg.svd(js, compute_uv=False) if js.size else np.zeros(0)
-    rank = int(np.sum(s >= SEEN))
-    keep = _subset(js, rank)
-    unseen = [j for j in range(js.shape[1]) if np.linalg.norm(js[:, j]) < SEEN]
-    absorbed, faint = _explain(js, names, keep, unseen)
+    rank = int(np.sum(s >= st.seen))
+    keep = _subset(js, rank, st)
+    unseen = [j for j in range(js.shape[1]) if np.linalg.norm(js[:, j]) < st.seen]
+    absorbed, faint = _explain(js, names, keep, unseen, st)
     sub = np.linalg.svd(js[:, keep], compute_uv=False) if keep else np.zeros(1)
     return Advice(names, where, js.shape[0], s, rank, _cond(s[:rank]), absorbed, faint,
-                  [names[j] for j in unseen], [names[k] for k in keep], _cond(sub))
+                  [names[j] for j in unseen], [names[k] for k in keep], _cond(sub), st.seen)
 
 
 def _point(prog: Program, ind: np.ndarray) -> tuple[np.ndarray, str]:
@@ -91,12 +87,12 @@ def _cond(s: np.ndarray) -> float:
     return float(s[0] / s[-1]) if len(s) and s[-1] > 0 else float("inf")
 
 
-def _subset(js: np.ndarray, rank: int) -> list[int]:
+def _subset(js: np.ndarray, rank: int, st: Settings) -> list[int]:
     """Gram-Schmidt in the order the parameters are declared: a parameter is kept when it adds
-    at least WELL_SEEN error bounds to what the kept ones already move (so among parameters
+    at least `well_seen` error bounds to what the kept ones already move (so among parameters
     with the same effect, the one declared first is kept: a model declares first what it would
     rather calibrate, the base and the tool before the chain). Then, while the kept set is
-    worse conditioned than COND_MAX, the last declared of the members that lead its
+    worse conditioned than `subset_cond`, the last declared of the members that lead its
     weakest direction leaves."""
     residual = js.astype(float).copy()
     keep: list[int] = []
@@ -104,22 +100,22 @@ def _subset(js: np.ndarray, rank: int) -> list[int]:
         if len(keep) == rank:
             break
         size = float(np.linalg.norm(residual[:, k]))
-        if size < WELL_SEEN:
+        if size < st.well_seen:
             continue
         keep.append(k)
         q = residual[:, k] / size
         residual -= np.outer(q, q @ residual)
     while len(keep) > 1:
         _, s, vt = np.linalg.svd(js[:, keep], full_matrices=False)
-        if s[-1] > 0 and s[0] / s[-1] <= COND_MAX:
+        if s[-1] > 0 and s[0] / s[-1] <= st.subset_cond:
             break
         lead = np.abs(vt[-1])
-        keep.pop(int(np.flatnonzero(lead >= LEADS * lead.max())[-1]))  # the last declared
+        keep.pop(int(np.flatnonzero(lead >= st.leads * lead.max())[-1]))  # the last declared
     return keep
 
 
-def _explain(js: np.ndarray, names: list[str], keep: list[int], unseen: list[int]
-             ) -> tuple[list[Absorbed], dict[str, float]]:
+def _explain(js: np.ndarray, names: list[str], keep: list[int], unseen: list[int],
+             st: Settings) -> tuple[list[Absorbed], dict[str, float]]:
     """For each parameter left out: the kept ones that reproduce its effect, or how faint
     the effect they cannot reproduce is."""
     groups: dict[tuple[int, ...], list[int]] = {}
@@ -130,10 +126,10 @@ def _explain(js: np.ndarray, names: list[str], keep: list[int], unseen: list[int
             continue
         c, *_ = np.linalg.lstsq(basis, js[:, j], rcond=None)
         left = float(np.linalg.norm(js[:, j] - basis @ c))
-        if left >= SEEN:
+        if left >= st.seen:
             faint[names[j]] = left
             continue
-        big = np.abs(c) >= ABSORBED * np.abs(c).max() if len(c) else np.zeros(0, bool)
+        big = np.abs(c) >= st.absorbs * np.abs(c).max() if len(c) else np.zeros(0, bool)
         groups.setdefault(tuple(keep[i] for i in np.flatnonzero(big)), []).append(j)
     out = []
     for by, members in groups.items():
@@ -151,13 +147,13 @@ def render(a: Advice) -> str:
     lines = [f"identifiability at {a.point} ({a.rows} rows): rank {a.rank} of "
              f"{len(a.names)} parameters, condition number {a.condition:.3g}",
              f"  (a direction is seen when moving the parameters along it across their "
-             f"domains moves the measurements by at least {SEEN:g} of their error bounds)"]
+             f"domains moves the measurements by at least {a.seen:g} of their error bounds)"]
     for g in a.absorbed:
         verb = "moves" if len(g.members) == 1 else "move"
         line = f"{', '.join(g.members)} {verb} with {', '.join(g.by)}"
         lines.append(line + (f": only {g.sum} is seen" if g.sum else " (absorbed)"))
     if a.unseen:
-        lines.append(f"not seen at all: {', '.join(a.unseen)} (alone, less than {SEEN:g} of "
+        lines.append(f"not seen at all: {', '.join(a.unseen)} (alone, less than {a.seen:g} of "
                      "an error bound over the whole domain)")
     if a.faint:
         shown = ", ".join(f"{n} ({v:.2g})" for n, v in a.faint.items())
