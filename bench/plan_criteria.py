@@ -16,6 +16,7 @@ unknowns (the median over the unknowns of each one's mean over the draws) of
 - random sets of larger N: how many random poses the planned 30 are worth.
 
     python bench/plan_criteria.py [--seeds 1,2,3] [--unknowns base_x,d3] [--budget 120]
+        [--start variances|random] [--tries 4] [--larger 36,43,50]
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from calib_dsl.settings import DEFAULT  # noqa: E402
 
 MODEL = ROOT / "models" / "ur10_simulated.cal"
 CANDIDATES, N, RANDOM_SETS, DRAWS = 3000, 30, 5, 20
-OWN_DRAWS, FRESH_DRAWS, TRIES = 24, 40, 4
+OWN_DRAWS, FRESH_DRAWS = 24, 40
 
 
 class Case:
@@ -87,7 +88,7 @@ def expected(r: np.ndarray) -> float:
 
 
 def exchange(case: Case, start: np.ndarray, draws: np.ndarray, columns: list[int] | None,
-             budget: int) -> np.ndarray:
+             budget: int, tries: int = 4) -> np.ndarray:
     """Swap members (least multiplier over the draws' hulls) for candidates (most expected
     cut at their extreme points) while the mean log expected width falls."""
     chosen, r = np.array(start), case.blocks.shape[1]
@@ -100,10 +101,10 @@ def exchange(case: Case, start: np.ndarray, draws: np.ndarray, columns: list[int
     spent = 1
     while spent < budget:
         leave = np.argsort(weight[: len(chosen) * r].reshape(len(chosen), r).sum(axis=1),
-                           kind="stable")[:TRIES]
+                           kind="stable")[:tries]
         cut = expected_cut(case.blocks, points)
         cut[chosen] = -np.inf
-        join = np.argsort(-cut, kind="stable")[:TRIES]
+        join = np.argsort(-cut, kind="stable")[:tries]
         trials = [(i, c) for i in leave for c in join][: budget - spent]
         for i, c in trials:
             trial = chosen.copy()
@@ -125,7 +126,10 @@ def expected_cut(blocks: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.where(v <= 2.0, v * v / 4.0, v - 1.0).sum(axis=(1, 2))
 
 
-def study(case: Case, unknowns: list[str], budget: int, larger: list[int]) -> None:
+def study(case: Case, unknowns: list[str], budget: int, larger: list[int],
+          alone: tuple[str, int]) -> None:
+    """`alone`: where each unknown's own exchange starts ("variances", or "random": a
+    random set) and how many members and candidates it pairs per round."""
     rng = np.random.default_rng(case.seed)
     rand = [case.ratios(rng.choice(len(case.blocks), N, replace=False), case.draws)[0]
             for _ in range(RANDOM_SETS)]
@@ -142,11 +146,14 @@ def study(case: Case, unknowns: list[str], budget: int, larger: list[int]) -> No
         print(f"| {name} | {expected(r):.4f} | {expected(r) / base:.3f} |")
     mean_random = np.mean([r.mean(axis=0) for r in rand], axis=0)
     fresh = case.noise(FRESH_DRAWS, 321, len(case.blocks))
+    own_start = start if alone[0] == "variances" else np.random.default_rng(
+        [case.seed, 77]).choice(len(case.blocks), N, replace=False)
     print("| unknown | random | variances | own design | own / random median |\n"
           "|---|---:|---:|---:|---:|")
     for name in unknowns:
         k = case.names.index(name)
-        mine = exchange(case, start, case.noise(OWN_DRAWS, 123, N), [k], budget)
+        mine = exchange(case, own_start, case.noise(OWN_DRAWS, 123, N), [k], budget,
+                        alone[1])
         was = case.ratios(start, fresh, [k])[0].mean()
         got = case.ratios(mine, fresh, [k])[0].mean()
         print(f"| {name} | {mean_random[k]:.4f} | {was:.4f} | {got:.4f} | {got / base:.3f} |",
@@ -163,12 +170,16 @@ def main() -> None:
     ap.add_argument("--unknowns", default="", help="names, comma-separated (default: all)")
     ap.add_argument("--budget", type=int, default=120, help="noisy hulls per exchange")
     ap.add_argument("--larger", default="36,43,50", help="random set sizes to compare")
+    ap.add_argument("--start", choices=("variances", "random"), default="variances",
+                    help="where each unknown's own exchange starts")
+    ap.add_argument("--tries", type=int, default=4, help="its members x candidates a round")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="calibc-criteria-") as name:
         for seed in (int(s) for s in args.seeds.split(",")):
             case = Case(seed, Path(name))
             asked = args.unknowns.split(",") if args.unknowns else case.names
-            study(case, asked, args.budget, [int(n) for n in args.larger.split(",") if n])
+            study(case, asked, args.budget, [int(n) for n in args.larger.split(",") if n],
+                  (args.start, args.tries))
 
 
 if __name__ == "__main__":
