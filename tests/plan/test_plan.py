@@ -109,6 +109,22 @@ def test_noise_only_narrows_the_linearized_set(seed, rows):
     assert np.all(noisy.hi - noisy.lo <= free.hi - free.lo + 1e-9)
 
 
+@given(st.integers(0, 10_000), st.integers(4, 40))
+@settings(max_examples=25, deadline=None)
+def test_no_design_brings_the_noise_free_hull_below_its_floor(seed, rows):
+    """The floor of docs/planning.md: the point moved along unknown k by 1 / max |a_ik|
+    satisfies every row, so the noise-free width is at least 2 / max |a_ik| (within the
+    box), whatever the rows; noise is what a set can gain below it."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(rows, 4)) * rng.uniform(0.1, 3.0, 4)
+    box = (np.full(4, -1.0), np.full(4, 1.0))
+    free = hull_of(a, box)
+    floor = np.minimum(2.0 / np.abs(a).max(axis=0), 2.0)
+    assert np.all(free.hi - free.lo >= floor - 1e-7)
+    noisy = hull_of(a, box, rng.uniform(-1, 1, rows))
+    assert np.all(noisy.hi - noisy.lo <= free.hi - free.lo + 1e-9)
+
+
 def test_drawn_candidates_stay_within_the_joint_limits():
     t = table_of(elaborate(str(ARM), simulate_rows=1))
     drawn = draw_configurations(t, 500, np.random.default_rng(1), {"q1": (-0.5, 0.25)})
