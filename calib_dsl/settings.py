@@ -374,12 +374,17 @@ class Settings:
     # Directions (predictions' gradients, spread apart) whose extremes over the calibration
     # linearized at the certified centre become candidates too: near the solution set's
     # boundary, where the relaxation's optima lie beyond it
-    prediction_linear_lps: int = 64
+    prediction_linear_lps: int = 1024
     # Whether the relaxation the predictions' LPs run over (accuracy/second_order.py) ties
     # each product column to its factors by McCormick's inequalities: they narrow the
     # predictions a little (their extreme vertices) but give the LP four rows a product,
     # most of its rows, and each LP's pivots cost with them.
     prediction_mccormick: bool = False
+    # The inner intervals' ends are evaluated exactly at the certified points each row's
+    # approximate model picks, this many of a loop's rows in one pass (accuracy/certified.py
+    # inner_at): a pass costs its rows times the points they picked, so fewer rows a pass
+    # evaluate fewer points each, at the cost of more passes over the primitives.
+    prediction_hull_rows: int = 32
 
     def tuned(self, **changes: Any) -> Settings:
         """These settings with some fields changed, each named by its own name whether it is

@@ -13,11 +13,12 @@ inner interval (nan).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_points
+from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
 
 
@@ -38,6 +39,89 @@ def inner_hull(prog: Program, points: Sequence[np.ndarray]
     empty = ~(low <= high)
     low[empty], high[empty] = np.nan, np.nan
     return low, high, targets
+
+
+def inner_at(prog: Program, points: np.ndarray, slots: np.ndarray, picks: np.ndarray,
+             block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """inner_hull's interval for each target slot of `slots`, over only the points its row
+    of `picks` names (indices into `points`), and which point gave each end ((slots, 2):
+    the lower's, the upper's; -1 where there is no interval). A loop's rows are evaluated
+    `block` rows at a time, each pass at the points some slot of those rows picked (every
+    point on every row would cost points x rows)."""
+    low, high = np.full(len(slots), np.inf), np.full(len(slots), -np.inf)
+    ends = np.full((len(slots), 2), -1, dtype=np.int64)
+    lay = prog.rows
+    groups: list[tuple[np.ndarray, np.ndarray | None]]
+    if lay is None or np.any(slots < lay.shared):  # (no loop compiled once: in one pass)
+        groups = [(np.arange(len(slots)), None)]
+    else:
+        row = (slots - lay.shared) // lay.width
+        rows = np.unique(row)
+        groups = [(np.flatnonzero(np.isin(row, rows[a:a + block])), rows[a:a + block])
+                  for a in range(0, len(rows), block)]
+    for mine, rows_ in groups:
+        if not len(mine):
+            continue
+        used, which = np.unique(picks[mine], return_inverse=True)
+        which = which.reshape(len(mine), -1)
+        enclosures = _evaluated(prog, points[used], slots[mine], rows_, block)
+        for m in range(which.shape[1]):
+            a_end, b_end = enclosures[0][which[:, m], np.arange(len(mine))], \
+                enclosures[1][which[:, m], np.arange(len(mine))]
+            lower, higher = b_end < low[mine], a_end > high[mine]
+            low[mine] = np.where(lower, b_end, low[mine])
+            high[mine] = np.where(higher, a_end, high[mine])
+            ends[mine, 0] = np.where(lower, used[which[:, m]], ends[mine, 0])
+            ends[mine, 1] = np.where(higher, used[which[:, m]], ends[mine, 1])
+    empty = ~(low <= high)
+    low[empty], high[empty], ends[empty] = np.nan, np.nan, -1
+    return low, high, ends
+
+
+def _evaluated(prog: Program, points: np.ndarray, slots: np.ndarray, rows: np.ndarray | None,
+               block: int) -> tuple[np.ndarray, np.ndarray]:
+    """The computed side's enclosure [lo, hi] of each target slot of `slots` at each point
+    ((points, slots) each; nan for a slot no pass evaluated), the readings at their
+    middles: over the program of the loop's rows `rows` (None: the whole program)."""
+    out = np.full((2, len(points), len(slots)), np.nan)
+    if rows is None:
+        checks = check_points(prog, points)
+        found, keep = checks[0].slots, np.arange(len(checks[0].slots))
+    else:
+        assert prog.rows is not None
+        chunks = chunked(prog, prog.rows.shared + block * prog.rows.width, rows)
+        assert chunks is not None and len(chunks) == 1
+        ch = chunks[0]
+        checks = check_points(ch.prog, points,
+                              box=(ch.box(prog.slots.lo), ch.box(prog.slots.hi)))
+        keep = np.flatnonzero(ch.kept(checks[0].slots))
+        found = ch.slots(checks[0].slots[keep])
+    sort = np.argsort(found)
+    at = np.minimum(np.searchsorted(found, slots, sorter=sort), len(found) - 1)
+    hit = found[sort[at]] == slots
+    pos = keep[sort[at]][hit]
+    for j, c in enumerate(checks):
+        out[0, j, hit], out[1, j, hit] = c.lo[pos], c.hi[pos]
+    return out[0], out[1]
+
+
+def picks(value: Callable[[np.ndarray], np.ndarray], points: np.ndarray) -> np.ndarray:
+    """Per row of `value` (rows' approximate predictions at points, one a row: a (rows,
+    points) matrix), the points (by place) it puts highest and lowest, as (rows, 2): which
+    point's exact prediction each inner end is to be."""
+    step = 32  # points at a time: the (rows, points) matrix of many rows stays small
+    best, at = None, None
+    for a in range(0, len(points), step):
+        v = value(points[a:a + step])
+        here = np.stack([v.max(axis=1), -v.min(axis=1)], axis=1)
+        where = a + np.stack([v.argmax(axis=1), v.argmin(axis=1)], axis=1)
+        if best is None or at is None:
+            best, at = here, where
+            continue
+        new = here > best
+        best, at = np.where(new, here, best), np.where(new, where, at)
+    assert at is not None
+    return at
 
 
 def tightness(outer_lo: np.ndarray, outer_hi: np.ndarray, inner_lo: np.ndarray,

@@ -10,17 +10,20 @@ all candidates checked in one pass per step.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from calib_dsl.accuracy.batch_lp import spread
+from calib_dsl.accuracy.batch_lp import path, spread
 from calib_dsl.analysis.certify_point import check_points
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.bounds import lp_solutions
+from calib_dsl.lp.highs import load, optimal
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import Settings
+from calib_dsl.relax.relaxation import LinearRelaxation
+from calib_dsl.settings import LPSettings, Settings
 
 
 def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
@@ -38,12 +41,35 @@ def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre:
     if not lm.finite:
         return none
     picked = directions[spread(directions, settings.prediction_linear_lps)]
-    found = [lm.point(y) for *_, y in lp_solutions(lm.rel, picked[:, free] * lm.scale,
-                                                   settings.lp)
-             if y is not None]
+    objectives = picked[:, free] * lm.scale
+    # (each sign walks the directions in a path, each LP from its neighbour's optimum)
+    order = path(objectives, settings.prediction_path_window)
+    with ThreadPoolExecutor(2 if settings.lp.workers > 1 else 1) as pool:
+        walks = list(pool.map(lambda sign: _optima(lm.rel, sign * objectives[order],
+                                                   settings.lp), (1.0, -1.0)))
+    found = [lm.point(y) for walk in walks for y in walk]
     if not found:
         return none
     return np.array([p for p, _ in found]), np.array([r for _, r in found])
+
+
+def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
+            ) -> list[np.ndarray]:
+    """The optima of max c.x over `rel` for each row c of `objectives` in turn, on one HiGHS
+    model, each LP from the last one's basis (a new cost leaves it primal feasible); an LP
+    that did not end optimal gives none. Candidates only: nothing here is certified."""
+    h = load(rel, None, lp.iterations, lp.scaling)
+    h.setOptionValue("simplex_strategy", lp.tall_simplex)
+    n = objectives.shape[1]
+    cols = np.arange(n, dtype=np.int32)
+    found = []
+    for c in objectives:
+        h.changeColsCost(n, cols, -c.astype(float))
+        h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
+        h.run()
+        if optimal(h):
+            found.append(np.asarray(h.getSolution().col_value))
+    return found
 
 
 def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,

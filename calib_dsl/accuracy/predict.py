@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from calib_dsl.accuracy.batch_lp import batch_bounds
-from calib_dsl.accuracy.certified import inner_hull
+from calib_dsl.accuracy.certified import inner_at, picks
 from calib_dsl.accuracy.second_order import Bounds, second_order
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
@@ -66,6 +66,8 @@ class Prediction:
     inner_points: np.ndarray | None = None
     names: tuple[str, ...] = ()
     inner_readings: np.ndarray | None = None  # the calibration's readings each was proven at
+    # (rows, columns, 2): which of inner_points each inner end is the prediction of (-1: none)
+    inner_from: np.ndarray | None = None
 
     def covered(self) -> np.ndarray:
         """Per row: every measured value within its box widened by its bound."""
@@ -280,37 +282,28 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
     if not known:
         return outer
-    if found is not None and found.value is not None and not len(rest):
-        # (evaluating every point on every row is the cost)
-        known = [known[i] for i in _extremes(found.value, [p[order] for p, _ in known])]
-    ilo, ihi, at = inner_hull(prog, [p[order] for p, _ in known])
-    inner = _arrange(prog, t, at, (ilo, ihi), original, measured_side, present, file)
+    P = np.array([p[order] for p, _ in known])
+    # each cell's inner ends: the exact predictions at the certified points an approximate
+    # model (the second-order one where a row has it) puts at its extremes
+    assert box_only.value is not None
+    chosen = picks(box_only.value, P)
+    if found is not None and found.value is not None:
+        at = np.searchsorted(box_only.targets, found.targets, sorter=np.argsort(
+            box_only.targets))
+        chosen[np.argsort(box_only.targets)[at]] = picks(found.value, P)
+    ilo, ihi, ends = inner_at(prog, P, box_only.targets, chosen,
+                              cal.settings.prediction_hull_rows)
+    inner = _arrange(prog, t, box_only.targets, (ilo, ihi), original, measured_side, present,
+                     file)
+    # (one enclosure a cell: _arrange's intersection is that cell's own, -1 for none)
+    witness = [_arrange(prog, t, box_only.targets, (e, e), original, measured_side, present,
+                        file).lo.astype(np.int64) for e in ends.T.astype(float)]
     some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
     return replace(outer, inner_lo=np.where(some, inner.lo, np.nan),
-                   inner_hi=np.where(some, inner.hi, np.nan),
-                   inner_points=np.array([p[order] for p, _ in known]),
+                   inner_hi=np.where(some, inner.hi, np.nan), inner_points=P,
+                   inner_from=np.where(some[..., None], np.stack(witness, axis=-1), -1),
                    names=tuple(s.names[k] for k in ind),
                    inner_readings=np.array([r for _, r in known]))
-
-
-def _extremes(value: Callable[[np.ndarray], np.ndarray], points: list[np.ndarray]) -> list[int]:
-    """The points (by place) whose approximate prediction `value` is some row's largest or
-    smallest: the inner intervals' ends are the exact predictions of these."""
-    P = np.array(points)
-    step = 32  # points at a time: the (rows, points) matrix of many rows stays small
-    best = [np.full(0, 0.0), np.full(0, 0.0)]
-    at: list[np.ndarray] = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
-    for a in range(0, len(P), step):
-        v = value(P[a:a + step])
-        for k, (pick, better) in enumerate(((np.argmax, np.greater), (np.argmin, np.less))):
-            i = pick(v, axis=1)
-            here = v[np.arange(len(v)), i]
-            if not len(best[k]):
-                best[k], at[k] = here, a + i
-                continue
-            new = better(here, best[k])
-            best[k], at[k] = np.where(new, here, best[k]), np.where(new, a + i, at[k])
-    return sorted({int(i) for i in np.concatenate(at)})
 
 
 def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,
@@ -340,7 +333,12 @@ def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: n
     plo = dlo[use] - hc + lin_lo - rad[use] - err
     phi = dhi[use] - hc + lin_hi + rad[use] + err
     order = np.array([list(cal.box).index(s.names[k]) for k in ind])
-    return Bounds(plo, phi, targets[use], h[use], optima[:, order], charge=rad[use])
+    mid = 0.5 * (dlo[use] + dhi[use])
+
+    def value(points: np.ndarray) -> np.ndarray:  # (floats, without the remainder)
+        return mid[:, None] + h[use] @ (points - center).T
+
+    return Bounds(plo, phi, targets[use], h[use], optima[:, order], value, charge=rad[use])
 
 
 def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],

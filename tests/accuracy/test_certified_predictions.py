@@ -1,7 +1,7 @@
 """Predictions with a certificate: on simulated planar arms of random true lengths, the
 held-out true positions lie in every predicted box, the certified inner intervals lie in the
-boxes, their ends are the predictions (the kinematics written out by hand) of the certified
-points they came from, and each of those points is proven consistent with the data."""
+boxes, each end is the prediction (the kinematics written out by hand) of the certified
+point it names, and each of those points is proven consistent with the data."""
 
 from __future__ import annotations
 
@@ -56,12 +56,19 @@ def test_true_positions_lie_in_the_boxes_and_inner_ends_are_certified(tmp_path, 
     some = ~np.isnan(p.inner_lo)
     assert some.any()
     assert np.all(p.lo[some] <= p.inner_lo[some]) and np.all(p.inner_hi[some] <= p.hi[some])
-    # the ends: the hand-written kinematics at the certified points, min and max
+    # each end: the hand-written kinematics at the certified point it names, within
+    # rounding; and within the hull of the predictions at all the certified points
     k1, k2 = p.names.index("l1"), p.names.index("l2")
     at = np.array([tip(w[k1], w[k2], qh[:, 0], qh[:, 1]) for w in p.inner_points])
-    lows, highs = at.min(axis=0).T, at.max(axis=0).T  # (rows, columns)
-    np.testing.assert_allclose(p.inner_lo[some], lows[some], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(p.inner_hi[some], highs[some], rtol=0, atol=1e-12)
+    at = at.transpose(0, 2, 1)  # (points, rows, columns)
+    assert p.inner_from is not None and np.all((p.inner_from >= 0) == some[..., None])
+    rows, cols = np.nonzero(some)
+    for end, got in ((0, p.inner_lo), (1, p.inner_hi)):
+        witness = at[p.inner_from[rows, cols, end], rows, cols]
+        np.testing.assert_allclose(got[some], witness, rtol=0, atol=1e-12)
+    lows, highs = at.min(axis=0), at.max(axis=0)
+    assert np.all(lows[some] - 1e-12 <= p.inner_lo[some])
+    assert np.all(p.inner_hi[some] <= highs[some] + 1e-12)
     prog = load(tmp_path / "planar_arm.cal", inputs=inputs)
     order = [p.names.index(prog.slots.names[k]) for k in independents(prog)]
     assert p.inner_readings is not None
