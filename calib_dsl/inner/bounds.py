@@ -9,8 +9,8 @@ final basis for that end where it kept one: inner/starts.py). A wave of them is 
 pass; one that fails is pulled back towards a certified centre by what the check measured,
 else the rows it violates are tightened and its LP is solved again, and as a last resort it
 is pulled back by halves. An end that this left well short of its LP's optimum is sought
-again over the model linearized at its point. Every certified point adds to every unknown's
-interval.
+again over the model linearized at its point, and again from there while that gains
+(sequential linearization). Every certified point adds to every unknown's interval.
 """
 
 from __future__ import annotations
