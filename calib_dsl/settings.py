@@ -85,6 +85,11 @@ class InnerSettings:
     # holds all its rows at once). A smaller share seeks more ends again for no wider inner
     # interval, a larger one leaves ends short (docs/decisions/14)
     refine: float = 1e-2
+    # Linearizations of such an end at most, each at the point the last one certified, while
+    # each gains `refine` and still falls short of its LP's optimum by as much: near a thin
+    # solution set's end the remainder of one linearization is what holds the end back
+    # (docs/decisions/31)
+    refine_steps: int = 3
     # The centre's fit stops once its linearized model predicts the largest residual to
     # within this share: the centre needs a margin inside every bound, not the best fit,
     # and the fit's later steps gain next to nothing

@@ -9,8 +9,8 @@ final basis for that end where it kept one: inner/starts.py). A wave of them is 
 pass; one that fails is pulled back towards a certified centre by what the check measured,
 else the rows it violates are tightened and its LP is solved again, and as a last resort it
 is pulled back by halves. An end that this left well short of its LP's optimum is sought
-again over the model linearized at its point. Every certified point adds to every unknown's
-interval.
+again over the model linearized at its point, and again from there while that gains
+(sequential linearization). Every certified point adds to every unknown's interval.
 """
 
 from __future__ import annotations
@@ -182,17 +182,16 @@ def _fit(prog: Program, box: tuple[np.ndarray, np.ndarray], mid: np.ndarray,
 def _extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], lp: LinearModel,
               found: _Points) -> None:
     """Both ends of every unknown that can move, over the linearized model `lp`; then
-    those that fell well short, over the model linearized at their own points (where the LP
-    holds all its rows: above, each would be a cold LP generating its rows, which triples
-    the inner bounds' time for a few per cent of width; docs/decisions/14)."""
+    those that fell well short, over the model linearized at their own points (a tall
+    model's LPs there start from the rows the first LPs came to hold: the rows that bound
+    the ends do not change much from one linearization to the next; docs/decisions/31)."""
     solvers = lp.solvers(lp.lp_settings.workers)
     with ThreadPoolExecutor(len(solvers)) as pool:
         short = _waves(prog, lp, solvers, pool, found)
-        if lp.rows <= lp.lp_settings.rows_at_once:
-            for w in pool.map(lambda end: _refined(prog, box, lp, *end),
-                              short):
-                if w is not None:
-                    found.add(w)
+        held = np.unique(np.concatenate([s.in_lp for s in solvers]))
+        for points in pool.map(lambda end: _refined(prog, box, lp, end, held), short):
+            for w in points:
+                found.add(w)
 
 
 def _waves(prog: Program, lp: LinearModel, solvers: list[Solver], pool: ThreadPoolExecutor,
@@ -341,13 +340,32 @@ def _between(centre: Witness, at: tuple[np.ndarray, np.ndarray], t: float,
                           *lp.readings.inside)
 
 
-def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], first: LinearModel, j: int,
-             sign: float, w: Witness) -> Witness | None:
-    """The end again, over the model linearized at its certified point w: near the end, the
-    linearization's remainder that held it back is small."""
-    lp = LinearModel(prog, box, w.point, first.free, first.starts, first.lp_settings,
-                     first.inner)
-    return _end(prog, lp, lp.solver, j, sign, w)[0] if lp.finite else None
+def _refined(prog: Program, box: tuple[np.ndarray, np.ndarray], first: LinearModel,
+             end: tuple[int, float, Witness], held: np.ndarray) -> list[Witness]:
+    """The end (j, sign, its certified point) again, over the model linearized at its
+    certified point, where the linearization's remainder that held it back is small; and
+    again from the point that gives while it still falls short of its LP's optimum by
+    `refine` and gained that much on the last (sequential linearization, `refine_steps` at
+    most: the end of a thin solution set curves away from any one linearization). Returns
+    the certified points found on the way."""
+    j, sign, w = end
+    k, inner, got = int(first.free[j]), first.inner, []
+    for _ in range(inner.refine_steps):
+        lp = LinearModel(prog, box, w.point, first.free, first.starts, first.lp_settings,
+                         inner)
+        if not lp.finite:
+            break
+        same = lp.rows == first.rows and np.array_equal(lp.slots, first.slots)
+        point, promised = _end(prog, lp, lp.solvers(1, held if same else None)[0], j, sign, w)
+        if point is None:
+            break
+        got.append(point)
+        gained = sign * (point.point[k] - w.point[k]) / lp.scale[j]
+        short = sign * (promised - (point.point[k] - lp.centre[k]) / lp.scale[j])
+        if not (gained > inner.refine and short > inner.refine):
+            break
+        w = point
+    return got
 
 
 def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,

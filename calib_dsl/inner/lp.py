@@ -70,7 +70,6 @@ class LinearModel:
         self.unknowns = independents(prog)[free]
         keys = self.readings.keys[:self.width]
         self.cells = np.stack([keys // self.readings.ncol, keys % self.readings.ncol], axis=1)
-        self.solver = Solver(self)
 
     def start(self, j: int, sign: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The solve's final basis for this end, mapped onto this LP's rows and columns (the
@@ -85,9 +84,10 @@ class LinearModel:
         inward = (1.0 - self.inner.aim) + tighten
         return self.lower + inward, self.upper - inward
 
-    def solvers(self, count: int) -> list[Solver]:
-        """`count` HiGHS models of this LP (at least one), the first the model's own."""
-        return [self.solver] + [Solver(self) for _ in range(max(1, count) - 1)]
+    def solvers(self, count: int, rows: np.ndarray | None = None) -> list[Solver]:
+        """`count` HiGHS models of this LP (at least one); a tall one holding `rows` at
+        first where given (Solver)."""
+        return [Solver(self, rows) for _ in range(max(1, count))]
 
     def point(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The unknowns and the readings at `step` from the centre (kept in their bounds: a
@@ -114,14 +114,19 @@ class LinearModel:
 class Solver:
     """A HiGHS model of a LinearModel's LP: its rows' bounds as last tightened, and the rows
     it holds (a tall model holds some, and those an optimum violates are added: row
-    generation, each LP small, the optimum the whole model's). One per thread."""
+    generation, each LP small, the optimum the whole model's). One per thread.
 
-    def __init__(self, model: LinearModel) -> None:
+    `rows`: the rows a tall model holds at first (indices into the model's rows)."""
+
+    def __init__(self, model: LinearModel, rows: np.ndarray | None = None) -> None:
         self.model, self.rel = model, model.rel
         lp = model.lp_settings
         tall = model.rows > lp.rows_at_once
-        self.in_lp = (np.unique(np.linspace(0, model.rows - 1, 8 * model.n).astype(np.int64))
-                      if tall else np.arange(model.rows))  # (a few rows per unknown)
+        # a tall model starts from `rows` (those that bound another linearization's optima
+        # nearby: the row generation then adds few), else from a few rows per unknown
+        spread = np.unique(np.linspace(0, model.rows - 1, 8 * model.n).astype(np.int64))
+        self.in_lp = (np.arange(model.rows) if not tall else spread if rows is None
+                      else np.unique(rows[(rows >= 0) & (rows < model.rows)]))
         self.h = load(self.rel, self.in_lp if tall else None, lp.iterations, lp.scaling)
         self.tightened = np.zeros(model.rows)
 

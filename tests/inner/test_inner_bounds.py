@@ -12,7 +12,7 @@ from pathlib import Path
 import mpmath
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
@@ -23,6 +23,7 @@ from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.pipeline import load, solve
 from calib_dsl.relax.layout import independents
 from calib_dsl.studies.simulate import simulate
+from tests.relax.test_linearize import random_robot, robot_draws
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -402,11 +403,14 @@ def test_circle_witnesses_hold_exactly(tmp_path_factory, cx, cy, r, turn, draws)
         assert np.all(sol.lo[ind] <= w.point) and np.all(w.point <= sol.hi[ind])
 
 
-def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, monkeypatch):
+@pytest.mark.parametrize("tall", [False, True])
+def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, tall):
     """Five points round a circle, each coordinate off by up to 0.04 against a bound of 0.05:
     over the model linearized at the centre the corrections pull the ends well in; sought
     again from their own points they reach further (one inner interval 1.75 times as wide
-    here), and every point still holds exactly."""
+    here), and every point still holds exactly. Likewise where the LPs generate their rows
+    (`tall`: more rows than rows_at_once), the ends' LPs then starting from the rows the
+    first ones held."""
     from dataclasses import replace
 
     from calib_dsl.settings import Settings
@@ -419,10 +423,12 @@ def test_ends_short_of_their_lp_optimum_are_sought_again(tmp_path, monkeypatch):
     (tmp_path / "circle.cal").write_text(CIRCLE.replace("+- 1e-3", "+- 0.05"))
     prog = load(tmp_path / "circle.cal")
     sol = solve(prog)
-    never = Settings()
-    never = replace(never, inner=replace(never.inner, refine=np.inf))  # no end sought again
+    base = Settings()
+    if tall:  # (ten rows: an LP of two rows at once generates the others)
+        base = replace(base, lp=replace(base.lp, rows_at_once=2))
+    never = replace(base, inner=replace(base.inner, refine=np.inf))  # no end sought again
     first = inner_bounds(prog, sol.lo, sol.hi, settings=never)
-    inner = inner_bounds(prog, sol.lo, sol.hi)
+    inner = inner_bounds(prog, sol.lo, sol.hi, settings=base)
     assert np.all(inner.lo <= first.lo) and np.all(first.hi <= inner.hi)
     gain = (inner.hi - inner.lo) / (first.hi - first.lo)
     assert np.max(gain) > 1.3
@@ -504,3 +510,33 @@ def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == "False"
+
+
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**robot_draws(st.integers(6, 14)), refine=st.sampled_from([1e-4, 1e-2]),
+       at_once=st.sampled_from([3, 10, 2000]))
+def test_ends_sought_again_are_certified_on_random_robots(tmp_path_factory, seed, joints, rows,
+                                                          formulation, refine, at_once):
+    """On simulated robots, whether the LPs hold every row or generate them (at_once), and
+    however many ends are sought again (refine), every point the inner bounds return passes
+    certify_point's own check, lies in the solve's box, and each inner interval lies in it."""
+    from dataclasses import replace
+
+    from calib_dsl.analysis.existence import prove_point
+    from calib_dsl.settings import Settings
+    from calib_dsl.strategy.tight import solve_tight
+
+    prog = random_robot(tmp_path_factory.mktemp("robot"), seed, joints, rows, formulation).prog
+    sol = solve_tight(prog, combinations=False)
+    assert sol.status == "contracted"
+    s = Settings()
+    s = replace(s, lp=replace(s.lp, rows_at_once=at_once), inner=replace(s.inner, refine=refine))
+    inner = inner_bounds(prog, sol.lo, sol.hi, settings=s)
+    ind = independents(prog)
+    assert inner.consistent
+    for w in inner.witnesses:
+        assert prove_point(prog, w.point, w.readings)
+        assert np.all(sol.lo[ind] <= w.point) and np.all(w.point <= sol.hi[ind])
+    ok = np.isfinite(inner.lo)
+    assert np.all(sol.lo[ind][ok] <= inner.lo[ok]) and np.all(inner.hi[ok] <= sol.hi[ind][ok])
