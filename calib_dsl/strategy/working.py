@@ -10,7 +10,11 @@ the fine rounds' own relaxation rows (relaxed_check.py). The rows it
 violates are where the working set's LPs let through parameters the whole campaign
 excludes: the worst of them join the set and the rounds run again, until no optimum
 violates a row (or `working_passes` checks); a pass after a check resumes the fine
-rounds. A working set of every row is the plain rounds on all rows, with no check.
+rounds. Where it resumes the phase the pass before ran in, an end whose optimum no row
+found cuts off gets no LP in its first round: with those rows joined, the same LP keeps that
+optimum (the box it is relaxed on has moved by less than the rounds' stop ratio, so another
+LP would gain little there). A working set of every row is the plain rounds on all rows,
+with no check.
 
 Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
 every bound is certified from its own LP's multipliers, and propagation runs on every row:
