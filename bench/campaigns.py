@@ -68,11 +68,10 @@ def smallest_bound(data: Path, rows: str | None) -> float:
     the smallest consistent bound is at most this); its lower end's tight solves are left
     out (they only prove how close it is)."""
     from calib_dsl.analysis.min_error import min_error
-    from calib_dsl.pipeline import load_model
+    from calib_dsl.problem import Problem
 
-    inputs = inputs_of(data, rows, 1.0)
-    found = min_error("e", inputs, lambda i: load_model(MODEL, inputs=i),
-                      lambda prog: "infeasible")
+    problem = Problem.load(MODEL, inputs=inputs_of(data, rows, 1.0)).keeping_priors()
+    found = min_error(problem, "e", lambda prog: "infeasible")
     return float(found.hi)
 
 

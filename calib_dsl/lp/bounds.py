@@ -45,7 +45,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings | No
     separate cores. Where the LP finds the relaxation infeasible and its dual ray proves it
     (`_farkas`), the share's bound is -inf: the bounds cross. Where the LP fails otherwise,
     the bound falls back to the box's own bound on c.p: never wrong, just not tighter.
-    Objectives flagged in `skip` get the box bound without an LP. `lp.iterations` and
+    Objectives flagged in `skip` get the box bound without an LP (a column of flags per
+    objective, or two: its max's and its min's). `lp.iterations` and
     `lp.seconds` limit each solve (a run stopped by them still certifies a bound). `solver` is
     HiGHS's: "simplex" re-solves from the last basis; "ipm" (interior point, no crossover)
     starts afresh each time but costs the same few dozen iterations on any objective, which
@@ -59,7 +60,9 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings | No
     """
     lp = lp or LPSettings()
     lower, upper, signed = box_bounds(rel, objectives)
-    tasks = [t for t in signed if not (skip is not None and skip[t[0]])]
+    ends = np.zeros((len(objectives), 2), dtype=bool) if skip is None else \
+        np.broadcast_to(skip.reshape(len(objectives), -1), (len(objectives), 2))
+    tasks = [t for t in signed if not ends[t[0], 0 if t[1] > 0 else 1]]
     workers = max(1, min(lp.workers, len(tasks)))
     points = _probe_points(rel, tasks, lp) if probes and workers > 1 else []
     # both signs of an objective in the same share: the second starts from the first's optimum

@@ -10,12 +10,17 @@ the optimum's other columns: then adding it changes that LP's optimum. The test 
 inequality alone (a row's readings free per inequality): it finds only rows that surely cut
 the optimum off. Which rows join the set is a cost choice: every relaxation of some rows
 holds every solution.
+
+The rows are checked a chunk at a time (each chunk's relaxation made, evaluated and
+dropped): the memory follows the chunk, not the campaign, and a row's relaxed inequalities
+are its own, so the rows found are those of one relaxation of them all.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates, mapped
 from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
@@ -23,6 +28,7 @@ from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.relax.quadratic_readings import FAMILY as READINGS_FAMILY
 from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
+from calib_dsl.relax.taylor import CHUNK_SLOTS
 
 
 def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
@@ -30,9 +36,23 @@ def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
     """For each optimum kept in the LP columns of `certs` (a second-order family, with its
     box): the loop rows of `rows` whose relaxed inequalities cut it off, and by how much
     (in the rows' own units). None where the check cannot be made this way."""
-    lay = prog.rows
-    if lay is None or certs.box is None or not certs.columns or len(rows) == 0:
+    if prog.rows is None or certs.box is None or not certs.columns or len(rows) == 0:
         return None
+    groups = chunked(prog, CHUNK_SLOTS, rows)
+    parts = [rows] if groups is None else [ch.rows[:ch.real] for ch in groups]
+    found = [_violated(prog, certs, part) for part in parts]
+    if any(f is None for f in found):
+        return None
+    return [(np.concatenate([f[k][0] for f in found if f is not None]),
+             np.concatenate([f[k][1] for f in found if f is not None]))
+            for k in range(len(certs.columns))]
+
+
+def _violated(prog: Program, certs: Certificates, rows: np.ndarray
+              ) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """violated_rows on one relaxation of `rows`."""
+    lay = prog.rows
+    assert lay is not None and certs.box is not None
     lo, hi = certs.box
     if certs.family == READINGS_FAMILY:
         built = relax_quadratic_readings(prog, lo, hi, rows=rows)

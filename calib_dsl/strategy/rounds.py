@@ -93,6 +93,11 @@ class LPRounds(Composable):
     fine_kind: str = "readings"
     # where the fine rounds keep their multipliers and optima (their own if None)
     fine_certs: Certificates | None = None
+    # ends (unknown, +1 its max or -1 its min) whose optimum in the last fine LPs (kept in
+    # `fine_certs`, of the phase these rounds resume) no row added since cuts off: the
+    # first round solves no LP for them (with the rows added, the same LP on the box it
+    # had keeps that optimum), their ends stay the box's, which those LPs certified
+    settled: frozenset[tuple[int, float]] = frozenset()
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         rounds = FixPoint(_Rounds(self, lo, hi), ratio=None, most=None, name=self.name)
@@ -252,11 +257,20 @@ class _Rounds(Composable):
             return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
         wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds)
-        tl, th = _bounds(rel, n, self.skip, certs, this.fresh, wide,
+        tl, th = _bounds(rel, n, self.skipped_ends(), certs, this.fresh, wide,
                          solver=s.rounds.wide_solver, probes=s.rounds.wide_probes,
                          own_bases=s.rounds.wide_own_bases)
         tl, th = _narrowed_bounds(rel, ex, tl, th, certs, s)
         return to_box(ex, tl, th)
+
+    def skipped_ends(self) -> np.ndarray:
+        """Which ends (max, min) of each unknown get no LP this round: those of the unknowns
+        sitting out, and in the first fine round, the ends `settled` (see LPRounds)."""
+        ends = np.repeat(self.skip[:, None], 2, axis=1)
+        if self.phase.fine and self.work.lp_rounds == 0:
+            for i, sign in self.spec.settled:
+                ends[i, 0 if sign > 0 else 1] = True
+        return ends
 
     # -- 3. narrow the box and propagate -----------------------------------------------------
     def narrow(self, new: tuple[np.ndarray, np.ndarray], this: _Round) -> np.ndarray | None:

@@ -10,7 +10,11 @@ the fine rounds' own relaxation rows (relaxed_check.py). The rows it
 violates are where the working set's LPs let through parameters the whole campaign
 excludes: the worst of them join the set and the rounds run again, until no optimum
 violates a row (or `working_passes` checks); a pass after a check resumes the fine
-rounds. A working set of every row is the plain rounds on all rows, with no check.
+rounds. Where it resumes the phase the pass before ran in, an end whose optimum no row
+found cuts off gets no LP in its first round: with those rows joined, the same LP keeps that
+optimum (the box it is relaxed on has moved by less than the rounds' stop ratio, so another
+LP would gain little there). A working set of every row is the plain rounds on all rows,
+with no check.
 
 Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
 every bound is certified from its own LP's multipliers, and propagation runs on every row:
@@ -70,6 +74,7 @@ class WorkingRows(Composable):
         # start their row generation from the rows the last pass's optima bound on (a
         # working set grows by few rows, and the optima move little)
         fine = Certificates()
+        settled: frozenset[tuple[int, float]] = frozenset()
         for passes in range(s.sampling.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
             certs = self.certs if every else Certificates()
@@ -79,7 +84,7 @@ class WorkingRows(Composable):
                               history=self.history, rows=None if every else rows,
                               fine_start=self.fine_start or resume,
                               fine_kind=kind if resume else "readings",
-                              fine_certs=fine)
+                              fine_certs=fine, settled=settled)
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
             if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
@@ -87,9 +92,9 @@ class WorkingRows(Composable):
                 break
             # the last LPs' optima: the fine rounds' where they ran, else the first order's
             points = fine.points if fine.points else certs.points
-            violated = np.union1d(
-                self.violated(out.lo, out.hi, np.array(list(points.values())), rows),
-                self.relaxed_violated(fine, rows))
+            found, cut = self.violated(out.lo, out.hi, points, rows)
+            relaxed, relaxed_cut = self.relaxed_violated(fine, rows)
+            violated = np.union1d(found, relaxed)
             if self.history is not None:
                 self.history.record(f"row check on all {loop_rows(self.prog)} rows: "
                                     f"{len(violated)} rows violated by the optima of LPs on "
@@ -97,51 +102,70 @@ class WorkingRows(Composable):
             if len(violated) == 0:
                 break
             rows = np.union1d(rows, violated)
+            # a pass that resumes the phase the last one ran (the fine rounds with both,
+            # after such a pass) re-solves the ends whose optima the rows found cut off
+            settled = (_settled(set(points) & set(fine.columns), cut | relaxed_cut)
+                       if resume and relaxed_cut is not None else frozenset())
             resume = bool(fine.points)
         return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
 
-    def relaxed_violated(self, fine: Certificates, rows: np.ndarray) -> np.ndarray:
+    def relaxed_violated(self, fine: Certificates, rows: np.ndarray
+                         ) -> tuple[np.ndarray, set[tuple[int, float]] | None]:
         """The loop rows outside `rows` whose second-order relaxation (the fine rounds' last,
         on their box) cuts off one of their LPs' optima: the `rows_added` worst, shared among
-        the optima (relaxed_check.py)."""
+        the optima (relaxed_check.py); and the ends (keys of `fine.columns`) whose optimum
+        some row cuts off (None: not checked)."""
         outside = np.setdiff1d(np.arange(loop_rows(self.prog)), rows)
         found = violated_rows(self.prog, fine, outside)
         if not found:
-            return np.zeros(0, dtype=np.int64)
+            return np.zeros(0, dtype=np.int64), None
+        cut = {end for end, (row, _) in zip(fine.columns, found, strict=True) if len(row)}
         per = max(1, self.settings.lp.rows_added // len(found))
         picked = [_first_distinct(row[np.argsort(-excess)], per) for row, excess in found]
-        return np.unique(np.concatenate(picked)).astype(np.int64)
+        return np.unique(np.concatenate(picked)).astype(np.int64), cut
 
-    def violated(self, lo: np.ndarray, hi: np.ndarray, points: np.ndarray,
-                 rows: np.ndarray) -> np.ndarray:
+    def violated(self, lo: np.ndarray, hi: np.ndarray, points: dict[tuple[int, float], np.ndarray],
+                 rows: np.ndarray) -> tuple[np.ndarray, set[tuple[int, float]]]:
         """The loop rows outside `rows` that some point (inside the box) violates: the
-        `rows_added` worst of all, shared among the points. The rows are checked a chunk
-        at a time, every point in one pass over a chunk (CHECK_CELLS slots x points)."""
+        `rows_added` worst of all, shared among the points; and the points' keys that some
+        row violates. The rows are checked a chunk at a time, every point in one pass over
+        a chunk (CHECK_CELLS slots x points)."""
         prog, lay = self.prog, self.prog.rows
         none = np.zeros(0, dtype=np.int64)
+        keys, at = list(points), np.array(list(points.values()))
         outside = np.setdiff1d(np.arange(loop_rows(prog)), rows)
-        if lay is None or len(points) == 0 or len(outside) == 0:
-            return none
+        if lay is None or len(at) == 0 or len(outside) == 0:
+            return none, set()
         ind = independents(prog)
-        points = np.clip(points, lo[ind], hi[ind])
+        at = np.clip(at, lo[ind], hi[ind])
         base = prog.slots.lo, prog.slots.hi
-        found: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in points]
-        for ch in chunked(prog, max(1, CHECK_CELLS // len(points)), outside) or []:
+        found: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in at]
+        for ch in chunked(prog, max(1, CHECK_CELLS // len(at)), outside) or []:
             try:
-                checks = check_points(ch.prog, points, box=(ch.box(base[0]), ch.box(base[1])))
+                checks = check_points(ch.prog, at, box=(ch.box(base[0]), ch.box(base[1])))
             except ValueError:  # (a point outside the domains: none to check)
-                return none
+                return none, set(keys)
             for k, c in enumerate(checks):
                 bad = (c.excess > 0) & ch.kept(c.slots) & (c.slots >= lay.shared)
                 row = (ch.slots(c.slots[bad]) - lay.shared) // max(lay.width, 1)
                 found[k].append((row, c.excess[bad]))
-        per = max(1, self.settings.lp.rows_added // len(points))
-        picked = []
-        for parts in found:
+        per = max(1, self.settings.lp.rows_added // len(at))
+        picked, cut = [], set()
+        for key, parts in zip(keys, found, strict=True):
             if parts:
                 row, excess = (np.concatenate(x) for x in zip(*parts, strict=True))
                 picked.append(_first_distinct(row[np.argsort(-excess)], per))
-        return np.unique(np.concatenate(picked)) if picked else none
+                if len(row):
+                    cut.add(key)
+        return (np.unique(np.concatenate(picked)) if picked else none), cut
+
+
+def _settled(ends: set[tuple[int, float]], cut: set[tuple[int, float]]
+             ) -> frozenset[tuple[int, float]]:
+    """The ends whose LPs the next pass need not solve again: those whose optimum no row
+    found cuts off (the rows joining the set leave it feasible, so the same LP with them
+    has the same optimum)."""
+    return frozenset(ends - cut)
 
 
 def _first_distinct(rows: np.ndarray, count: int) -> np.ndarray:

@@ -390,6 +390,18 @@ def test_lower_bound_with_an_infinite_box():
     assert lower[0] <= 2.0 and upper[0] == math.inf
 
 
+def test_skipped_ends_keep_the_box_bound_and_the_others_get_their_lps():
+    # x + y <= 1, x - y <= 1 over [-2, 2]^2: max x = 1 by LP; min x, max y, min y stay the
+    # box's (-2, 2, -2) where only they are skipped, flags per end (max, min)
+    rel = rel_of(np.array([[1.0, 1.0], [1.0, -1.0]]), [1.0, 1.0], [-2.0, -2.0], [2.0, 2.0])
+    skip = np.array([[False, True], [True, True]])
+    lower, upper = lp_bounds(rel, np.eye(2), skip=skip)
+    assert upper[0] <= 1.0 + 1e-6 and lower[0] <= -2.0 + 1e-12
+    assert lower[1] <= -2.0 + 1e-12 and upper[1] >= 2.0 - 1e-12
+    lower, upper = lp_bounds(rel, np.eye(2), skip=np.array([False, True]))  # (per unknown)
+    assert upper[0] <= 1.0 + 1e-6 and upper[1] >= 2.0 - 1e-12
+
+
 def test_an_infeasible_relaxation_is_proven_empty():
     # x <= -1 and -x <= -1 (x >= 1): no point at all; HiGHS's dual ray proves it (the bounds
     # cross), where they used to fall back to the box (tests/lp/test_farkas.py: soundness)

@@ -89,3 +89,43 @@ def test_the_rows_reported_on_a_campaign_are_left_out_and_cut_the_optima_off(tmp
     assert len(reported) > 0  # (10 rows of 80 leave the LPs' optima where others cut them)
     assert np.all(np.isin(reported, outside))
     assert all(np.all(excess > 0) for _, excess in found)
+
+
+def test_the_rows_checked_a_chunk_at_a_time_are_those_of_one_relaxation(tmp_path,
+                                                                       monkeypatch):
+    """The check relaxes the rows left out a chunk at a time (its memory follows the
+    chunk): on a campaign, chunks of one row and one relaxation of every row report the same
+    rows with the same excesses, for every optimum."""
+    from calib_dsl.compile.chunks import loop_rows, start_rows
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.lp.certify import Certificates
+    from calib_dsl.pipeline import load
+    from calib_dsl.propagate.fixpoint import propagate
+    from calib_dsl.settings import DEFAULT
+    from calib_dsl.strategy import relaxed_check
+    from calib_dsl.strategy.rounds import LPRounds
+    from calib_dsl.studies.campaign import Campaign
+    from calib_dsl.studies.simulate import simulate
+    from tests.test_ur10 import TRACKER, _noisy_simulation_model
+
+    table = tmp_path / "sim.csv"
+    simulate(_noisy_simulation_model(tmp_path, 0.05), 40, 5, out_csv=table,
+             campaign=Campaign("random", 5, systematic=0.6))
+    prog = load(TRACKER, inputs=Inputs(data={"m": table}, consts={"e": "0.65"}))
+    rows = start_rows(prog, 8)
+    assert rows is not None and prog.rows is not None
+    res = propagate(prog, tol=1e-5, max_sweeps=100)
+    fine = Certificates()
+    LPRounds(prog, replace(DEFAULT), Certificates(), 1e-5, 100, DEFAULT.rounds.max_rounds, True,
+             rows=rows, fine_certs=fine).contract(res.lo, res.hi)
+    outside = np.setdiff1d(np.arange(loop_rows(prog)), rows)
+    monkeypatch.setattr(relaxed_check, "CHUNK_SLOTS", 10**9)
+    whole = relaxed_check.violated_rows(prog, fine, outside)
+    monkeypatch.setattr(relaxed_check, "CHUNK_SLOTS", prog.rows.shared + prog.rows.width)
+    parts = relaxed_check.violated_rows(prog, fine, outside)
+    assert whole is not None and parts is not None and len(whole) == len(parts)
+    assert sum(len(r) for r, _ in whole) > 0
+    for (r1, e1), (r2, e2) in zip(whole, parts, strict=True):
+        a, b = np.lexsort((e1, r1)), np.lexsort((e2, r2))
+        assert np.array_equal(r1[a], r2[b])
+        assert np.allclose(e1[a], e2[b], rtol=1e-12, atol=0.0)
