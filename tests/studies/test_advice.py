@@ -12,7 +12,10 @@ import numpy as np
 import pytest
 
 from calib_dsl.pipeline import load
-from calib_dsl.studies.advice import COND_MAX, SEEN, advise, render
+from calib_dsl.settings import Settings
+from calib_dsl.studies.advice import advise, render
+
+SEEN, COND_MAX = Settings().seen, Settings().subset_cond
 
 ROOT = Path(__file__).resolve().parents[2]
 ALL = ROOT / "models" / "ur10_all.cal"
