@@ -6,6 +6,7 @@ join; and a UR10 campaign of thousands of rows gets the second-order rounds."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -73,6 +74,7 @@ def test_the_working_set_starts_spread_over_the_rows(tmp_path):
     assert start[0] == 0 and start[-1] == 24 and np.all(np.diff(start) > 0)
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(rows=st.sampled_from([20, 30, 40]), amplitude=st.floats(0.3, 1.0),
