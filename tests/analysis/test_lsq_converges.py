@@ -10,6 +10,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -66,6 +67,7 @@ def _check(path: Path, true: dict[str, float], sampling: SamplingSettings | None
 shares = st.lists(st.floats(-0.95, 0.95), min_size=len(PARAMS), max_size=len(PARAMS))
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(shares, st.integers(0, 10_000))
 def test_least_squares_finds_any_robot_within_its_priors(shares: list[float], seed: int) -> None:

@@ -139,6 +139,7 @@ def test_simulated_six_dof_campaigns_are_certified_consistent(tmp_path):
     assert verdicts == ["consistent"] * len(verdicts)
 
 
+@pytest.mark.slow
 def test_one_six_dof_draw_of_each_fault(tmp_path):
     draw = random.Random(4406)
     assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"

@@ -69,6 +69,7 @@ def test_the_refuter_moves_to_the_solves_unknowns(tmp_path):
     assert r._widest(r.res.lo, r.res.hi) not in set(rep.free)
 
 
+@pytest.mark.slow
 def test_the_truth_is_never_refuted_in_the_solves_unknowns(tmp_path, seed=8):
     """At the bound the table was simulated within, the effort (fine rounds and a split in
     the solve's unknowns, a budget of five solves) never proves the data inconsistent."""
@@ -102,6 +103,7 @@ def test_ur10_all_brackets_within_2_percent():
                                                                   found.trials)
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(robot=st.sampled_from(["arm4_dh.cal", "arm5_mdh.cal"]),

@@ -12,6 +12,8 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
+import pytest
+
 from calib_dsl.pipeline import min_error
 from tests.simulated_ur5 import JOINTS, PARAMS, header, simulate_rows, write_table
 from tests.strategy.test_verdict import assert_said, verdict_of
@@ -67,6 +69,7 @@ def truth_verdict(tmp: Path, draw: random.Random) -> str:
     return str(data["verdict"])
 
 
+@pytest.mark.slow
 def test_one_draw_of_each(tmp_path):
     draw = random.Random(4401)
     assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"
