@@ -4,6 +4,7 @@ inside the outer box, and the inner intervals reach the hull where it is known."
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from fractions import Fraction
@@ -145,9 +146,21 @@ def test_rx90_witnesses_hold_at_high_precision(tmp_path, seed):
                 assert abs(gap - dist) <= _exact("1e-5")
 
 
+@pytest.fixture(scope="module")
+def solved_a_once():
+    """Test A loaded and solved once for the tests of its inner bounds (each gets a copy)."""
+    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    return prog, solve(prog)
+
+
+@pytest.fixture
+def solved_a(solved_a_once):
+    return copy.deepcopy(solved_a_once)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("at_once", [None, 3])
-def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once):
+def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once, solved_a):
     """check_points (one pass for many points) says of each point what check_point says of
     it alone: random points of the RX90's box, readings anywhere in their intervals, with
     owners, some holding (the certified witnesses) and some not. The enclosures may differ
@@ -156,10 +169,9 @@ def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once
     at a time (a program of many slots)."""
     from calib_dsl.analysis import certify_point
 
-    prog = load(ROOT / "models" / "rx90_lengths.cal")
+    prog, sol = solved_a
     if at_once is not None:
         monkeypatch.setattr(certify_point, "CHECK_CELLS", at_once * len(prog.slots.lo))
-    sol = solve(prog)
     ind, at = independents(prog), reading_slots(prog)
     rng = np.random.default_rng(5)
     lo, hi = prog.slots.lo[at], prog.slots.hi[at]
@@ -182,11 +194,10 @@ def test_points_checked_together_get_each_their_own_verdict(monkeypatch, at_once
 
 
 @pytest.mark.slow
-def test_test_a_inner_reaches_the_outer_box():
+def test_test_a_inner_reaches_the_outer_box(solved_a):
     """Within 1.05 of the result; and the same inner intervals on a second run, though the
     ends' LPs and checks run in threads (a wave's points count in order, not as they come)."""
-    prog = load(ROOT / "models" / "rx90_lengths.cal")
-    sol = solve(prog)
+    prog, sol = solved_a
     inner = inner_bounds(prog, sol.lo, sol.hi)
     ind = independents(prog)
     outer = sol.hi[ind] - sol.lo[ind]
@@ -213,11 +224,10 @@ def _pivots(monkeypatch) -> list[int]:
 
 
 @pytest.mark.slow
-def test_the_solves_bases_start_the_inner_lps(monkeypatch):
+def test_the_solves_bases_start_the_inner_lps(monkeypatch, solved_a):
     """From the solve's final basis of each end, the inner bounds' LPs take under half the
     pivots (Test A: 670 against 4423) and reach the same inner intervals."""
-    prog = load(ROOT / "models" / "rx90_lengths.cal")
-    sol = solve(prog)
+    prog, sol = solved_a
     assert sol.starts is not None and len(sol.starts.ends) >= 28  # both ends of 14 unknowns
     counts = _pivots(monkeypatch)
     cold = inner_bounds(prog, sol.lo, sol.hi)
@@ -231,15 +241,14 @@ def test_the_solves_bases_start_the_inner_lps(monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
+def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch, solved_a):
     """Every row's and column's status garbled (a basis with no meaning for these LPs): the
     same inner intervals as with no start at all."""
     from dataclasses import replace
 
     from calib_dsl.inner.starts import EndBasis
 
-    prog = load(ROOT / "models" / "rx90_lengths.cal")
-    sol = solve(prog)
+    prog, sol = solved_a
     assert sol.starts is not None
     rng = np.random.default_rng(2)
 
@@ -257,14 +266,13 @@ def test_a_start_that_leads_nowhere_costs_only_pivots(monkeypatch):
 
 
 @pytest.mark.slow
-def test_no_optimum_at_the_middle_falls_back_to_the_fit(monkeypatch):
+def test_no_optimum_at_the_middle_falls_back_to_the_fit(monkeypatch, solved_a):
     """Where the model linearized at the box's middle gives no LP optimum at all (a wide
     box's), the ends are sought again over the model linearized at the Chebyshev fit: Test A
     still within 1.05 of its result."""
     from calib_dsl.inner import lp as inner_lp
 
-    prog = load(ROOT / "models" / "rx90_lengths.cal")
-    sol = solve(prog)
+    prog, sol = solved_a
     ind = independents(prog)
     middle = 0.5 * (sol.lo[ind] + sol.hi[ind])
     extreme = inner_lp.Solver.extreme
