@@ -8,12 +8,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from calib_dsl.pipeline import min_error
 from tests.simulated_ur5 import JOINTS, header, simulate_rows, write_table
 
 COLUMNS = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"]
 
 
+@pytest.mark.slow
 def test_min_error_with_lsq_priors_and_an_unseen_direction(tmp_path: Path) -> None:
     rows = simulate_rows(tmp_path, 40, seed=4, e=0.05)
     write_table(tmp_path / "data.csv", rows, COLUMNS, lambda r, c: r[c])

@@ -6,14 +6,15 @@ exact cells, or other rows, are unrolled as written."""
 from __future__ import annotations
 
 import json
-import subprocess
 import tracemalloc
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from calib_dsl.cli import main
 from calib_dsl.compile.group import compile_model
 from calib_dsl.compile.listing import render_listing
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
@@ -167,18 +168,17 @@ def test_compiling_rows_once_keeps_no_python_object_per_row(write_model):
     assert peak < 0.02e6 * rows, peak / rows
 
 
-def test_unroll_option_gives_the_same_results(write_model, calibc, untimed):
+def test_unroll_option_gives_the_same_results(write_model, untimed):
     path = write_model(PLANAR.format(tol=1e-5, body=PLANAR_BODY),
                        files={"d.csv": planar_csv(30, seed=3)})
     out = {}
     for flag in ((), ("--unroll",)):
         result = path.parent / f"r{len(flag)}.json"
-        run = subprocess.run([*calibc, "solve", str(path), "--strategy", "hc4", "--json",
-                              str(result), "-q", *flag], capture_output=True, text=True)
-        assert run.returncode == 0, run.stderr
+        run = CliRunner().invoke(main, ["solve", str(path), "--strategy", "hc4", "--json",
+                                        str(result), "-q", *flag])
+        assert run.exit_code == 0, run.output
         doc = untimed(json.loads(result.read_text()))
         out[flag] = {name: p["result"] for name, p in doc["parameters"].items()}
     assert out[()] == out[("--unroll",)]
-    listing = subprocess.run([*calibc, "compile", str(path), "--unroll"], capture_output=True,
-                             text=True)
-    assert listing.returncode == 0 and "compiled once" not in listing.stdout
+    listing = CliRunner().invoke(main, ["compile", str(path), "--unroll"])
+    assert listing.exit_code == 0 and "compiled once" not in listing.stdout

@@ -69,6 +69,7 @@ def test_every_spelling_compiles_to_the_same_program(campaign: Path) -> None:
         assert text == texts["sum"], name
 
 
+@pytest.mark.slow
 def test_both_spellings_give_the_same_intervals_and_certify_a_point(campaign: Path) -> None:
     out = {}
     for name in ("sum", "difference"):
@@ -82,7 +83,7 @@ def test_both_spellings_give_the_same_intervals_and_certify_a_point(campaign: Pa
     assert out["sum"] == out["difference"]
 
 
-@pytest.mark.parametrize("name", ["sum", "difference"])
+@pytest.mark.parametrize("name", ["sum", pytest.param("difference", marks=pytest.mark.slow)])
 def test_min_error_brackets_both_spellings(campaign: Path, name: str) -> None:
     path = _model(campaign, name, SPELLINGS[name])
     res = CliRunner().invoke(cli.main, ["solve", str(path), "-q", "--min-error", "e"])
@@ -92,6 +93,7 @@ def test_min_error_brackets_both_spellings(campaign: Path, name: str) -> None:
     assert lo < hi <= 0.05 * 1.01  # the data were drawn within 0.05
 
 
+@pytest.mark.slow
 def test_a_reading_that_scales_with_the_bound_is_no_internal_error(campaign: Path) -> None:
     """Targets known to +- e/100 stay readings (two cells with an error bound: not folded),
     and --min-error's trials at smaller bounds keep them within their intervals."""

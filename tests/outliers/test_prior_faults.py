@@ -30,7 +30,8 @@ def _campaign(tmp: Path, true: dict[str, float], moved: float = 0.0) -> Path:
     return path
 
 
-@pytest.mark.parametrize(("name", "value"), [("alpha3", 0.0162), ("d4", -385.9)])
+@pytest.mark.parametrize(("name", "value"), [("alpha3", 0.0162),
+                                           pytest.param("d4", -385.9, marks=pytest.mark.slow)])
 def test_a_wrong_prior_is_named_and_no_row_is_blamed(tmp_path: Path, name: str,
                                                       value: float) -> None:
     centre, w, _ = PARAMS[name]

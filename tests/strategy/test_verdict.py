@@ -133,6 +133,7 @@ def test_a_moved_coordinate_is_proven_inconsistent_in_most_draws(tmp_path):
     assert verdicts.count("inconsistent") >= 0.95 * len(verdicts), verdicts
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                  HealthCheck.function_scoped_fixture])
 @given(robot=robots, seed=st.integers(0, 10_000))
@@ -269,6 +270,7 @@ def test_the_next_command_names_the_const_of_an_error_bound(tmp_path):
     assert next_step(prog, Effort(elaborated, None), [(0, 50.0)], 1.03).endswith("--outliers 1")
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                  HealthCheck.function_scoped_fixture])
 @given(robot=robots, seed=st.integers(0, 10_000))

@@ -139,20 +139,11 @@ def test_simulated_six_dof_campaigns_are_certified_consistent(tmp_path):
     assert verdicts == ["consistent"] * len(verdicts)
 
 
+@pytest.mark.slow
 def test_one_six_dof_draw_of_each_fault(tmp_path):
     draw = random.Random(4406)
     assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"
     assert below_verdict(tmp_path / "below", draw) == "inconsistent"
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("case", ["moved", "below"])
-def test_six_dof_faults_are_proven_inconsistent_in_most_draws(tmp_path, case):
-    draw = random.Random(4407 if case == "moved" else 4408)
-    run = moved_verdict if case == "moved" else below_verdict
-    verdicts = [run(tmp_path / f"{case}{i}", draw) for i in range(20)]
-    assert "consistent" not in verdicts
-    assert verdicts.count("inconsistent") >= 0.95 * len(verdicts), verdicts
 
 
 def test_angles_that_wrap_are_compared_as_matrices(tmp_path):

@@ -4,7 +4,8 @@ a simulated tracker (exact joints, `: +- 0`; positions within +- e). A file with
 coordinate moved by 2-20 mm, and a bound 3 % below the smallest consistent one, end as
 *inconsistent* in >= 95 % of draws and never as *consistent*; an undecided one says so
 (exit 4, stderr, the report's top, the JSON); the truth within its bounds is never called
-inconsistent. The many-draw versions are slow; one draw of each stays in the default suite."""
+inconsistent. The 20-draw versions run in bench/checks/test_verdict_draws.py; one draw of
+each stays here."""
 
 from __future__ import annotations
 
@@ -68,25 +69,8 @@ def truth_verdict(tmp: Path, draw: random.Random) -> str:
     return str(data["verdict"])
 
 
+@pytest.mark.slow
 def test_one_draw_of_each(tmp_path):
     draw = random.Random(4401)
     assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"
     assert truth_verdict(tmp_path / "truth", draw) == "consistent"
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("case", ["moved", "below"])
-def test_faults_are_proven_inconsistent_in_most_draws(tmp_path, case):
-    draw = random.Random(44 if case == "moved" else 45)
-    run = moved_verdict if case == "moved" else below_verdict
-    verdicts = [run(tmp_path / f"{case}{i}", draw) for i in range(20)]
-    assert "consistent" not in verdicts
-    assert verdicts.count("inconsistent") >= 0.95 * len(verdicts), verdicts
-
-
-@pytest.mark.slow
-def test_the_truth_is_never_called_inconsistent(tmp_path):
-    draw = random.Random(46)
-    verdicts = [truth_verdict(tmp_path / f"t{i}", draw) for i in range(20)]
-    assert "inconsistent" not in verdicts
-    assert verdicts.count("consistent") >= 0.95 * len(verdicts), verdicts
