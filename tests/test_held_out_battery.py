@@ -123,7 +123,8 @@ def test_every_command_on_a_new_robot(tmp_path):
     assert res.output.count("error:") == 1 and "six revolute joints" in res.output
     calibc("export", "result.json", "--format", "dh-table", "--convention", "dh",
            "--point", "centre", cwd=tmp_path)
-    calibc("plan", model, "--n", 8, "-o", "plan.csv", "--json", "plan.json", cwd=tmp_path)
+    calibc("plan", model, "--candidates", "held.csv", "--n", 8, "-o", "plan.csv", "--json",
+           "plan.json", cwd=tmp_path)
     strict((tmp_path / "plan.json").read_text())
     calibc("report", "result.json", "-o", "report.html", "--validation", "v.json",
            "--identify", "identify.json", "--min-error", "min.json", cwd=tmp_path)
@@ -203,7 +204,10 @@ def test_plan_for_a_six_dof_tracker_says_why_it_cannot(tmp_path):
     """Its orientation rows' bounds vanish at the planning point (the candidates' angles
     are not measured yet): a user error naming them, not a singular matrix (exit 3)."""
     model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
-    res = calibc("plan", model.name, "--n", 5, "-o", "plan.csv", cwd=tmp_path, codes=(2,))
+    calibc("simulate", model.name, "--configs", 30, "--seed", 3, "-o", "cand.csv", "-q",
+           cwd=tmp_path)  # a small file: the default draws thousands
+    res = calibc("plan", model.name, "--candidates", "cand.csv", "--n", 5, "-o", "plan.csv",
+                 cwd=tmp_path, codes=(2,))
     assert res.output.startswith("error: ") and "no error bound" in res.output, res.output
 
 

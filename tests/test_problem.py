@@ -182,7 +182,10 @@ def test_an_error_bound_set_is_derived_as_elaborating_anew_gives(monkeypatch, pa
     one, with no elaboration."""
     problem = Problem.load(path)
     assert "e" in problem.model.tolerances
-    for value in ("1/3000", "2e-3", "12345/10000000000"):
+    # three values on the small arm; the UR10's three elaborations cost as much as the rest of
+    # the file, so it checks the value with the least exact float only
+    values = ("1/3000", "2e-3", "12345/10000000000") if path == ARM else ("12345/10000000000",)
+    for value in values:
         model, prog = load_model(path, inputs=replace(problem.inputs, consts={"e": value}))
         count = counting(monkeypatch)
         derived = problem.with_const(e=value)
