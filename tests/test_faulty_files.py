@@ -189,6 +189,7 @@ def _ur10_campaign(tmp: Path, scale: dict[int, float]) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_metres_in_a_mm_column_are_named_when_least_squares_fails(tmp_path):
     path = _ur10_campaign(tmp_path, {6: 1e-3, 7: 1e-3, 8: 1e-3})  # x, y, z in m
     res = run("solve", ROOT / "models" / "ur10_simulated.cal", "--data", f"m={path}", "-q",

@@ -63,7 +63,7 @@ def solve_json(tmp: Path, model: Path | str, *options: object, codes: tuple[int,
     return res.exit_code, strict((tmp / name).read_text())
 
 
-# -- the fast part: small campaigns of the new robots ---------------------------------------
+# -- small campaigns of the new robots ------------------------------------------------------
 @pytest.mark.parametrize("robot", ["arm4_dh.cal", "arm5_mdh.cal"])
 @pytest.mark.parametrize("poses", ["random", "grid", "repeated"])
 def test_a_new_robot_is_calibrated_with_its_truth_inside(tmp_path, robot, poses):
@@ -91,6 +91,7 @@ def test_a_systematic_error_far_beyond_the_bound_is_proven_inconsistent(tmp_path
     assert "verdict: inconsistent" in out
 
 
+@pytest.mark.slow
 def test_every_command_on_a_new_robot(tmp_path):
     """solve (default, --json, --inner, --outliers 1, --min-error, --report), identify,
     validate, predict, plot, export (each format), plan and report on one campaign."""

@@ -61,8 +61,8 @@ def test_the_path_bounds_are_lp_bounds(seed):
     rng = np.random.default_rng(seed)
     # nearby objectives (the path's case) and a few far apart
     base = rng.normal(size=(2, rel.main))
-    C = np.concatenate([base[rng.integers(0, 2, 16)] + 0.02 * rng.normal(size=(16, rel.main)),
-                        rng.normal(size=(4, rel.main))])
+    C = np.concatenate([base[rng.integers(0, 2, 8)] + 0.02 * rng.normal(size=(8, rel.main)),
+                        rng.normal(size=(2, rel.main))])
     lo, hi, _, _ = batch_bounds(rel, C, DEFAULT)
     want_lo, want_hi = lp_bounds(rel, C, DEFAULT.lp)
     scale = np.maximum(1.0, np.abs(want_hi - want_lo))
