@@ -174,10 +174,10 @@ def test_a_corrupted_file_is_a_verdict_or_one_error(tmp_path, data):
 
 # -- unit mistakes: the column is named ------------------------------------------------------
 def _ur10_campaign(tmp: Path, scale: dict[int, float]) -> Path:
-    """40 simulated UR10 rows (models/ur10_simulated.cal) with the columns at the indices of
+    """20 simulated UR10 rows (models/ur10_simulated.cal) with the columns at the indices of
     `scale` multiplied by their factor (a unit mistake), as the tracker's dialect writes it."""
     path = tmp / "u.csv"
-    res = run("simulate", ROOT / "models" / "ur10_simulated.cal", "--configs", 40, "--seed", 8,
+    res = run("simulate", ROOT / "models" / "ur10_simulated.cal", "--configs", 20, "--seed", 8,
               "-o", path, "-q")
     assert res.exit_code == 0, res.output
     rows = list(csv.reader(path.open(), delimiter=";"))
@@ -189,6 +189,7 @@ def _ur10_campaign(tmp: Path, scale: dict[int, float]) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_metres_in_a_mm_column_are_named_when_least_squares_fails(tmp_path):
     path = _ur10_campaign(tmp_path, {6: 1e-3, 7: 1e-3, 8: 1e-3})  # x, y, z in m
     res = run("solve", ROOT / "models" / "ur10_simulated.cal", "--data", f"m={path}", "-q",

@@ -63,7 +63,7 @@ def solve_json(tmp: Path, model: Path | str, *options: object, codes: tuple[int,
     return res.exit_code, strict((tmp / name).read_text())
 
 
-# -- the fast part: small campaigns of the new robots ---------------------------------------
+# -- small campaigns of the new robots ------------------------------------------------------
 @pytest.mark.parametrize("robot", ["arm4_dh.cal", "arm5_mdh.cal"])
 @pytest.mark.parametrize("poses", ["random", "grid", "repeated"])
 def test_a_new_robot_is_calibrated_with_its_truth_inside(tmp_path, robot, poses):
@@ -91,6 +91,7 @@ def test_a_systematic_error_far_beyond_the_bound_is_proven_inconsistent(tmp_path
     assert "verdict: inconsistent" in out
 
 
+@pytest.mark.slow
 def test_every_command_on_a_new_robot(tmp_path):
     """solve (default, --json, --inner, --outliers 1, --min-error, --report), identify,
     validate, predict, plot, export (each format), plan and report on one campaign."""
@@ -123,7 +124,8 @@ def test_every_command_on_a_new_robot(tmp_path):
     assert res.output.count("error:") == 1 and "six revolute joints" in res.output
     calibc("export", "result.json", "--format", "dh-table", "--convention", "dh",
            "--point", "centre", cwd=tmp_path)
-    calibc("plan", model, "--n", 8, "-o", "plan.csv", "--json", "plan.json", cwd=tmp_path)
+    calibc("plan", model, "--candidates", "held.csv", "--n", 8, "-o", "plan.csv", "--json",
+           "plan.json", cwd=tmp_path)
     strict((tmp_path / "plan.json").read_text())
     calibc("report", "result.json", "-o", "report.html", "--validation", "v.json",
            "--identify", "identify.json", "--min-error", "min.json", cwd=tmp_path)
@@ -203,7 +205,10 @@ def test_plan_for_a_six_dof_tracker_says_why_it_cannot(tmp_path):
     """Its orientation rows' bounds vanish at the planning point (the candidates' angles
     are not measured yet): a user error naming them, not a singular matrix (exit 3)."""
     model = campaign(tmp_path, "arm3_6dof.cal", "--configs", 10, "--seed", 2)
-    res = calibc("plan", model.name, "--n", 5, "-o", "plan.csv", cwd=tmp_path, codes=(2,))
+    calibc("simulate", model.name, "--configs", 30, "--seed", 3, "-o", "cand.csv", "-q",
+           cwd=tmp_path)  # a small file: the default draws thousands
+    res = calibc("plan", model.name, "--candidates", "cand.csv", "--n", 5, "-o", "plan.csv",
+                 cwd=tmp_path, codes=(2,))
     assert res.output.startswith("error: ") and "no error bound" in res.output, res.output
 
 

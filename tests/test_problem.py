@@ -46,29 +46,6 @@ def test_a_solve_with_every_section_elaborates_once(monkeypatch):
     assert code == 0 and len(seen) == 1
 
 
-def faulty(tmp_path: Path) -> Path:
-    """RX90's data with one coordinate of row 17 moved by 1 cm: proven inconsistent."""
-    lines = (ROOT / "models" / "data" / "rx90_50.csv").read_text().splitlines()
-    j = lines[0].split(",").index("a1x")
-    cells = lines[17].split(",")
-    cells[j] = repr(float(cells[j]) + 0.01)
-    lines[17] = ",".join(cells)
-    out = tmp_path / "faulty.csv"
-    out.write_text("\n".join(lines) + "\n")
-    return out
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("more", [[], ["--outliers", "1"]])
-def test_the_diagnosis_and_the_outliers_load_the_model_once(tmp_path, monkeypatch, more):
-    """Inconsistent data, diagnosed (the rows at fault named) or solved with an outlier, on a
-    model of the paper's size: the model is elaborated once, with the command's inputs;
-    every set of rows the diagnosis, the proofs and the solve ask for is derived."""
-    data = faulty(tmp_path)
-    code, seen = elaborations(monkeypatch, [str(RX90), "--data", str(data), *more])
-    assert code == (1 if not more else 0)
-    assert len(seen) == 1 and seen[0].data == {"": str(data)}
-
 def arm_with_a_faulty_row(tmp_path: Path) -> Path:
     """The planar arm's data with row 3's x moved by 1 cm: proven inconsistent."""
     lines = (ARM.parent / "planar_arm.csv").read_text().splitlines()
@@ -182,7 +159,10 @@ def test_an_error_bound_set_is_derived_as_elaborating_anew_gives(monkeypatch, pa
     one, with no elaboration."""
     problem = Problem.load(path)
     assert "e" in problem.model.tolerances
-    for value in ("1/3000", "2e-3", "12345/10000000000"):
+    # three values on the small arm; the UR10's three elaborations cost as much as the rest of
+    # the file, so it checks the value with the least exact float only
+    values = ("1/3000", "2e-3", "12345/10000000000") if path == ARM else ("12345/10000000000",)
+    for value in values:
         model, prog = load_model(path, inputs=replace(problem.inputs, consts={"e": value}))
         count = counting(monkeypatch)
         derived = problem.with_const(e=value)

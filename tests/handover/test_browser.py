@@ -87,6 +87,7 @@ def check(result: dict, html: Path, seen: dict) -> None:
     assert 1 <= seen["pages"] <= MAX_PAGES
 
 
+@pytest.mark.slow
 def test_test_a_s_report_in_chromium(tmp_path):
     chromium()
     result, html = report_of("models/rx90_lengths.cal", tmp_path)
