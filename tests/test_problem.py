@@ -20,6 +20,7 @@ from calib_dsl.elaborate.subset import derivable
 from calib_dsl.outliers.proof import only
 from calib_dsl.outliers.rows import Row, excluding
 from calib_dsl.problem import Problem, load_model
+from tests.table_cells import moved_cell
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "models" / "examples" / "planar_arm.cal"
@@ -48,13 +49,8 @@ def test_a_solve_with_every_section_elaborates_once(monkeypatch):
 
 def arm_with_a_faulty_row(tmp_path: Path) -> Path:
     """The planar arm's data with row 3's x moved by 1 cm: proven inconsistent."""
-    lines = (ARM.parent / "planar_arm.csv").read_text().splitlines()
-    j = lines[0].split(",").index("x")
-    cells = lines[3].split(",")
-    cells[j] = repr(float(cells[j]) + 0.01)
-    lines[3] = ",".join(cells)
     out = tmp_path / "faulty_arm.csv"
-    out.write_text("\n".join(lines) + "\n")
+    out.write_text(moved_cell((ARM.parent / "planar_arm.csv").read_text(), 3, "x", 0.01))
     return out
 
 

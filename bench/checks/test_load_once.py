@@ -8,18 +8,15 @@ from pathlib import Path
 
 import pytest
 
+from tests.table_cells import moved_cell
 from tests.test_problem import ROOT, RX90, elaborations
 
 
 def faulty(tmp_path: Path) -> Path:
     """RX90's data with one coordinate of row 17 moved by 1 cm: proven inconsistent."""
-    lines = (ROOT / "models" / "data" / "rx90_50.csv").read_text().splitlines()
-    j = lines[0].split(",").index("a1x")
-    cells = lines[17].split(",")
-    cells[j] = repr(float(cells[j]) + 0.01)
-    lines[17] = ",".join(cells)
     out = tmp_path / "faulty.csv"
-    out.write_text("\n".join(lines) + "\n")
+    out.write_text(moved_cell((ROOT / "models" / "data" / "rx90_50.csv").read_text(), 17,
+                              "a1x", 0.01))
     return out
 
 

@@ -15,6 +15,7 @@ from click.testing import CliRunner
 from calib_dsl.cli import main
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.pipeline import load
+from tests.table_cells import moved_cell
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "rx90_lengths.cal"
@@ -22,14 +23,8 @@ DATA = ROOT / "models" / "data" / "rx90_50.csv"
 
 
 def faulty(tmp_path: Path, row: int, column: str, delta: float) -> Path:
-    lines = DATA.read_text().splitlines()
-    header = lines[0].split(",")
-    cells = lines[row].split(",")
-    j = header.index(column)
-    cells[j] = repr(float(cells[j]) + delta)
-    lines[row] = ",".join(cells)
     out = tmp_path / "faulty.csv"
-    out.write_text("\n".join(lines) + "\n")
+    out.write_text(moved_cell(DATA.read_text(), row, column, delta))
     return out
 
 

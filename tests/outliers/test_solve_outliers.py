@@ -28,6 +28,7 @@ from calib_dsl.settings import OutlierSettings
 from calib_dsl.strategy.contractor import Work
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.studies.simulate import simulate
+from tests.table_cells import moved_cell
 
 ROOT = Path(__file__).resolve().parents[2]
 RX90 = ROOT / "models" / "rx90_lengths.cal"
@@ -141,12 +142,8 @@ def _simulated(seed: int, rows: int, tmp: Path) -> str:
 def test_a_moved_tool_coordinate_is_a_certain_outlier(seed, row, column, fault, sign):
     with tempfile.TemporaryDirectory() as name:
         tmp = Path(name)
-        lines = _simulated(seed, 20, tmp).splitlines()
-        at = lines[0].split(",").index(column)
-        cells = lines[row].split(",")
-        cells[at] = repr(float(cells[at]) + sign * fault)
-        lines[row] = ",".join(cells)
-        (tmp / "bad.csv").write_text("\n".join(lines) + "\n")
+        (tmp / "bad.csv").write_text(moved_cell(_simulated(seed, 20, tmp), row, column,
+                                                sign * fault))
         inputs = Inputs(data={"": tmp / "bad.csv"})
         run = solve_report(SolveRequest(RX90, inputs=inputs, outliers=1, identify=False))
         ref_prog = load(RX90, inputs=Inputs(data={"": tmp / "bad.csv"},
