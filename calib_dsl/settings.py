@@ -81,9 +81,9 @@ class InnerSettings:
     pullbacks: int = 10  # halvings towards the centre when the corrections did not succeed
     # An end whose certified point falls short of its LP's optimum by more than this share of
     # the unknown's width (the remainder made the corrections pull it in) is sought again
-    # over the model linearized at that point, where the remainder is small (while the LP
-    # holds all its rows at once). A smaller share seeks more ends again for no wider inner
-    # interval, a larger one leaves ends short (docs/decisions/14)
+    # over the model linearized at that point, where the remainder is small (a tall LP from
+    # the rows the first LPs came to hold: docs/decisions/31). A smaller share seeks more ends
+    # again for no wider inner interval, a larger one leaves ends short (docs/decisions/14)
     refine: float = 1e-2
     # Linearizations of such an end at most, each at the point the last one certified, while
     # each gains `refine` and still falls short of its LP's optimum by as much: near a thin
@@ -370,7 +370,7 @@ class Settings:
     prediction_lp_runs: int = 4
     # The LP optima of this many predicted coordinates, far apart in direction (both ends),
     # become candidate extremes for the inner intervals (accuracy/extremes.py): each costs a
-    # bisection of certify_point passes and an evaluation of every predicted row.
+    # bisection of certify_point passes and a place among the points each row picks from.
     prediction_candidates: int = 128
     # Those LPs' optima are pulled back towards the certified centre by bisection until
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps

@@ -5,10 +5,11 @@ outer box can be compared with values the model truly takes.
 At a certified point p the prediction program is evaluated in interval arithmetic with the
 parameters at p and the joint readings at their values (which lie within their errors):
 an enclosure [a, b] of the value f(p) the robot's model takes there (certify_point.py's
-pass, every point at once). Over the points, the
-interval [min b, max a] lies inside the hull of those values, and each of its ends is within
-rounding of one of them; where it is empty (every point predicts about the same) there is no
-inner interval (nan).
+pass). Over a set of points, the interval [min b, max a] lies inside the hull of those
+values, and each of its ends is within rounding of one of them; where it is empty (every
+point predicts about the same) there is no inner interval (nan). `inner_hull` takes every
+point on every row; `inner_at` takes each row's own two points (the ones an approximate
+model puts at that row's extremes, `picks`), evaluated a block of rows at a time.
 """
 
 from __future__ import annotations

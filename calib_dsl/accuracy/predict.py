@@ -295,13 +295,11 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
                               cal.settings.prediction_hull_rows)
     inner = _arrange(prog, t, box_only.targets, (ilo, ihi), original, measured_side, present,
                      file)
-    # (one enclosure a cell: _arrange's intersection is that cell's own, -1 for none)
-    witness = [_arrange(prog, t, box_only.targets, (e, e), original, measured_side, present,
-                        file).lo.astype(np.int64) for e in ends.T.astype(float)]
     some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
+    witness = _witnesses(prog, box_only.targets, measured_side, inner, (ilo, ihi), ends)
     return replace(outer, inner_lo=np.where(some, inner.lo, np.nan),
                    inner_hi=np.where(some, inner.hi, np.nan), inner_points=P,
-                   inner_from=np.where(some[..., None], np.stack(witness, axis=-1), -1),
+                   inner_from=np.where(some[..., None], witness, -1),
                    names=tuple(s.names[k] for k in ind),
                    inner_readings=np.array([r for _, r in known]))
 
@@ -365,6 +363,26 @@ def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarra
             measured[k, j] = 0.5 * original[0][slot] + 0.5 * original[1][slot]
     bound = np.array([next(c.tol for c in t.columns if c.name == name) for name in cols])
     return Prediction(file, list(t.numbers), list(t.lines), cols, lo, hi, measured, bound)
+
+
+def _witnesses(prog: Program, targets: np.ndarray, measured_side: np.ndarray,
+               inner: Prediction, ends: tuple[np.ndarray, np.ndarray], named: np.ndarray
+               ) -> np.ndarray:
+    """(rows, columns, 2): per cell of `inner`, the point each inner end is the prediction
+    of: `named` (per row: the points its two `ends` are at) of the row whose end the cell's
+    end is (a cell of several rows takes their intersection: the largest low end, the
+    smallest high end); -1 for none."""
+    s = prog.slots
+    assert s.row_keys is not None and s.col_keys is not None
+    sides = s.measured_sides or {}
+    out = np.full((*inner.lo.shape, 2), -1, dtype=np.int64)
+    for i in np.flatnonzero(measured_side[targets]):
+        row, col = sides[int(targets[i])]
+        k, j = s.row_keys[row][1] - 1, inner.columns.index(s.col_keys[col][1])
+        for side, cell in ((0, inner.lo), (1, inner.hi)):
+            if ends[side][i] == cell[k, j] and out[k, j, side] < 0:
+                out[k, j, side] = named[i, side]
+    return out
 
 
 def _linear_range(h: np.ndarray, plo: np.ndarray, phi: np.ndarray, cal: Calibrated,

@@ -61,7 +61,8 @@ def lp_bounds(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings | No
     lp = lp or LPSettings()
     lower, upper, signed = box_bounds(rel, objectives)
     ends = np.zeros((len(objectives), 2), dtype=bool) if skip is None else \
-        np.broadcast_to(skip.reshape(len(objectives), -1), (len(objectives), 2))
+        np.broadcast_to(skip.reshape(len(objectives), -1 if len(objectives) else 2),
+                        (len(objectives), 2))
     tasks = [t for t in signed if not ends[t[0], 0 if t[1] > 0 else 1]]
     workers = max(1, min(lp.workers, len(tasks)))
     points = _probe_points(rel, tasks, lp) if probes and workers > 1 else []

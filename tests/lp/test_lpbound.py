@@ -391,15 +391,18 @@ def test_lower_bound_with_an_infinite_box():
 
 
 def test_skipped_ends_keep_the_box_bound_and_the_others_get_their_lps():
-    # x + y <= 1, x - y <= 1 over [-2, 2]^2: max x = 1 by LP; min x, max y, min y stay the
-    # box's (-2, 2, -2) where only they are skipped, flags per end (max, min)
-    rel = rel_of(np.array([[1.0, 1.0], [1.0, -1.0]]), [1.0, 1.0], [-2.0, -2.0], [2.0, 2.0])
-    skip = np.array([[False, True], [True, True]])
-    lower, upper = lp_bounds(rel, np.eye(2), skip=skip)
-    assert upper[0] <= 1.0 + 1e-6 and lower[0] <= -2.0 + 1e-12
-    assert lower[1] <= -2.0 + 1e-12 and upper[1] >= 2.0 - 1e-12
+    # |x| + |y| <= 1 over [-2, 2]^2: every end is +-1 by its LP and +-2 by the box, so each
+    # end shows whether it was solved; flags per end (max, min), or one per objective
+    rel = rel_of(np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]),
+                 [1.0] * 4, [-2.0, -2.0], [2.0, 2.0])
+    lower, upper = lp_bounds(rel, np.eye(2), skip=np.array([[False, True], [True, False]]))
+    assert upper[0] == pytest.approx(1.0, abs=1e-6) and lower[0] == pytest.approx(-2.0, abs=1e-6)
+    assert upper[1] == pytest.approx(2.0, abs=1e-6) and lower[1] == pytest.approx(-1.0, abs=1e-6)
     lower, upper = lp_bounds(rel, np.eye(2), skip=np.array([False, True]))  # (per unknown)
-    assert upper[0] <= 1.0 + 1e-6 and upper[1] >= 2.0 - 1e-12
+    assert upper[0] == pytest.approx(1.0, abs=1e-6) and lower[0] == pytest.approx(-1.0, abs=1e-6)
+    assert (lower[1], upper[1]) == pytest.approx((-2.0, 2.0), abs=1e-6)
+    lower, upper = lp_bounds(rel, np.zeros((0, 2)), skip=np.zeros((0, 2), dtype=bool))
+    assert lower.shape == upper.shape == (0,)  # (no objective: nothing to solve)
 
 
 def test_an_infeasible_relaxation_is_proven_empty():
