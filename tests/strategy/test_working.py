@@ -141,7 +141,18 @@ def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off(tmp_path, mon
             assert sol.lo[i] <= t <= sol.hi[i], name
         return sol.hi[ind] - sol.lo[ind]
 
+    from calib_dsl.strategy import rounds
+    solved = rounds.lp_bounds
+    flagged: list[int] = []
+
+    def counted(rel, objectives, *args, skip=None, **kwargs):
+        flagged.append(0 if skip is None else int(np.sum(skip)))
+        return solved(rel, objectives, *args, skip=skip, **kwargs)
+
+    monkeypatch.setattr(rounds, "lp_bounds", counted)
     every = widths(lambda ends, cut: frozenset())
+    before = sum(flagged)
     ratio = widths(watched) / every
     assert skipped and max(skipped) > 0  # (the case skips some ends)
+    assert sum(flagged) - before > before  # (and the LPs were told to skip more ends)
     assert np.all(np.abs(ratio - 1.0) <= 1e-4), ratio
