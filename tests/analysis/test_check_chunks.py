@@ -8,7 +8,7 @@ or two, always outward."""
 
 from __future__ import annotations
 
-import contextlib
+from unittest import mock
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
@@ -20,15 +20,9 @@ from calib_dsl.relax.layout import independents
 from tests.relax.test_linearize import random_robot
 
 
-@contextlib.contextmanager
 def check_cells(n: int):
     """Chunked passes of about n slots x points while the block runs."""
-    saved = cp.CHUNK_CELLS
-    cp.CHUNK_CELLS = n
-    try:
-        yield
-    finally:
-        cp.CHUNK_CELLS = saved
+    return mock.patch.object(cp, "CHUNK_CELLS", n)
 
 
 def _fields(c: cp.PointCheck) -> list[np.ndarray]:

@@ -4,7 +4,7 @@ follows the chunks), the same targets, sources, data rows and cell error bounds.
 
 from __future__ import annotations
 
-import contextlib
+from unittest import mock
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
@@ -41,15 +41,9 @@ def _rows(ev, out) -> dict[int, tuple]:
     return pieces
 
 
-@contextlib.contextmanager
 def chunk_slots(n: int):
     """Chunks of about n slots while the block runs (a hypothesis test has no monkeypatch)."""
-    saved = chunked_module.CHUNK_SLOTS
-    chunked_module.CHUNK_SLOTS = n
-    try:
-        yield
-    finally:
-        chunked_module.CHUNK_SLOTS = saved
+    return mock.patch.object(chunked_module, "CHUNK_SLOTS", n)
 
 
 @settings(max_examples=10, deadline=None,
