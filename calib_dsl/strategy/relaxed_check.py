@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates, mapped
 from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
@@ -38,8 +37,11 @@ def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
     (in the rows' own units). None where the check cannot be made this way."""
     if prog.rows is None or certs.box is None or not certs.columns or len(rows) == 0:
         return None
-    groups = chunked(prog, CHUNK_SLOTS, rows)
-    parts = [rows] if groups is None else [ch.rows[:ch.real] for ch in groups]
+    # (chunk-sized groups of the rows, as compile/chunks.py sizes them; each relaxed on its
+    # own from the whole program, so no chunk program is built)
+    lay = prog.rows
+    size = max(1, (CHUNK_SLOTS - lay.shared) // max(lay.width, 1))
+    parts = [rows[a:a + size] for a in range(0, len(rows), size)]
     found = [_violated(prog, certs, part) for part in parts]
     if any(f is None for f in found):
         return None

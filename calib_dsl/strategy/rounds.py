@@ -96,7 +96,8 @@ class LPRounds(Composable):
     # ends (unknown, +1 its max or -1 its min) whose optimum in the last fine LPs (kept in
     # `fine_certs`, of the phase these rounds resume) no row added since cuts off: the
     # first round solves no LP for them (with the rows added, the same LP on the box it
-    # had keeps that optimum), their ends stay the box's, which those LPs certified
+    # had keeps that optimum): their ends take the box's bound, tightened by those LPs'
+    # multipliers certified again on this round's relaxation
     settled: frozenset[tuple[int, float]] = frozenset()
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
