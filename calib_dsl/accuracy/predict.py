@@ -288,9 +288,11 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     assert box_only.value is not None
     chosen = picks(box_only.value, P)
     if found is not None and found.value is not None:
-        at = np.searchsorted(box_only.targets, found.targets, sorter=np.argsort(
-            box_only.targets))
-        chosen[np.argsort(box_only.targets)[at]] = picks(found.value, P)
+        sort = np.argsort(box_only.targets)
+        at = sort[np.minimum(np.searchsorted(box_only.targets, found.targets, sorter=sort),
+                             len(sort) - 1)]
+        assert np.array_equal(box_only.targets[at], found.targets)  # (the same rows' cells)
+        chosen[at] = picks(found.value, P)
     ilo, ihi, ends = inner_at(prog, P, box_only.targets, chosen,
                               cal.settings.prediction_hull_rows)
     inner = _arrange(prog, t, box_only.targets, (ilo, ihi), original, measured_side, present,
