@@ -203,11 +203,13 @@ def plot(result: str, output: str, kind: str) -> None:
 def export(result: str, fmt: str, output: str | None, model: str | None, point: str,
            convention: str | None) -> None:
     """Export RESULT, a solve's JSON, for a controller or the next run."""
+    from calib_dsl.report import exports
     from calib_dsl.report.as_json import read_result
-    from calib_dsl.report.exports import Request
-    from calib_dsl.report.exports import export as run
+    from calib_dsl.studies.robot_frames import robot_tables
 
-    text = run(read_result(result), Request(fmt, model, point, convention))
+    job = exports.asked(read_result(result), exports.Request(fmt, model, point, convention))
+    tables, units = robot_tables(job.source, job.box, job.point) if job.source else ([], {})
+    text = exports.export(job, tables, units)
     if output:
         write(output, text)
     else:

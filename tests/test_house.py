@@ -94,11 +94,12 @@ def test_the_words_are_their_text():
 # inputs (derived where the model allows): none of these elaborates or loads a model itself.
 SOLVE_ROOMS = ("calib_dsl.outliers", "calib_dsl.analysis", "calib_dsl.strategy",
                "calib_dsl.inner", "calib_dsl.report", "calib_dsl.sections")
-LOADERS = ("elaborate", "load_model", "compile_model")
+LOADERS = ("elaborate", "load_model", "compile_model", "Elaborator")
 
 
 def loads(tree: ast.AST) -> list[int]:
-    """Lines that call `elaborate(`, `load_model(` or `compile_model(` (by any path)."""
+    """Lines that call `elaborate(`, `load_model(`, `compile_model(` or `Elaborator(` (by any
+    path)."""
     return [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call)
             and (getattr(n.func, "id", None) or getattr(n.func, "attr", None)) in LOADERS]
 
@@ -112,8 +113,8 @@ def test_the_solve_rooms_never_elaborate(name):
 
 def test_the_load_check_sees_one():
     bad = ast.parse("from calib_dsl import problem\nm = elaborate('a.cal')\n"
-                    "p = problem.load_model('a.cal')\n")
-    assert loads(bad) == [2, 3]
+                    "p = problem.load_model('a.cal')\nrun = Elaborator('matrix')\n")
+    assert loads(bad) == [2, 3, 4]
     assert any(n.startswith("calib_dsl.outliers.") for n in ALL)
 
 

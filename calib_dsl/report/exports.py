@@ -1,7 +1,8 @@
 """The export formats by name (`calibc export --format NAME`, `solve --export-domains`): each
 an `Export` that writes a result's JSON, with the model's robots as frames where it reads
 them, at the exported point (report/export_point.py). A new format is a writer (export.py,
-urdf.py, ur_kinematics.py) and an entry here."""
+urdf.py, ur_kinematics.py) and an entry here. The frames are the caller's to build
+(`asked` says over which box and at which point): rendering never elaborates a model."""
 
 from __future__ import annotations
 
@@ -12,12 +13,18 @@ from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.report.dh_convert import CONVENTIONS, converted
-from calib_dsl.report.export import dh_table, domains_cal, export_json, number, units_of
+from calib_dsl.report.export import (
+    RobotTable,
+    dh_table,
+    domains_cal,
+    export_json,
+    number,
+    units_of,
+)
 from calib_dsl.report.export_point import export_point
 from calib_dsl.report.strict_json import dumps
 from calib_dsl.report.ur_kinematics import ur_kinematics
 from calib_dsl.report.urdf import cell, urdf
-from calib_dsl.studies.robot_frames import RobotTable, robot_tables
 
 
 @dataclass(frozen=True)
@@ -75,15 +82,28 @@ def _why_none(data: dict[str, Any]) -> str:
     return "calibc solve --json FILE writes one"
 
 
-def export(data: dict[str, Any], request: Request) -> str:
-    """The result of a solve (its JSON, `data`) in the format asked."""
+@dataclass(frozen=True)
+class Asked:
+    """An export asked of a result: its format, and the frames it reads (the model's robots
+    over the result's box, at the point written), which the caller builds from `source`."""
+
+    data: dict[str, Any]
+    request: Request
+    kind: Export
+    source: str = ""  # the model whose robots it reads ("": it reads none)
+    box: dict[str, tuple[float, float]] = field(default_factory=dict)
+    point: dict[str, float] = field(default_factory=dict)
+
+
+def asked(data: dict[str, Any], request: Request) -> Asked:
+    """What the result of a solve (its JSON, `data`) in the format asked needs: checked."""
     if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
         raise CalError(f"the result holds no guaranteed box to export ({_why_none(data)})")
     kind = EXPORTS.get(request.fmt)
     if kind is None:
         raise CalError(f"unknown export format '{request.fmt}' (one of {', '.join(EXPORTS)})")
     if not kind.reads_robots:
-        return kind.write(Exported(data))
+        return Asked(data, request, kind)
     if request.convention is not None and request.convention not in CONVENTIONS:
         raise CalError(f"unknown convention '{request.convention}' (mdh or dh)")
     source = request.model or data.get("model")
@@ -94,11 +114,17 @@ def export(data: dict[str, Any], request: Request) -> str:
                for name, p in data["parameters"].items()}
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise CalError(f"the result's parameters are malformed ({err!r})") from None
-    point = export_point(data, request.point)
-    tables, units = robot_tables(source, box, point)
-    if request.convention is not None:
-        tables = [converted(t, request.convention) for t in tables]
-    if kind.needs_robot and not tables:
-        raise CalError(f"{source} has no robot: a {request.fmt} export needs one (--format "
-                       "json writes its parameters)")
-    return kind.write(Exported(data, str(source), tables, units, point))
+    return Asked(data, request, kind, str(source), box, export_point(data, request.point))
+
+
+def export(job: Asked, tables: list[RobotTable], units: dict[str, str]) -> str:
+    """The export asked, with the model's robots as frames (`tables`, and the model's
+    `units`; none when `job.source` is empty)."""
+    if not job.kind.reads_robots:
+        return job.kind.write(Exported(job.data))
+    if job.request.convention is not None:
+        tables = [converted(t, job.request.convention) for t in tables]
+    if job.kind.needs_robot and not tables:
+        raise CalError(f"{job.source} has no robot: a {job.request.fmt} export needs one "
+                       "(--format json writes its parameters)")
+    return job.kind.write(Exported(job.data, job.source, tables, units, job.point))
