@@ -16,6 +16,7 @@ from calib_dsl import outputs
 from calib_dsl.elaborate.chains import FORMULATIONS
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.handover.command import report as handover_report
+from calib_dsl.ir.status import Status
 from calib_dsl.plan import command as plan_command
 from calib_dsl.settings import DEFAULT
 from calib_dsl.strategy.tight import STRATEGIES
@@ -219,7 +220,7 @@ def solve(model: str, tol: float, max_sweeps: int, json_path: str | None, strate
     if json_path != "-":
         click.echo(run.text(every))
     result = {**run.as_json(), "provenance": provenance(run.prog, main.argv)}
-    if (residuals or plot_path or report_path) and run.res.status == "contracted":
+    if (residuals or plot_path or report_path) and run.res.status == Status.CONTRACTED:
         result["residuals"] = outputs.residuals(run,
                                                 quiet=json_path == "-")
     outputs.json_out(json_path, result)

@@ -16,6 +16,7 @@ from typing import Any
 import click
 
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.status import Status
 from calib_dsl.plot.figure import CHOICES as PLOT_KINDS
 from calib_dsl.report.export_point import POINTS as EXPORT_POINTS
 from calib_dsl.report.exports import EXPORTS
@@ -122,7 +123,7 @@ def export_domains(result: dict[str, Any], path: str | None) -> None:
 
     if not path:
         return
-    if result["status"] != "contracted":
+    if result["status"] != Status.CONTRACTED:
         click.echo(f"calibc: no domains written to {path}: the data are inconsistent",
                    err=True)
         return

@@ -29,6 +29,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status
 from calib_dsl.outliers.conflict import Conflict, find_conflict
 from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
@@ -74,7 +75,7 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
         trials += 1
         res = solve(prog, strategy, settings=settings,
                     progress=labelled(progress, f"trial {trials}: "))
-        if effort <= 0 or res.status == "infeasible" or settings.min_error.share <= 0:
+        if effort <= 0 or res.status == Status.INFEASIBLE or settings.min_error.share <= 0:
             return res.status
         # a proof of inconsistency within `effort` trials' budgets (fine rounds, a split)
         budget = effort * settings.min_error.share * res.seconds
@@ -118,7 +119,7 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
         Problem.load(model, formulation, inputs or Inputs(), settings.fits)
     prog = problem.program
     sol = solve(prog, strategy, settings=settings, progress=progress)
-    if sol.status == "infeasible":
+    if sol.status == Status.INFEASIBLE:
         return sol, None
     ind = independents(prog)
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in ind}
@@ -300,7 +301,7 @@ def outlier_report(request: SolveRequest, problem: Problem,
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
         found_more = (find_conflict(given, loader, settings.outliers, settings.fits)
-                      if res.status == "infeasible" else None)
+                      if res.status == Status.INFEASIBLE else None)
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
     else:
@@ -309,11 +310,12 @@ def outlier_report(request: SolveRequest, problem: Problem,
         res, certain, possible = found.solution, found.certain, found.possible
         kept = without(certain) if 0 < len(certain) <= left else prog
     extra = Extras()
-    if res.status == "contracted" and request.identify:
+    if res.status == Status.CONTRACTED and request.identify:
         sections.identify(extra, prog, res, True, settings)
     rows = Outliers(k, sorted(proven + more + data_rows(elaborated, prog, certain),
                               key=lambda r: (r.table, r.row)),
-                    [] if res.status == "infeasible" else data_rows(elaborated, prog, possible),
+                    ([] if res.status == Status.INFEASIBLE
+                     else data_rows(elaborated, prog, possible)),
                     proven=len(proven))
     return SolveReport(prog, res, extra, "tight", None,
                        solve_warnings(prog, res), rows,
@@ -328,12 +330,12 @@ def report_on(request: SolveRequest, problem: Problem,
     res = solve(prog, r.strategy, tol=r.tol, max_sweeps=r.max_sweeps, settings=settings,
                 progress=progress)
     extra = Extras()
-    if res.status == "contracted" and r.inner is not False:
+    if res.status == Status.CONTRACTED and r.inner is not False:
         sections.inner(extra, prog, res, bool(r.inner) or bool(r.shave), settings)
     effort = effort_for(r, problem) if r.strategy == "tight" else None
     res, verdict = decide(prog, res, extra.inner.consistent if extra.inner else None, effort,
                           _told(progress))
-    if res.status == "contracted":
+    if res.status == Status.CONTRACTED:
         if r.inner is not False:
             if r.strategy == "tight" or r.shave:  # (hc4 is propagation alone, unless asked)
                 res = sections.shaved(extra, prog, res, r.shave, settings, r.tol, r.max_sweeps)
@@ -346,7 +348,7 @@ def report_on(request: SolveRequest, problem: Problem,
             sections.least_squares(extra, prog, res)
         sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
     found = None
-    if res.status == "infeasible" and r.diagnose:
+    if res.status == Status.INFEASIBLE and r.diagnose:
         found = conflict(problem, settings=settings)
     sections.leverage(extra, prog, res, elaborated, settings)
     return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),

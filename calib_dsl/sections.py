@@ -20,6 +20,7 @@ from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.inner.shave import shave
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status
 from calib_dsl.outliers.rows import data_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras
@@ -99,7 +100,7 @@ def leverage(extra: Extras, prog: Program, res: Solution, model: Model,
     """The parameters whose estimate one data row carries (analysis/leverage.py), with those
     rows as the user counts them: a fault there would move the result, not show as an
     inconsistency (report/warnings.py says so). Not past settings.routine_max_primitives."""
-    if (res.status == "infeasible" or not model.tables
+    if (res.status == Status.INFEASIBLE or not model.tables
             or len(prog.primitives) > settings.routine_max_primitives):
         return
     heavy = heavy_rows(prog, res.lo, res.hi, settings.fits)

@@ -90,6 +90,79 @@ def test_the_words_are_their_text():
     assert Status("infeasible") is Status.INFEASIBLE and Stop("fixed point") is Stop.FIXED_POINT
 
 
+# A result's words are compared as enum members (ir/status.py), never as their text: a typo
+# in a member is an AttributeError, one in a string a comparison that is never true. A slot
+# kind's word is flagged where it is compared with a kind (`.kind`, `kinds[i]`, `k`); the
+# same words name the DAG's operators (`node.op == "var"`), which are not slot kinds.
+def _words() -> tuple[set[str], set[str]]:
+    from calib_dsl.ir.status import Consistency, SlotKind, Status, Stop
+
+    results = {m.value for e in (Status, Stop, Consistency) for m in e if m.value}
+    return results, {m.value for m in SlotKind}
+
+
+RESULT_WORDS, KIND_WORDS = _words()
+# comparisons of these words that stay text, with why
+WORDS_LEFT = {
+    ("calib_dsl.batch.jobs", "kind == 'data'"): "a job file's key (data, rows, exclude)",
+    # files other branches were rewriting when this rule came: swap once they are merged
+    ("calib_dsl.relax.layout", "s.kinds[i] in ('param', 'var')"): "perf6's file: UNKNOWNS",
+    ("calib_dsl.strategy.tight", "s.kinds[i] in ('param', 'var')"): "perf6's file: UNKNOWNS",
+}
+
+
+def _texts(node: ast.expr) -> list[str]:
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return [node.value]
+    if isinstance(node, ast.Tuple | ast.List | ast.Set):
+        return [t for e in node.elts for t in _texts(e)]
+    return []
+
+
+def _a_kind(node: ast.expr) -> bool:
+    text = ast.unparse(node)
+    return "kind" in text or text == "k"
+
+
+def words_compared(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, source) of comparisons of a result's word, or of a slot kind's word with a
+    kind, written as text; and of results built with one (`Result("infeasible", ...)`)."""
+    found = []
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Compare):
+            sides = [n.left, *n.comparators]
+            for side in sides:
+                words = set(_texts(side))
+                kinds = words & KIND_WORDS and any(_a_kind(o) for o in sides if o is not side)
+                if words & RESULT_WORDS or kinds:
+                    found.append((n.lineno, ast.unparse(n)))
+                    break
+        elif isinstance(n, ast.Call) and getattr(n.func, "id", None) in (
+                "Result", "Outcome", "Solution"):
+            if any(set(_texts(a)) & RESULT_WORDS for a in n.args):
+                found.append((n.lineno, ast.unparse(n)))
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(n for n in ALL if n != "calib_dsl.ir.status"))
+def test_the_words_are_compared_as_members(name):
+    found = [(line, text) for line, text in
+             words_compared(ast.parse(ALL[name].read_text(encoding="utf-8")))
+             if (name, text) not in WORDS_LEFT]
+    assert not found, (f"{ALL[name].relative_to(PACKAGE.parent)}:{found[0][0]}: "
+                       f"{found[0][1]}: compare with the member (ir/status.py's Status, Stop, "
+                       "Consistency, SlotKind, UNKNOWNS)")
+
+
+def test_the_word_check_sees_one():
+    bad = ast.parse("if res.status == 'infeasible': pass\n"
+                    "ok = s.kinds[i] in ('param', 'var')\n"
+                    "if node.op == 'var': pass\n"
+                    "r = Result('contracted', lo, hi, 0, 0.0, 'fixed point')\n"
+                    "if res.status == Status.INFEASIBLE: pass\n")
+    assert [line for line, _ in words_compared(bad)] == [1, 2, 4]
+    assert all(k[0] in ALL for k in WORDS_LEFT)  # no stale entry
+
 # What `calibc solve` runs asks its Problem (calib_dsl/problem.py) for the model with other
 # inputs (derived where the model allows): none of these elaborates or loads a model itself.
 SOLVE_ROOMS = ("calib_dsl.outliers", "calib_dsl.analysis", "calib_dsl.strategy",

@@ -35,6 +35,7 @@ from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings
@@ -205,7 +206,7 @@ def _lower(out: MinError, problem: Trials, solve: Solver, s: MinErrorSettings) -
         e = out.hi / step
         status = solve(_trial(problem, out.name, e))
         out.trials.append((e, status))
-        if status == "infeasible":
+        if status == Status.INFEASIBLE:
             refuted = e
             break
         open_ = e
@@ -215,7 +216,7 @@ def _lower(out: MinError, problem: Trials, solve: Solver, s: MinErrorSettings) -
         status = solve(_trial(problem, out.name, e))
         out.trials.append((e, status))
         solves += 1
-        if status == "infeasible":
+        if status == Status.INFEASIBLE:
             refuted = e
         else:
             open_ = e
@@ -243,7 +244,7 @@ def raise_lower(out: MinError, problem: Trials, prove: Prover, s: MinErrorSettin
         e = goal if aim else math.sqrt(refuted * open_)
         status = prove(_trial(problem, out.name, e), s.proofs - 1.0 if aim else 1.0)
         out.trials.append((e, status))
-        if status == "infeasible":
+        if status == Status.INFEASIBLE:
             refuted = e
             if e >= goal:
                 break

@@ -9,6 +9,8 @@ import statistics
 from collections import Counter
 from typing import Any
 
+from calib_dsl.ir.status import UNKNOWNS, Status
+
 HEAD = ("id", "status", "narrowed", "median width", "max width", "seconds", "note")
 
 
@@ -26,9 +28,9 @@ def render_summary(lines: list[dict[str, Any]]) -> str:
 def _row(line: dict[str, Any]) -> tuple[str, ...]:
     result = line.get("result") or {}
     seconds = f"{line.get('seconds', 0.0):.2f}"
-    if line["status"] not in ("contracted", "infeasible"):
+    if line["status"] not in (Status.CONTRACTED, Status.INFEASIBLE):
         return (line["id"], line["status"], "-", "-", "-", seconds, _first(line.get("error")))
-    if line["status"] == "infeasible":
+    if line["status"] == Status.INFEASIBLE:
         e = result.get("emptied") or {}
         where = f" at {e['location']}" if e.get("location") else ""
         note = f"proven inconsistent: {e.get('variable')} emptied{where}"
@@ -46,7 +48,7 @@ def unknown_widths(result: dict[str, Any]) -> list[float]:
     """The widths of the results of the declared unknowns (params and vars)."""
     out = []
     for p in result.get("parameters", {}).values():
-        if p["kind"] in ("param", "var") and p["result"] is not None:
+        if p["kind"] in UNKNOWNS and p["result"] is not None:
             lo, hi = (_float(x) for x in p["result"])
             out.append(hi - lo)
     return out

@@ -56,7 +56,7 @@ def decompose_arrays(model: Model) -> tuple[Slots, list[Primitive], PrimitiveArr
     slot_of, slots = _make_slots(dag, g, live, rep, caps)
     slots.measured_sides = _measured_sides(dag, caps, cap_cells, slot_of, slots)
     slots.implied = _implied(dag, g, (caps, cap_owner, cap_cells), slot_of)
-    temp = np.array([k == "temp" for k in slots.kinds], dtype=bool)
+    temp = np.array([k == SlotKind.TEMP for k in slots.kinds], dtype=bool)
     prims, arrays = _make_primitives(dag, g, live, slot_of, first_root, root_locs, temp)
     _name_temporaries(slots, arrays)
     return slots, prims, arrays
@@ -309,7 +309,7 @@ def _name_temporaries(slots: Slots, arrays: PrimitiveArrays) -> None:
     """t1, t2, ... for the temporaries, in the order the primitives first output them."""
     outs = arrays.out.ravel()
     outs = outs[outs >= 0]
-    temp = np.array([k == "temp" and not n for k, n in zip(slots.kinds, slots.names,
+    temp = np.array([k == SlotKind.TEMP and not n for k, n in zip(slots.kinds, slots.names,
                                                            strict=True)], dtype=bool)
     outs = outs[temp[outs]]
     _, at = np.unique(outs, return_index=True)

@@ -9,6 +9,7 @@ from pathlib import Path
 from calib_dsl.ir.primitives import Primitive, format_const
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.rows import Tiled
+from calib_dsl.ir.status import SlotKind
 
 INFIX = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
@@ -43,11 +44,11 @@ def render_listing(prog: Program) -> str:
     ]
     every = len(s.lo) if prog.rows is None else prog.rows.shared
     width = max((len(n) for _, n, k in zip(range(every), s.names, s.kinds, strict=False)
-                 if k != "const"), default=1)
+                 if k != SlotKind.CONST), default=1)
     shown = len(s.lo) if prog.rows is None else prog.rows.shared
     for i, name, kind in zip(range(shown), s.names, s.kinds, strict=False):
-        capped = kind == "temp" and (s.lo[i] > -float("inf") or s.hi[i] < float("inf"))
-        if (kind != "const" and kind != "temp") or capped:
+        capped = kind == SlotKind.TEMP and (s.lo[i] > -float("inf") or s.hi[i] < float("inf"))
+        if (kind != SlotKind.CONST and kind != SlotKind.TEMP) or capped:
             dom = format_const(s.lo[i], s.hi[i]) if s.lo[i] == s.hi[i] else \
                 f"[{_b(s.lo[i])}, {_b(s.hi[i])}]"
             lines.append(f"  {name:<{width}}  in {dom}  ({kind})")
@@ -55,9 +56,9 @@ def render_listing(prog: Program) -> str:
         lines += _row_variables(prog)
     temps = c["temporaries"]
     if temps and prog.rows is not None:
-        named = sum(1 for k in s.kinds.shared if k == "temp") if isinstance(s.kinds, Tiled) \
+        named = sum(1 for k in s.kinds.shared if k == SlotKind.TEMP) if isinstance(s.kinds, Tiled) \
             else temps
-        row = sum(1 for k in s.kinds.template if k == "temp") if isinstance(s.kinds, Tiled) \
+        row = sum(1 for k in s.kinds.template if k == SlotKind.TEMP) if isinstance(s.kinds, Tiled) \
             else 0
         lines.append(f"  ({temps} temporaries: t1..t{named + row}, the loop's t{named + 1}[k]"
                      f"..t{named + row}[k] once per row k; each in ]-oo, +oo[ unless "
@@ -109,7 +110,7 @@ class _RowNames(Sequence[str]):
             return s.names[slot]
         assert isinstance(s.names, Tiled)
         j = slot - self.rows.shared
-        if s.kinds[slot] == "const" and s.cell_col is not None and s.cell_col[slot] >= 0 \
+        if s.kinds[slot] == SlotKind.CONST and s.cell_col is not None and s.cell_col[slot] >= 0 \
                 and s.col_keys is not None:
             table, column = s.col_keys[int(s.cell_col[slot])]
             return f"{table}.{column}[k]"
@@ -125,7 +126,8 @@ def _row_variables(prog: Program) -> list[str]:
     out = []
     for j in range(r.width):
         slot = r.shared + j
-        if s.kinds[slot] == "temp" and (s.lo[slot] > -float("inf") or s.hi[slot] < float("inf")):
+        if s.kinds[slot] == SlotKind.TEMP and (s.lo[slot] > -float("inf")
+                                               or s.hi[slot] < float("inf")):
             where = " (measured: its row's value and error bound)" \
                 if slot in (s.measured_sides or {}) else ""
             out.append(f"  {names[slot]}  in [{_b(s.lo[slot])}, {_b(s.hi[slot])}] in row "

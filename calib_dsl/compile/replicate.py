@@ -18,6 +18,7 @@ from calib_dsl.ir.model import Model, RowBatch
 from calib_dsl.ir.primitives import Primitive, PrimitiveArrays, Slots, format_const
 from calib_dsl.ir.program import Group
 from calib_dsl.ir.rows import RowLayout, Tiled
+from calib_dsl.ir.status import SlotKind
 
 NONE, MIXED = -1, -2
 
@@ -160,7 +161,7 @@ def _measured(s: Slots, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cols = np.full(len(slots), -1, dtype=np.int64)
     if s.cell_row is not None and s.cell_col is not None:
         cell = s.cell_row[slots] >= 0
-        const = np.array([s.kinds[int(i)] == "const" for i in slots], dtype=bool)
+        const = np.array([s.kinds[int(i)] == SlotKind.CONST for i in slots], dtype=bool)
         rows = np.where(cell & const, s.cell_row[slots], rows)
         cols = np.where(cell & const, s.cell_col[slots], cols)
     sides = s.measured_sides or {}
@@ -261,7 +262,7 @@ class _RowSlotName:
         self.layout, self.kinds, self.lo, self.hi = layout, kinds, lo, hi
 
     def __call__(self, name: str, r: int, j: int) -> str:
-        if self.kinds[j] == "const":
+        if self.kinds[j] == SlotKind.CONST:
             i = self.layout.shared + r * self.layout.width + j
             return format_const(float(self.lo[i]), float(self.hi[i]))
         return f"{name}@{self.layout.rows[r]}"
@@ -290,7 +291,7 @@ def _name_temporaries(s: Slots, a: PrimitiveArrays, layout: RowLayout) -> None:
         seen.add(slot)
         row = layout.row_slot(slot)
         kind = s.kinds.shared[slot] if row is None else s.kinds.template[row[1]]
-        if kind != "temp":
+        if kind != SlotKind.TEMP:
             continue
         count += 1
         if row is None:

@@ -25,6 +25,7 @@ import re
 
 from calib_dsl.elaborate.context import Context
 from calib_dsl.elaborate.scope import Value
+from calib_dsl.ir.status import SlotKind
 
 # The intervals must lie strictly inside the angles' ranges; the float bounds of a reading
 # are rounded outward, so a margin far above rounding and far below any reading's bound
@@ -91,7 +92,7 @@ class Orientation(Context):
             return None
         var = self.dag.variables.get(str(n.data))
         found = _DATA.fullmatch(str(n.data))
-        if var is None or var.kind != "data" or found is None:
+        if var is None or var.kind != SlotKind.DATA or found is None:
             return None
         return found[1], found[2], int(found[3])
 

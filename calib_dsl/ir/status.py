@@ -42,3 +42,8 @@ class SlotKind(StrEnum):
     DATA = "data"  # a measured value
     CONST = "const"  # a constant
     TEMP = "temp"  # an intermediate result of a primitive
+
+
+# the kinds of the declared unknowns (what a solve bounds and reports), the others being
+# measured values, constants and intermediate results
+UNKNOWNS = (SlotKind.PARAM, SlotKind.VAR)

@@ -29,6 +29,7 @@ from calib_dsl.elaborate.rows import RowRange, Selection
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Status
 from calib_dsl.outliers.conflict import DataRow, ranked_rows
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.settings import Settings
@@ -126,7 +127,7 @@ def _consistent(prog: Program, settings: Settings) -> bool:
 def _inconsistent(prog: Program, settings: Settings, progress: Progress | None) -> bool:
     """Whether the program's rows are proven inconsistent (the tight strategy's proof)."""
     try:
-        return solve_tight(prog, settings=settings, progress=progress).status == "infeasible"
+        return solve_tight(prog, settings=settings, progress=progress).status == Status.INFEASIBLE
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False  # not proven
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.values import Values
+from calib_dsl.ir.status import Status
 from calib_dsl.pipeline import load_model, solve
 from calib_dsl.plan.configs import Configurations, table_of
 from calib_dsl.plan.measure import measured_at
@@ -58,7 +59,7 @@ def solved(model_path: str | Path, configs: Configurations, seed: int, formulati
                     consts=dict(consts or {}))
     _, prog = load_model(model_path, formulation, inputs=inputs)
     sol = solve(prog, "tight", settings=settings)
-    if sol.status != "contracted":
+    if sol.status != Status.CONTRACTED:
         return None
     ind = independents(prog)
     names = [prog.slots.names[k] for k in ind]

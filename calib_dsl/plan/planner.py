@@ -13,6 +13,7 @@ import numpy as np
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.tables import Dialect, read_csv
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.status import Status
 from calib_dsl.pipeline import load_model, solve
 from calib_dsl.plan.choose import Stage, predicted, stages
 from calib_dsl.plan.configs import Configurations, read_configurations, table_of
@@ -67,7 +68,7 @@ def given_rows(problem: Problem, path: str | Path, table: str = "") -> Given:
     model, prog = load_model(problem.model, problem.formulation, inputs=inputs)
     t = table_of(model, table)
     sol = solve(prog, "tight", settings=problem.settings)
-    if sol.status != "contracted":
+    if sol.status != Status.CONTRACTED:
         raise CalError(f"the measured rows of '{path}' are inconsistent with the model (the "
                        "solve proved it): there are no domains to plan in")
     names = [c.name for c in t.columns if not c.derived]

@@ -16,7 +16,7 @@ import numpy as np
 
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.rows import tiled_mask
-from calib_dsl.ir.status import Stop
+from calib_dsl.ir.status import UNKNOWNS, Status, Stop
 from calib_dsl.propagate.diagnose import Emptied, diagnose
 from calib_dsl.propagate.kernels import fast_sweep, kernels, sweep
 
@@ -25,12 +25,12 @@ from calib_dsl.propagate.kernels import fast_sweep, kernels, sweep
 class Result:
     """One call of the propagator: the contracted box, or where it proved there is none."""
 
-    status: str  # "contracted" | "infeasible"
+    status: Status
     lo: np.ndarray
     hi: np.ndarray
     sweeps: int
     seconds: float
-    stop: str  # why the loop stopped: "fixed point", "tolerance", "max sweeps", "empty"
+    stop: Stop  # why the loop stopped
     emptied: Emptied | None = None
 
 
@@ -67,13 +67,13 @@ def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         if gain < tol:
             stop = Stop.TOLERANCE
             break
-    return Result("contracted", box[0], box[1], sweeps, time.perf_counter() - start, stop)
+    return Result(Status.CONTRACTED, box[0], box[1], sweeps, time.perf_counter() - start, stop)
 
 
 def _watched(prog: Program) -> np.ndarray:
     """The slots whose contraction decides when to stop: the declared unknowns."""
     s = prog.slots
-    idx = [i for i in s.declared if s.kinds[i] in ("param", "var")]
+    idx = [i for i in s.declared if s.kinds[i] in UNKNOWNS]
     if not idx:
         idx = np.flatnonzero(~tiled_mask(s.kinds, ("const",))).tolist()
     return np.array(sorted(set(idx)), dtype=np.int64)
@@ -96,5 +96,5 @@ def _contraction(before: tuple, after: tuple) -> float:
 
 
 def _infeasible(box, sweeps: int, start: float, emptied: Emptied) -> Result:
-    return Result("infeasible", box[0], box[1], sweeps, time.perf_counter() - start, "empty",
-                  emptied)
+    return Result(Status.INFEASIBLE, box[0], box[1], sweeps, time.perf_counter() - start,
+                  Stop.EMPTY, emptied)

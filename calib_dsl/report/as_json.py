@@ -10,6 +10,7 @@ from typing import Any
 from calib_dsl.analysis.identify import identifiability_json
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS, Status
 from calib_dsl.report.accuracy import accuracy_json
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
@@ -37,11 +38,11 @@ def result_json(prog: Program, res: Solution, strategy: str,
             params[r["name"]]["identifiable"] = r["name"] not in unident
         if extra.estimate is not None:
             params[r["name"]]["least_squares"] = extra.lsq_value(r["name"])
-        if extra.inner is not None and res.status != "infeasible":
-            inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
+        if extra.inner is not None and res.status != Status.INFEASIBLE:
+            inner = extra.inner_of(r["name"]) if r["kind"] in UNKNOWNS else None
             params[r["name"]]["inner"] = None if inner is None else list(inner)
             params[r["name"]]["certified"] = extra.certified_of(r["name"]) \
-                if r["kind"] in ("param", "var") else None
+                if r["kind"] in UNKNOWNS else None
     out: dict[str, Any] = {
         "model": str(Path(prog.source)),
         "status": res.status,

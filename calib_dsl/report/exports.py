@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError
+from calib_dsl.ir.status import Status
 from calib_dsl.report.dh_convert import CONVENTIONS, converted
 from calib_dsl.report.export import (
     RobotTable,
@@ -77,7 +78,7 @@ def _why_none(data: dict[str, Any]) -> str:
         hi = bracket[1] if len(bracket) == 2 and bracket[1] is not None else "UPPER"
         return ("it is a --min-error result: export a solve at a bound the bracket proves "
                 f"consistent, calibc solve --json FILE -D {found.get('name', 'NAME')}={hi}")
-    if data.get("status") == "infeasible":
+    if data.get("status") == Status.INFEASIBLE:
         return "the solve proved the data inconsistent: there is no box"
     return "calibc solve --json FILE writes one"
 
@@ -97,7 +98,7 @@ class Asked:
 
 def asked(data: dict[str, Any], request: Request) -> Asked:
     """What the result of a solve (its JSON, `data`) in the format asked needs: checked."""
-    if data.get("status") != "contracted" or not isinstance(data.get("parameters"), dict):
+    if data.get("status") != Status.CONTRACTED or not isinstance(data.get("parameters"), dict):
         raise CalError(f"the result holds no guaranteed box to export ({_why_none(data)})")
     kind = EXPORTS.get(request.fmt)
     if kind is None:

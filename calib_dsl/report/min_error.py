@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from calib_dsl.analysis.min_error import MinError
+from calib_dsl.ir.status import Status
 from calib_dsl.outliers.conflict import Conflict
 
 
@@ -21,7 +22,7 @@ def render_min_error(r: MinError) -> str:
     else:
         lines.append(f"  lower end {r.lo:.6g}: proven infeasible by the solve (or its proof "
                      "effort: fine rounds, a split)")
-    tried = ", ".join(f"{v:.6g} {'infeasible' if s == 'infeasible' else 'not refuted'}"
+    tried = ", ".join(f"{v:.6g} {'infeasible' if s == Status.INFEASIBLE else 'not refuted'}"
                       for v, s in r.trials)
     lines.append(f"  values tried: {tried or 'none'}")
     lines.append(f"rows that bind at the upper end (residual within {r.within:.0%} of it): "

@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS, Status
 from calib_dsl.strategy.solution import Solution
 
 
@@ -20,7 +21,7 @@ def parameter_rows(prog: Program, res: Solution) -> list[dict[str, Any]]:
             "kind": s.kinds[slot],
             "domain": prog.domains[name] if prog.domains and name in prog.domains
             else (float(s.lo[slot]), float(s.hi[slot])),
-            "result": None if res.status == "infeasible"
+            "result": None if res.status == Status.INFEASIBLE
             else (float(res.lo[slot]), float(res.hi[slot])),
             # a truth the model states; else the centre of a `c +- w` domain, a nominal value
             "true": prog.true_values.get(name) if name in prog.true_stated else None,
@@ -31,12 +32,12 @@ def parameter_rows(prog: Program, res: Solution) -> list[dict[str, Any]]:
 
 def narrowed(prog: Program, res: Solution) -> list[str]:
     """The declared unknowns whose result is narrower than their search domain."""
-    if res.status == "infeasible":
+    if res.status == Status.INFEASIBLE:
         return []
     out = []
     for r in parameter_rows(prog, res):
         (dlo, dhi), (lo, hi) = r["domain"], r["result"]
-        if r["kind"] in ("param", "var") and (lo > dlo or hi < dhi):
+        if r["kind"] in UNKNOWNS and (lo > dlo or hi < dhi):
             out.append(r["name"])
     return out
 

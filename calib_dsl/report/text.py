@@ -8,6 +8,7 @@ from typing import Any
 
 from calib_dsl.analysis.identify import render
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS, Consistency, Status
 from calib_dsl.report.accuracy import accuracy_json, render_accuracy
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import contraction, narrowed, parameter_rows
@@ -42,10 +43,10 @@ def render_table(prog: Program, res: Solution, extra: Extras | None = None,
 
     centres = any(r["true"] is None and r.get("centre") is not None for r in rows)
     out = [_legend(extra, centres), line(head), "-" * len(line(head))]
-    if verdict == "undecided":
+    if verdict == Consistency.UNDECIDED:
         out.insert(1, UNDECIDED_TABLE)
     for r, cells in zip(rows, table, strict=True):
-        out.append(line(cells) + _marks(r, extra, verdict == "undecided"))
+        out.append(line(cells) + _marks(r, extra, verdict == Consistency.UNDECIDED))
     if kept:
         shown = " ".join(kept[:12]) + (f" ... ({len(kept) - 12} more)" if len(kept) > 12 else "")
         out.append(f"({len(kept)} more kept their whole search domain, not shown: {shown}; "
@@ -71,7 +72,7 @@ def _kept(rows: list[dict[str, Any]], extra: Extras) -> list[str]:
     identify alone: known beforehand as well as the data know them (Test A's 19)."""
     unident = extra.not_identifiable()
     return [r["name"] for r in rows
-            if r["kind"] in ("param", "var") and r["result"] is not None
+            if r["kind"] in UNKNOWNS and r["result"] is not None
             and tuple(r["result"]) == tuple(r["domain"]) and r["name"] not in unident]
 
 
@@ -89,7 +90,7 @@ def _row(r: dict[str, Any], extra: Extras) -> list[str]:
               f"{_nearest(hi) if hi == dhi else _f(hi, ROUND_CEILING)}]")
     cells = [r["name"], dom, result, f"{w:.3g}", f"{ratio:.3g}"]
     if extra.inner is not None:
-        inner = extra.inner_of(r["name"]) if r["kind"] in ("param", "var") else None
+        inner = extra.inner_of(r["name"]) if r["kind"] in UNKNOWNS else None
         q = width_ratio(r["result"], inner)
         cells += ["-" if inner is None else printed_interval(inner, inward=True),
                   "-" if q is None else f"{q:.4g}"]
@@ -150,8 +151,8 @@ def render_summary(prog: Program, res: Solution, strategy: str,
                      "least-squares estimate of these data (lsq +- "
                      + "/".join(sorted({f"{w:g}" for _, w in prog.centred.values()}))
                      + "): the results hold within that prior")
-    unknowns = [i for i in prog.slots.declared if prog.slots.kinds[i] in ("param", "var")]
-    if res.status != "infeasible" and unknowns and not narrowed(prog, res):
+    unknowns = [i for i in prog.slots.declared if prog.slots.kinds[i] in UNKNOWNS]
+    if res.status != Status.INFEASIBLE and unknowns and not narrowed(prog, res):
         lines += ["", _NOTHING]
     if res.emptied is not None:
         e = res.emptied

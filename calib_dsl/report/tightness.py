@@ -8,6 +8,7 @@ import statistics
 from typing import Any
 
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS, Status
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import parameter_rows
 from calib_dsl.strategy.solution import Solution
@@ -27,11 +28,11 @@ def width_ratio(outer: tuple[float, float], inner: tuple[float, float] | None) -
 def tightness(prog: Program, res: Solution, extra: Extras) -> dict[str, Any] | None:
     """The inner bounds' summary (None when they were not computed)."""
     inner = extra.inner
-    if inner is None or res.status == "infeasible":
+    if inner is None or res.status == Status.INFEASIBLE:
         return None
     ratios, unknowns = [], 0
     for r in parameter_rows(prog, res):
-        if r["kind"] not in ("param", "var") or r["result"][1] <= r["result"][0]:
+        if r["kind"] not in UNKNOWNS or r["result"][1] <= r["result"][0]:
             continue  # a known value: nothing to certify
         unknowns += 1
         q = width_ratio(r["result"], extra.inner_of(r["name"]))

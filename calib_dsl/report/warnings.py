@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from calib_dsl.analysis.leverage import Leverage
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS, Status
 from calib_dsl.outliers.rows import Row
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.rows import narrowed, parameter_rows
@@ -15,7 +16,7 @@ def solve_warnings(prog: Program, res: Solution, extra: Extras | None = None) ->
     """What a user must not miss about a consistent result: no parameter narrowed, or some
     kept their whole search domain (the data did not narrow them), or a parameter that one
     data row carries (`extra.heavy`, sections.py's `leverage`: its rows named)."""
-    if res.status == "infeasible":
+    if res.status == Status.INFEASIBLE:
         return []
     return _domains(prog, res) + (_leverage(extra.heavy) if extra is not None else [])
 
@@ -34,7 +35,7 @@ def _leverage(heavy: list[tuple[Leverage, Row]]) -> list[str]:
 
 
 def _domains(prog: Program, res: Solution) -> list[str]:
-    unknowns = [r["name"] for r in parameter_rows(prog, res) if r["kind"] in ("param", "var")]
+    unknowns = [r["name"] for r in parameter_rows(prog, res) if r["kind"] in UNKNOWNS]
     if not unknowns:
         return []
     moved = set(narrowed(prog, res))

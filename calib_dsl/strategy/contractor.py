@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.ir.status import Stop
+from calib_dsl.ir.status import Status, Stop
 from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import Result, propagate
@@ -55,7 +55,7 @@ class Outcome:
 
     lo: np.ndarray
     hi: np.ndarray
-    stop: str  # why the last propagation stopped: "fixed point", "tolerance", "empty", ...
+    stop: Stop  # why the last propagation stopped
     work: Work = Work()
     emptied: Emptied | None = None
     # the unknowns cut into pieces (not identifiable alone), and each piece's box that holds
@@ -96,7 +96,7 @@ class Composable:
 def from_propagation(res: Result) -> Outcome:
     """The outcome of one call of the propagator."""
     emptied = res.emptied
-    if res.status == "infeasible" and emptied is None:
+    if res.status == Status.INFEASIBLE and emptied is None:
         emptied = Emptied("?", None, None)
     return Outcome(res.lo, res.hi, res.stop, Work(sweeps=res.sweeps), emptied)
 
@@ -135,8 +135,8 @@ class Sequence(Composable):
     history: History | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
-        out = Outcome(lo, hi, "")
-        work, stop = Work(), ""
+        out = Outcome(lo, hi, Stop.NONE)
+        work, stop = Work(), Stop.NONE
         for step in self.steps:
             if self.max_sweeps is not None:
                 left = self.max_sweeps - work.sweeps
@@ -181,7 +181,7 @@ class FixPoint(Composable):
     label: str = "round"
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
-        out, work = Outcome(lo, hi, ""), Work()
+        out, work = Outcome(lo, hi, Stop.NONE), Work()
         for k in itertools.count(1) if self.most is None else range(1, self.most + 1):
             nxt = self.ctc.contract(out.lo, out.hi)
             work = work + nxt.work

@@ -39,6 +39,7 @@ from calib_dsl.analysis.readings import Readings
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import SlotKind, Status
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.outliers.rows import data_rows
 from calib_dsl.propagate.diagnose import Emptied
@@ -171,16 +172,16 @@ class Refuter:
         sol = solve_tight(other, tol=self.tol, max_sweeps=self.max_sweeps,
                           settings=self.settings)
         row = self._row(rid)
-        if sol.status == "infeasible":  # a part of the data is inconsistent: so is the whole
+        if sol.status == Status.INFEASIBLE:  # a part of the data is inconsistent: so is the whole
             assert sol.emptied is not None
             return Proof(sol.emptied, f"the data without {row} were proven inconsistent "
                          "(and so are all the data)")
         lo, hi = self.res.lo.copy(), self.res.hi.copy()
         names = {other.slots.names[j]: j for j in other.slots.declared
-                 if other.slots.kinds[j] == "param"}
+                 if other.slots.kinds[j] == SlotKind.PARAM}
         for i in self.prog.slots.declared:
             j = names.get(self.prog.slots.names[i])
-            if j is not None and self.prog.slots.kinds[i] == "param":
+            if j is not None and self.prog.slots.kinds[i] == SlotKind.PARAM:
                 lo[i], hi[i] = max(lo[i], sol.lo[j]), min(hi[i], sol.hi[j])
         if np.any(lo > hi):
             return Proof(Emptied(self.prog.slots.names[int(np.flatnonzero(lo > hi)[0])], None,

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.ir.program import Program
-from calib_dsl.ir.status import Stop
+from calib_dsl.ir.status import Status, Stop
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.progress import Meter
@@ -148,7 +148,7 @@ class _Rounds(Composable):
     # rounds' bases, which the pieces of a split (first-order rounds) start from
     fine_certs: Certificates = field(default_factory=Certificates)
     work: Work = Work()
-    stop: str = ""
+    stop: Stop = Stop.NONE
     emptied: Emptied | None = None
 
     def __post_init__(self) -> None:
@@ -294,7 +294,7 @@ class _Rounds(Composable):
                         max_sweeps=max(spec.max_sweeps - self.work.sweeps, 0), lo=lo, hi=hi)
         self.lo, self.hi, self.stop = res.lo, res.hi, res.stop
         self.work = self.work + Work(sweeps=res.sweeps)
-        if res.status != "contracted":
+        if res.status != Status.CONTRACTED:
             self.emptied = res.emptied or Emptied("?", None, None)
         self.moved |= gains >= spec.settings.rounds.stalled
         self.last = this

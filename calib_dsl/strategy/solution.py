@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib_dsl.inner.starts import Starts
-from calib_dsl.ir.status import Status
+from calib_dsl.ir.status import Status, Stop
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.history import History
@@ -18,7 +18,7 @@ class Solution:
     strategy: str  # "tight" | "hc4"
     lo: np.ndarray  # the box over the program's slots (meaningless when infeasible)
     hi: np.ndarray
-    stop: str  # why the last propagation stopped: "fixed point", "tolerance", "max sweeps", ...
+    stop: Stop  # why the last propagation stopped
     seconds: float
     work: Work
     emptied: Emptied | None = None  # where the model and data were proven inconsistent

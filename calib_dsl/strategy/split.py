@@ -17,6 +17,7 @@ import numpy as np
 
 from calib_dsl.analysis.identify import analyse_design
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Stop
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
@@ -53,7 +54,7 @@ class Split(Composable):
         try:
             slot = worth_splitting(self.prog, lo, hi, s, self.uncut)
             if slot is None:
-                return Outcome(lo, hi, "")
+                return Outcome(lo, hi, Stop.NONE)
             refined = _refined(self.prog, pieces(lo, hi, slot, s.split_pieces), self.tol,
                                self.max_sweeps, s, self.certs, children)
         finally:
@@ -73,7 +74,7 @@ def _hull(refined: list[Outcome], name: str) -> Outcome:
         return Outcome(last.lo, last.hi, last.stop, work, last.emptied)
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
-    return Outcome(lo, hi, "", work, split=(name,), pieces=boxes)
+    return Outcome(lo, hi, Stop.NONE, work, split=(name,), pieces=boxes)
 
 
 def refine_piece(prog: Program, plo: np.ndarray, phi: np.ndarray, tol: float,

@@ -27,7 +27,7 @@ from calib_dsl.analysis.readings import Readings
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
-from calib_dsl.ir.status import Consistency
+from calib_dsl.ir.status import Consistency, Status
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, far_rows
@@ -140,7 +140,7 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
     `res` proven empty by an effort of at most settings.verdict_share of its time.
     `certified`: whether the inner bounds certified a point (None: not computed). Without
     `effort`, no proof is sought."""
-    if res.status == "infeasible":
+    if res.status == Status.INFEASIBLE:
         return res, Verdict(INCONSISTENT, "the solve proved that no parameter vector within "
                             "the search domains satisfies every constraint")
     if certified:
@@ -193,7 +193,7 @@ def of_outliers(res: Solution, kept: Program | None, k: int) -> Verdict:
     to satisfy the rows `kept` (all but at most K: those left once the certain outliers are
     out), else undecided."""
     rows = f"all data rows but at most {k}"
-    if res.status == "infeasible":
+    if res.status == Status.INFEASIBLE:
         return Verdict(INCONSISTENT, f"no parameter vector satisfies {rows}")
     start = time.perf_counter()
     proven, largest = certified_point(kept, None) if kept is not None else (False, None)

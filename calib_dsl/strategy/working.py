@@ -30,6 +30,7 @@ import numpy as np
 from calib_dsl.analysis.certify_point import CHECK_CELLS, check_points
 from calib_dsl.compile.chunks import chunked, loop_rows, start_rows
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import Stop
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter
 from calib_dsl.relax.layout import independents
@@ -64,7 +65,7 @@ class WorkingRows(Composable):
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         s, work = self.settings, Work()
         rows = start_rows(self.prog, s.sampling.working_rows)
-        out = Outcome(lo, hi, "")
+        out = Outcome(lo, hi, Stop.NONE)
         # a pass after a check resumes the fine rounds where the last ended (their box is
         # near its end: the first-order and wide rounds' gains are below their thresholds,
         # and would stop the rounds before the fine ones ran on the rows that joined)

@@ -28,6 +28,7 @@ from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.dag import Dag
 from calib_dsl.ir.model import Model, Table
+from calib_dsl.ir.status import SlotKind
 from calib_dsl.progress import Progress
 from calib_dsl.studies.campaign import PLAIN, Campaign, poses, systematic
 from calib_dsl.studies.evaluate import Array, Evaluator
@@ -153,12 +154,12 @@ def cell_name(table: str, column: str, row: int) -> str:
 def _true_parameters(dag: Dag) -> dict[int, float]:
     values: dict[int, float] = {}
     for v in dag.variables.values():
-        if v.kind == "param":
+        if v.kind == SlotKind.PARAM:
             if v.true is None:
                 raise CalError(f"parameter '{v.name}' has no true value: simulation needs "
                                "one for every parameter (`param ... true VALUE;`)", v.loc)
             values[v.node] = float(v.true)
-        elif v.kind != "data" and v.true is not None:
+        elif v.kind != SlotKind.DATA and v.true is not None:
             values[v.node] = float(v.true)
     return values
 
@@ -187,7 +188,7 @@ def _solve_outputs(model: Model, cells: dict[str, list[list[int | None]]],
             defs.setdefault(c.rhs, []).append(c.lhs)
     unknown = set(_output_cells(model, cells, defs))
     unknown.update(v.node for v in dag.variables.values()
-                   if v.kind not in ("param", "data") and v.node not in values)
+                   if v.kind not in (SlotKind.PARAM, SlotKind.DATA) and v.node not in values)
     while True:
         value = evaluator(values, default=math.nan)
         solved = [n for n in unknown if _define(n, defs, value, values)]
