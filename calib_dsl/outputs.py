@@ -236,9 +236,11 @@ def at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
 
 
 def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strategy: str,
-                    progress: Any) -> tuple[Any, list[tuple[float, ...]], list[str]]:
+                    progress: Any, settings: Any = None
+                    ) -> tuple[Any, list[tuple[float, ...]], list[str]]:
     """`predict --grid SPEC`: the prediction at every pose of the grid (None: the data are
-    inconsistent), the poses and the names of their columns."""
+    inconsistent), the poses and the names of their columns (`settings`: the process's
+    DEFAULT where None)."""
     import itertools
     import tempfile
     from dataclasses import replace
@@ -246,15 +248,18 @@ def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strate
     from calib_dsl.accuracy.grid import grid_file, parse_grid
     from calib_dsl.pipeline import predict_at
     from calib_dsl.problem import Problem
+    from calib_dsl.settings import DEFAULT
 
+    settings = settings or DEFAULT
     values = parse_grid(spec)
-    problem = Problem.load(model, formulation, inputs)
+    problem = Problem.load(model, formulation, inputs, settings.fits, settings.sampling)
     if not problem.model.tables:
         raise CalError("the model has no table: there is nothing to predict")
     t = problem.model.tables[0]
     with tempfile.TemporaryDirectory(prefix="calibc-grid-") as tmp:
         path = grid_file(values, t, Path(tmp) / "grid.csv")
-        _, found = predict_at(problem, path, strategy=strategy, progress=progress)
+        _, found = predict_at(problem, path, strategy=strategy, progress=progress,
+                              settings=settings)
     names = [c.name for c in t.columns if c.name in values and not c.derived]
     poses = list(itertools.product(*(values[n] for n in names)))
     return (None if found is None else replace(found, file=f"--grid {spec}")), poses, names

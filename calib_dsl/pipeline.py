@@ -81,16 +81,17 @@ def min_error(model: str | Path | Problem, name: str, formulation: str = "matrix
         budget = effort * settings.min_error.share * res.seconds
         found = Refuter(prog, res, None, None, settings, 1e-5, 1000, budget,
                         time.perf_counter()).run([])
-        return "infeasible" if found.proof is not None else res.status
+        return Status.INFEASIBLE if found.proof is not None else res.status
 
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits,
+                     settings.sampling)
     # every trial asks about the same priors (centred anew on each trial's data, a domain
     # along a direction the data do not see moves by millimetres, and a point certified in
     # one is outside the next)
     prove = run if strategy == "tight" else None
     return find_min_error(problem.keeping_priors(), name, run, prove, settings.min_error,
-                          settings.fits)
+                          settings.fits, settings.sampling)
 
 
 def solve(prog: Program, strategy: str = "tight", tol: float = 1e-5, max_sweeps: int = 1000,
@@ -116,7 +117,8 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
     loaded already (then `formulation` and `inputs` are its own); the configurations' model
     is derived from it where it allows (Problem.with_table)."""
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits,
+                     settings.sampling)
     prog = problem.program
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == Status.INFEASIBLE:
@@ -178,8 +180,9 @@ def conflict(model: str | Path | Problem, formulation: str = "matrix",
     consistent (None when the model has no table). `model`: its file, or the problem
     loaded already (then `formulation` and `inputs` are its own)."""
     problem = model if isinstance(model, Problem) else \
-        Problem.load(model, formulation, inputs or Inputs(), settings.fits)
-    return find_conflict(problem.inputs, problem.loader(), settings.outliers, settings.fits)
+        Problem.load(model, formulation, inputs or Inputs(), settings.fits,
+                     settings.sampling)
+    return find_conflict(problem.inputs, problem.loader(), settings)
 
 
 @dataclass
@@ -264,7 +267,7 @@ class SolveRequest:
 def solve_report(request: SolveRequest, progress: Progress | None = None) -> SolveReport:
     """Load and solve the request's model, with the report's optional sections."""
     problem = Problem.load(request.model, request.formulation, request.inputs,
-                           request.settings.fits)
+                           request.settings.fits, request.settings.sampling)
     if request.outliers > 0:
         run = outlier_report(request, problem, progress)
         if request.shave:
@@ -300,7 +303,7 @@ def outlier_report(request: SolveRequest, problem: Problem,
     if left == 0:
         res = solve(prog, tol=tol, max_sweeps=max_sweeps, settings=settings, progress=progress)
         certain, possible = [], []
-        found_more = (find_conflict(given, loader, settings.outliers, settings.fits)
+        found_more = (find_conflict(given, loader, settings)
                       if res.status == Status.INFEASIBLE else None)
         if found_more is not None and found_more.consistent:  # S_K is empty: name why
             more = [Row(r.table, r.file, r.line, r.row) for r in found_more.rows]
@@ -345,7 +348,7 @@ def report_on(request: SolveRequest, problem: Problem,
         if r.identify:
             sections.identify(extra, prog, res, r.strategy == "tight", settings)
         if r.lsq:
-            sections.least_squares(extra, prog, res)
+            sections.least_squares(extra, prog, res, settings.sampling)
         sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
     found = None
     if res.status == Status.INFEASIBLE and r.diagnose:

@@ -32,6 +32,7 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.outliers.proof import pinned
 from calib_dsl.outliers.rows import data_rows, excluding
+from calib_dsl.settings import SamplingSettings
 from calib_dsl.settings_analysis import FitSettings
 
 Loader = Callable[[Inputs], tuple[Model, Program]]
@@ -39,10 +40,12 @@ Loader = Callable[[Inputs], tuple[Model, Program]]
 
 def load_model(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
                inputs: Inputs | None = None, centre: bool = True,
-               fits: FitSettings | None = None) -> tuple[Model, Program]:
+               fits: FitSettings | None = None,
+               sampling: SamplingSettings | None = None) -> tuple[Model, Program]:
     """Parse, elaborate and compile a `.cal` model, with the elaborated model (its tables and
     consts); `centre=False` leaves `lsq +- w` domains unbounded (for a caller that gives
-    them another program's); `fits`: the settings of the fit that centres them."""
+    them another program's); `fits` and `sampling`: the settings of the fit that centres
+    them."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
     gc.disable()
@@ -52,7 +55,8 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
     finally:
         gc.enable()
     if centre:
-        centre_on_least_squares(prog, fits)  # `param x in lsq +- w`: around the data's estimate
+        # `param x in lsq +- w`: around the data's estimate
+        centre_on_least_squares(prog, fits, sampling)
     return elaborated, prog
 
 
@@ -65,7 +69,8 @@ def _unrolled() -> Model:
     raise _Unrolled
 
 
-def _compiled(model: Model, centre: bool, fits: FitSettings | None = None) -> Program | None:
+def _compiled(model: Model, centre: bool, fits: FitSettings | None = None,
+              sampling: SamplingSettings | None = None) -> Program | None:
     """A derived model's program (None: elaborate anew, see _Unrolled)."""
     gc.disable()
     try:
@@ -75,7 +80,7 @@ def _compiled(model: Model, centre: bool, fits: FitSettings | None = None) -> Pr
     finally:
         gc.enable()
     if centre:
-        centre_on_least_squares(prog, fits)
+        centre_on_least_squares(prog, fits, sampling)
     return prog
 
 
@@ -115,13 +120,16 @@ class Problem:
     # when set, what it derives is on these `lsq +- w` domains, not centred anew
     priors: Priors | None = None
     fits: FitSettings | None = None  # the fit that centres `lsq +- w` domains (None: defaults)
+    sampling: SamplingSettings | None = None  # the same fit's sample of rows (None: defaults)
 
     @classmethod
     def load(cls, path: str | Path, formulation: str = "matrix",
-             inputs: Inputs | None = None, fits: FitSettings | None = None) -> Problem:
+             inputs: Inputs | None = None, fits: FitSettings | None = None,
+             sampling: SamplingSettings | None = None) -> Problem:
         inputs = inputs or Inputs()
-        model, prog = load_model(path, formulation, inputs=inputs, fits=fits)
-        return cls(str(path), formulation, inputs, model, prog, fits=fits)
+        model, prog = load_model(path, formulation, inputs=inputs, fits=fits,
+                                 sampling=sampling)
+        return cls(str(path), formulation, inputs, model, prog, fits=fits, sampling=sampling)
 
     @property
     def unknowns(self) -> list[str]:
@@ -144,13 +152,14 @@ class Problem:
             return self
         centre = centre and self.priors is None
         model = self._derived(inputs)
-        prog = None if model is None else _compiled(model, centre, self.fits)
+        prog = None if model is None else _compiled(model, centre, self.fits, self.sampling)
         if model is None or prog is None:
             model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre,
-                                     fits=self.fits)
+                                     fits=self.fits, sampling=self.sampling)
         if self.priors is not None:
             self.priors.put_on(prog)
-        return Problem(self.path, self.formulation, inputs, model, prog, self.priors, self.fits)
+        return Problem(self.path, self.formulation, inputs, model, prog, self.priors, self.fits,
+                       self.sampling)
 
     def keeping_priors(self) -> Problem:
         """This problem, but what it derives is on its `lsq +- w` domains (a bracket's

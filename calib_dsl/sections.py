@@ -24,7 +24,7 @@ from calib_dsl.ir.status import Status
 from calib_dsl.outliers.rows import data_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.report.extras import Extras
-from calib_dsl.settings import Settings
+from calib_dsl.settings import SamplingSettings, Settings
 from calib_dsl.strategy.solution import Solution
 
 
@@ -46,11 +46,13 @@ def identify(extra: Extras, prog: Program, res: Solution, use_lp: bool,
     extra.seconds += time.perf_counter() - start
 
 
-def least_squares(extra: Extras, prog: Program, res: Solution) -> None:
+def least_squares(extra: Extras, prog: Program, res: Solution,
+                  sampling: SamplingSettings) -> None:
     start = time.perf_counter()
     ind = independents(prog)
     mid = 0.5 * (res.lo[ind] + res.hi[ind])
-    extra.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None)
+    extra.estimate = estimate(prog, start=mid if all(map(math.isfinite, mid)) else None,
+                              sampling=sampling)
     extra.seconds += time.perf_counter() - start
 
 

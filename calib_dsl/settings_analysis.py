@@ -23,6 +23,10 @@ class FitSettings:
     # The least-squares estimate that centres `lsq +- w` domains (priors.py): evaluations of
     # the residuals at most; from a far start it needs more than 30.
     prior_evaluations: int = 200
+    # The least-squares estimate a search starts from (the conflict search's ranking, the
+    # priors and units at fault, a Chebyshev fit, advice, the reference hull): from the
+    # domains' middle, far from the data's fit, it needs more evaluations than a polish.
+    lsq_evaluations: int = 200
     # A data row carrying more than leverage_share of a parameter's estimate is reported;
     # directions the data see less than leverage_rcond (relative) are not estimated.
     leverage_share: float = 0.5

@@ -18,6 +18,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import minimize
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.settings import SamplingSettings
 from calib_dsl.settings_analysis import FitSettings
 
 
@@ -28,7 +29,8 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
               fits: FitSettings | None = None) -> tuple[np.ndarray, float]:
     """A point with a small largest residual on `rows` (all if None; the others within their
     bounds), and that residual (floating point: the proof comes after); with `normalized`,
-    residuals in units of each row's bound. From `start`, else the least-squares estimate;
+    residuals in units of each row's bound. From `start`, else the least-squares estimate
+    (`least_squares_start`: a caller with its own sampling settings passes it as `start`);
     within `box` (the unknowns' bounds), else the search domains. Stops early once the
     linearized model cannot bring the largest residual below `target` (its LP's optimum), or
     once a step's largest residual is within `settle` (relative) of what its LP predicted:
@@ -36,7 +38,7 @@ def chebyshev(prog: Program, rows: np.ndarray | None = None, normalized: bool = 
     Its steps and trust region: `fits` (FitSettings' chebyshev_*)."""
     f = fits or FitSettings()
     lo, hi = within_domains(prog, box)
-    p = estimate(prog, max_evaluations=200).values if start is None else start
+    p = least_squares_start(prog, f) if start is None else start
     p = np.clip(np.where(np.isfinite(p), p, 0.5 * (lo + hi)), lo, hi)
     d, half, jac = rows_at(prog, p)
     rows = np.ones(len(d), dtype=bool) if rows is None else rows
@@ -192,12 +194,20 @@ def _with_errors(lin: Linearized, readings: Readings, z: np.ndarray, rows: np.nd
     return float(np.max(np.abs(moved[rows]), initial=0.0)) * scale
 
 
-def proven_consistent(prog: Program, fits: FitSettings | None = None) -> bool:
+def least_squares_start(prog: Program, fits: FitSettings,
+                        sampling: SamplingSettings | None = None) -> np.ndarray:
+    """The least-squares estimate a fit starts from (`fits.lsq_evaluations` at most)."""
+    return estimate(prog, max_evaluations=fits.lsq_evaluations, sampling=sampling).values
+
+
+def proven_consistent(prog: Program, fits: FitSettings | None = None,
+                      sampling: SamplingSettings | None = None) -> bool:
     """Whether a point is proven to satisfy every row (certify_point.py): the Chebyshev fit
     in units of the rows' bounds, else one more step of it with the joint readings free
     (near the least error the data allow, the readings' freedom can decide whether a point
     fits at all; docs/decisions/16)."""
-    point, need = chebyshev(prog, normalized=True, fits=fits)
+    start = least_squares_start(prog, fits or FitSettings(), sampling)
+    point, need = chebyshev(prog, normalized=True, start=start, fits=fits)
     if need <= 1.0 and check_point(prog, point).holds:
         return True
     step = with_readings(prog, point, fits=fits)

@@ -28,7 +28,12 @@ from typing import Protocol
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev, with_readings, within_domains
+from calib_dsl.analysis.chebyshev import (
+    chebyshev,
+    least_squares_start,
+    with_readings,
+    within_domains,
+)
 from calib_dsl.analysis.lsq import rows_at
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.elaborate.elaborator import Inputs
@@ -38,6 +43,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Status
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import SamplingSettings
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings
 
 
@@ -82,9 +88,11 @@ class Trials(Protocol):
 
 def min_error(problem: Trials, name: str, solve: Solver, prove: Prover | None = None,
               settings: MinErrorSettings | None = None,
-              fits: FitSettings | None = None) -> MinError:
+              fits: FitSettings | None = None,
+              sampling: SamplingSettings | None = None) -> MinError:
     """The bracket (the module's docstring): its trials and budgets from `settings`, the
-    Chebyshev fits' steps from `fits` (each its group's defaults where None)."""
+    Chebyshev fits' steps from `fits`, the least-squares sample from `sampling` (each its
+    group's defaults where None)."""
     s = settings or MinErrorSettings()
     model, prog = problem.model, problem.program
     if name not in model.consts:
@@ -95,7 +103,8 @@ def min_error(problem: Trials, name: str, solve: Solver, prove: Prover | None = 
     if not e0 > 0:
         raise CalError(f"--min-error {name}: its value is {e0}; give a positive one (-D)")
     rows = _bound_rows(prog, e0)
-    hi, check_prog, point, readings = _upper(Upper(name, problem, s, fits), prog, rows)
+    up = Upper(name, problem, s, fits, sampling)
+    hi, check_prog, point, readings = _upper(up, prog, rows)
     out = MinError(name, None, hi, dict(zip(_names(prog), point.tolist(), strict=True)),
                    s.binding)
     out.binding = _binding(model, check_prog, point, readings, hi, s.binding)
@@ -114,6 +123,7 @@ class Upper:
     problem: Trials
     settings: MinErrorSettings
     fits: FitSettings | None
+    sampling: SamplingSettings | None
 
 
 def _upper(up: Upper, prog: Program, rows: np.ndarray
@@ -122,16 +132,17 @@ def _upper(up: Upper, prog: Program, rows: np.ndarray
     which may leave a row of another bound beyond it (the const's rows weigh more); no
     raise of the const mends that row, so where no point is proven the fit starts again
     from the point with the least largest residual in bounds over every row."""
+    lsq = least_squares_start(prog, up.fits or FitSettings(), up.sampling)
     try:
-        return _fitted(up, prog, rows, None)
+        return _fitted(up, prog, rows, lsq)
     except CalError:
-        start, _ = chebyshev(prog, None, normalized=True, fits=up.fits)
+        start, _ = chebyshev(prog, None, normalized=True, start=lsq, fits=up.fits)
         return _fitted(up, prog, rows, start)
 
 
 def _fitted(up: Upper, prog: Program, rows: np.ndarray,
-            start: np.ndarray | None) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
-    """The Chebyshev fit's point (from `start`, else least squares), or the fit continued
+            start: np.ndarray) -> tuple[float, Program, np.ndarray, np.ndarray | None]:
+    """The Chebyshev fit's point (from `start`: least squares, or a fit), or the fit continued
     with the joint readings free (their errors lower it further), whichever is certified at
     the smaller bound (a point the readings' step moves may break a row by more than its
     linear model said: then the plain fit's may be the smaller)."""

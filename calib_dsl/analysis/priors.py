@@ -16,13 +16,16 @@ from calib_dsl.analysis.unit_spreads import spreads
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import SamplingSettings
 from calib_dsl.settings_analysis import FitSettings
 
 
-def centre_on_least_squares(prog: Program, fits: FitSettings | None = None) -> None:
+def centre_on_least_squares(prog: Program, fits: FitSettings | None = None,
+                            sampling: SamplingSettings | None = None) -> None:
     """Give each `lsq +- w` parameter its domain around the least-squares estimate (in place:
     the program's slots and declared domains); the other parameters keep theirs and bound
-    the estimate (at most `fits`' prior_evaluations evaluations of the residuals)."""
+    the estimate (at most `fits`' prior_evaluations evaluations of the residuals; least
+    squares' sample of rows: `sampling`'s)."""
     f = fits or FitSettings()
     if not prog.priors:
         return
@@ -34,7 +37,7 @@ def centre_on_least_squares(prog: Program, fits: FitSettings | None = None) -> N
                          np.clip(0.0, lo, hi))
     for name, (s, _) in prog.priors.items():
         start[names.index(name)] = s
-    est = estimate(prog, start=start, max_evaluations=f.prior_evaluations)
+    est = estimate(prog, start=start, max_evaluations=f.prior_evaluations, sampling=sampling)
     values = dict(zip(names, est.values.tolist(), strict=True))
     bad = [n for n in prog.priors if not np.isfinite(values[n])]
     if bad or not est.converged:

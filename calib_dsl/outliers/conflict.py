@@ -31,7 +31,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.outliers.prior_faults import PriorFault, prior_faults
 from calib_dsl.outliers.rows import Row
 from calib_dsl.outliers.unit_hints import unit_hints
-from calib_dsl.settings import OutlierSettings
+from calib_dsl.settings import SamplingSettings, Settings
 from calib_dsl.settings_analysis import FitSettings
 
 
@@ -51,27 +51,28 @@ class Conflict:
     units: list[str] = field(default_factory=list)  # columns or bounds whose unit to check
 
 
-def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings,
-                  fits: FitSettings) -> Conflict | None:
-    """The smallest set of worst rows (at most settings.conflict_rows) without which the
-    data are proven consistent; None when the model has no table to name rows of."""
+def find_conflict(inputs: Inputs, load: Loader, everything: Settings) -> Conflict | None:
+    """The smallest set of worst rows (at most settings.conflict_rows, `settings` the
+    outliers' group) without which the data are proven consistent; None when the model has
+    no table to name rows of."""
+    settings, fits, sampling = everything.outliers, everything.fits, everything.sampling
     model, prog = load(inputs)
     if not model.tables:
         return None
     try:
-        priors = prior_faults(prog, settings.prior_widen, fits)
+        priors = prior_faults(prog, settings.prior_widen, fits, sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         priors = []  # not proven: the rows are looked at
     if priors:
         return Conflict([], True, None, priors)
     try:
-        units = unit_hints(model, prog, settings, fits)
+        units = unit_hints(model, prog, settings, fits, sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         units = []
     if units:  # every row looks wrong: naming some would mislead
         return Conflict([], False, None, units=units)
     try:
-        ranked = ranked_rows(model, prog)
+        ranked = ranked_rows(model, prog, fits, sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return None  # no least-squares ranking here (an empty domain, say): nothing to name
     if not ranked:
@@ -80,34 +81,38 @@ def find_conflict(inputs: Inputs, load: Loader, settings: OutlierSettings,
     most = settings.conflict_rows
     for k in range(1, min(most, len(ranked) - 1) + 1):
         out = ranked[:k]
-        if _consistent_without(inputs, load, out, fits):
+        if _consistent_without(inputs, load, out, everything):
             needed = None if k == 1 else not any(
-                _consistent_without(inputs, load, [r for r in out if r is not back], fits)
+                _consistent_without(inputs, load, [r for r in out if r is not back],
+                                    everything)
                 for back in out)
             return Conflict(out, True, needed)
     return Conflict(ranked[:most], False, None)
 
 
-def ranked_rows(model: Model, prog: Program) -> list[DataRow]:
+def ranked_rows(model: Model, prog: Program, fits: FitSettings,
+                sampling: SamplingSettings) -> list[DataRow]:
     """The data rows by their largest least-squares residual (in bounds), largest first."""
     tables = {t.name: t for t in model.tables}
     rows = []
-    for (table, k), r in _ranked(prog):
+    for (table, k), r in _ranked(prog, fits, sampling):
         t = tables.get(table)
         if t is not None and k - 1 < len(t.numbers):
             rows.append(DataRow(table, t.path, t.lines[k - 1], t.numbers[k - 1], r))
     return rows
 
 
-def ranked_ids(prog: Program) -> list[tuple[int, float]]:
+def ranked_ids(prog: Program, fits: FitSettings,
+               sampling: SamplingSettings) -> list[tuple[int, float]]:
     """ranked_rows as data row ids (`Slots.row_keys`) and residuals."""
     ids = {key: i for i, key in enumerate(prog.slots.row_keys or [])}
-    return [(ids[key], r) for key, r in _ranked(prog) if key in ids]
+    return [(ids[key], r) for key, r in _ranked(prog, fits, sampling) if key in ids]
 
 
-def _ranked(prog: Program) -> list[tuple[tuple[str, int], float]]:
+def _ranked(prog: Program, fits: FitSettings,
+            sampling: SamplingSettings) -> list[tuple[tuple[str, int], float]]:
     """Each data row's key (table, k) and largest least-squares residual, largest first."""
-    est = estimate(prog, max_evaluations=200)
+    est = estimate(prog, max_evaluations=fits.lsq_evaluations, sampling=sampling)
     d, _ = residuals(prog, est.values)
     worst: dict[tuple[str, int], float] = {}
     for key, r in zip(row_owners(prog), np.abs(d).tolist(), strict=False):
@@ -117,7 +122,7 @@ def _ranked(prog: Program) -> list[tuple[tuple[str, int], float]]:
 
 
 def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow],
-                        fits: FitSettings) -> bool:
+                        settings: Settings) -> bool:
     """Whether the data less the rows `out` are proven consistent (by a certified point)."""
     rows = dict(inputs.rows)
     for r in out:
@@ -125,7 +130,7 @@ def _consistent_without(inputs: Inputs, load: Loader, out: list[DataRow],
         rows[r.table] = Selection(sel.ranges, tuple(sorted({*sel.excluded, r.row})))
     try:
         _, prog = load(replace(inputs, rows=rows))
-        return proven_consistent(prog, fits)
+        return proven_consistent(prog, settings.fits, settings.sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False  # not proven
 

@@ -23,6 +23,7 @@ from calib_dsl.analysis.chebyshev import chebyshev, with_readings
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
+from calib_dsl.settings import SamplingSettings
 from calib_dsl.settings_analysis import FitSettings
 
 
@@ -40,25 +41,26 @@ class PriorFault:
                 f"{self.end:+.4g} ([{self.lo:.6g}, {self.hi:.6g}], in the model's units)")
 
 
-def prior_faults(prog: Program, widen: float, fits: FitSettings | None = None
-                 ) -> list[PriorFault]:
+def prior_faults(prog: Program, widen: float, fits: FitSettings | None = None,
+                 sampling: SamplingSettings | None = None) -> list[PriorFault]:
     """The declared domains a certified point needs widened (widest miss first); empty when
     widening them does not prove the data consistent. `prog` is the caller's to change: its
     domains are restored before the return. `widen`: the widened domains' half-widths,
-    in declared half-widths; `fits`: the Chebyshev fit's settings."""
+    in declared half-widths; `fits`: the fits' settings; `sampling`: least squares'."""
+    fits = fits or FitSettings()
     ind = independents(prog)
     lo, hi = prog.slots.lo[ind].copy(), prog.slots.hi[ind].copy()
     finite = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
     if not finite.any():
         return []
     try:
-        point = _fit(prog, ind, (lo, hi), finite, widen, fits)
+        point = _fit(prog, ind, (lo, hi), finite, widen, (fits, sampling))
         if point is None:
             return []
         out = finite & ((point < lo) | (point > hi))
         if not out.any():
             return []
-        point = _fit(prog, ind, (lo, hi), out, widen, fits)
+        point = _fit(prog, ind, (lo, hi), out, widen, (fits, sampling))
         if point is None:
             return []
     finally:
@@ -72,14 +74,17 @@ def prior_faults(prog: Program, widen: float, fits: FitSettings | None = None
 
 
 def _fit(prog: Program, ind: np.ndarray, box: tuple[np.ndarray, np.ndarray],
-         widen: np.ndarray, factor: float, fits: FitSettings | None) -> np.ndarray | None:
+         widen: np.ndarray, factor: float,
+         settings: tuple[FitSettings, SamplingSettings | None]) -> np.ndarray | None:
     """A point certified on the program with the `widen` domains widened `factor` times,
     else None."""
+    fits, sampling = settings
     lo, hi = box
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     prog.slots.lo[ind] = np.where(widen, mid - factor * half, lo)
     prog.slots.hi[ind] = np.where(widen, mid + factor * half, hi)
-    start = estimate(prog, start=np.where(np.isfinite(mid), mid, 0.0), max_evaluations=200)
+    start = estimate(prog, start=np.where(np.isfinite(mid), mid, 0.0),
+                     max_evaluations=fits.lsq_evaluations, sampling=sampling)
     if not np.all(np.isfinite(start.values)):
         return None
     point, need = chebyshev(prog, normalized=True, start=start.values, fits=fits)

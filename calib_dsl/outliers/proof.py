@@ -73,7 +73,8 @@ def prove_outliers(inputs: Inputs, load: Loader, k: int, model: Model, prog: Pro
     table = model.tables[0]
     least = settings.outliers.min_residual
     try:
-        ranked = [r for r in ranked_rows(model, prog) if r.residual > least]
+        ranked = [r for r in ranked_rows(model, prog, settings.fits, settings.sampling)
+                  if r.residual > least]
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return []
     proven: list[Proof] = []
@@ -119,7 +120,7 @@ def _unproven(inputs: Inputs, load: Loader, model: Model, sets: list[list[int]],
 def _consistent(prog: Program, settings: Settings) -> bool:
     """A point proven to satisfy every row (analysis/chebyshev.py)."""
     try:
-        return proven_consistent(prog, settings.fits)
+        return proven_consistent(prog, settings.fits, settings.sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return False
 

@@ -225,7 +225,7 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     meter = Meter.over(progress, independents(prog), prog.slots.lo, prog.slots.hi, start) \
         if progress is not None else None
     blocks = block_box(prog, k, without, tol, max_sweeps, settings, progress,
-                       suspects(prog, k, settings.outliers))
+                       suspects(prog, k, settings))
     if blocks is None:  # every set inconsistent: no vector fails at most k rows
         empty = OutlierBox(prog.slots.lo, prog.slots.hi, True, 0, time.perf_counter() - start)
         return _none(prog, k, empty, Work(), start, [])
@@ -260,12 +260,13 @@ def solve_outliers(prog: Program, k: int, without: Callable[[list[int]], Program
     return WithOutliers(sol, found.certain, [])
 
 
-def suspects(prog: Program, k: int, o: OutlierSettings = OUTLIERS) -> list[int]:
+def suspects(prog: Program, k: int, settings: Settings) -> list[int]:
     """The data rows (ids) whose least-squares residual exceeds o.suspect_residual bounds, the
-    worst first, at most k + o.extra_suspects (none when the estimate fails: then every group
-    is dealt)."""
+    worst first, at most k + o.extra_suspects (`o`: settings.outliers; none when the estimate
+    fails: then every group is dealt)."""
+    o = settings.outliers
     try:
-        ranked = ranked_ids(prog)
+        ranked = ranked_ids(prog, settings.fits, settings.sampling)
     except (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return []
     return [i for i, r in ranked if r > o.suspect_residual][:k + o.extra_suspects]

@@ -26,12 +26,12 @@ from calib_dsl.analysis.unit_spreads import by_column, near, spreads
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
-from calib_dsl.settings import OutlierSettings
+from calib_dsl.settings import OutlierSettings, SamplingSettings
 from calib_dsl.settings_analysis import FitSettings
 
 
 def unit_hints(model: Model, prog: Program, settings: OutlierSettings,
-               fits: FitSettings) -> list[str]:
+               fits: FitSettings, sampling: SamplingSettings) -> list[str]:
     """A line per column (or bound) whose unit to check; empty when no ratio points at one."""
     s = prog.slots
     ind = independents(prog)
@@ -39,7 +39,7 @@ def unit_hints(model: Model, prog: Program, settings: OutlierSettings,
     middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
     out = (spreads(prog, middle, fits.unit_near) + _readings(model, prog)
            + _turns(model, prog, settings.unit_turns))
-    est = estimate(prog, start=middle, max_evaluations=200)
+    est = estimate(prog, start=middle, max_evaluations=fits.lsq_evaluations, sampling=sampling)
     if not est.converged:
         out.append("least squares did not converge from the middle of the search domains: "
                    "check the units of the table's columns (`in mm`, `in deg`) and of the "

@@ -54,7 +54,7 @@ def advise(prog: Program, settings: Settings | None = None) -> Advice:
     st = settings or Settings()
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
-    point, where = _point(prog, ind)
+    point, where = _point(prog, ind, st)
     with np.errstate(all="ignore"):
         r, jac = residuals(prog, point)
         half = 0.5 * (prog.slots.hi[ind] - prog.slots.lo[ind])
@@ -74,10 +74,11 @@ def advise(prog: Program, settings: Settings | None = None) -> Advice:
                   [names[j] for j in unseen], [names[k] for k in keep], _cond(sub), st.seen)
 
 
-def _point(prog: Program, ind: np.ndarray) -> tuple[np.ndarray, str]:
+def _point(prog: Program, ind: np.ndarray, st: Settings) -> tuple[np.ndarray, str]:
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     middle = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.clip(0.0, lo, hi))
-    est = estimate(prog, start=middle, max_evaluations=200)
+    est = estimate(prog, start=middle, max_evaluations=st.fits.lsq_evaluations,
+                   sampling=st.sampling)
     if est.converged and np.all(np.isfinite(est.values)):
         return est.values, "the least-squares estimate of the data"
     return middle, "the middle of the search domains (least squares did not converge)"

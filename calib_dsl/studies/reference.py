@@ -17,6 +17,7 @@ from calib_dsl.lp.hull import HullFailed, linear_hull
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import inequalities
+from calib_dsl.settings import Settings
 
 
 def linearized_hull(prog: Program,
@@ -47,14 +48,16 @@ def linearized_hull(prog: Program,
             for i, k in enumerate(wanted)}
 
 
-def yardstick(prog: Program) -> dict[str, tuple[float, float]]:
+def yardstick(prog: Program, settings: Settings | None = None
+              ) -> dict[str, tuple[float, float]]:
     """The linearized hull at the least-squares estimate of the data (for real data, whose
     truth is unknown: what the data hold to first order; not rigorous). Sets the program's
-    true values to the estimate."""
+    true values to the estimate (`settings`' fits and sampling: its defaults where None)."""
     from calib_dsl.analysis.lsq import estimate
 
+    st = settings or Settings()
     ind = independents(prog)
-    est = estimate(prog, max_evaluations=200)
+    est = estimate(prog, max_evaluations=st.fits.lsq_evaluations, sampling=st.sampling)
     for k, v in zip(ind, est.values, strict=True):
         prog.true_values[prog.slots.names[k]] = float(v)
     return linearized_hull(prog)
