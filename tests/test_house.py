@@ -10,8 +10,8 @@ import pytest
 
 from tests.test_layering import ALL, PACKAGE, RANKS, stage
 
-# their signatures are the user's options (calib_dsl.plan: the planning API)
-ENTRY_POINTS = {"calib_dsl.cli", "calib_dsl.api", "calib_dsl.plan"}
+# their signatures are the user's options
+ENTRY_POINTS = {"calib_dsl.cli", "calib_dsl.api"}
 MOST_PARAMETERS = 8
 
 

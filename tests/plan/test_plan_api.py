@@ -19,7 +19,7 @@ def test_plan_sweep_and_simulate_at(tmp_path):
     from calib_dsl.studies.simulate import simulate
 
     simulate(ARM, 80, 4, out_csv=cand)
-    p = plan.plan(ARM, cand, 4, defines={"e": 0.01}, seed=3)
+    p = plan.plan(plan.PlanRequest(ARM, cand, defines={"e": 0.01}, seed=3), 4)
     assert len(p.rows) == 4 and p.names == ["l1", "l2"]
     assert np.all(p.predicted < p.domain)
     out = tmp_path / "plan.csv"
@@ -27,14 +27,14 @@ def test_plan_sweep_and_simulate_at(tmp_path):
 
     write_plan(plan.problem_of(ARM, {"e": 0.01}, 3, "matrix", None), p.configs, out)
     assert plan.simulate_at(ARM, out, tmp_path / "m.csv", defines={"e": 0.01}) == 4
-    s = plan.sweep(ARM, cand, [2, 8], targets={"l2": 1.0}, defines={"e": 0.01})
+    s = plan.sweep(plan.PlanRequest(ARM, cand, defines={"e": 0.01}), [2, 8], {"l2": 1.0})
     assert s.enough == 2 and s.widths.shape == (2, 2)
-    drawn = plan.plan(ARM, None, 3, defines={"e": 0.01})
+    drawn = plan.plan(plan.PlanRequest(ARM, None, defines={"e": 0.01}), 3)
     assert drawn.configs.q.shape == (3, 2)
 
 
 def test_mistakes_raise_calerror(tmp_path):
     with pytest.raises(CalError, match="no unknown 'nope'"):
-        plan.sweep(ARM, None, [2, 3], targets={"nope": 1.0}, defines={"e": 0.01})
+        plan.sweep(plan.PlanRequest(ARM, defines={"e": 0.01}), [2, 3], {"nope": 1.0})
     with pytest.raises(CalError, match="not found"):
-        plan.plan(ARM, tmp_path / "none.csv", 3)
+        plan.plan(plan.PlanRequest(ARM, tmp_path / "none.csv"), 3)
