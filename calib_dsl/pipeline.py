@@ -30,6 +30,7 @@ from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Status
+from calib_dsl.outliers.at_fault import against_rows, of_outliers
 from calib_dsl.outliers.conflict import Conflict, find_conflict
 from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
@@ -50,7 +51,7 @@ from calib_dsl.settings import DEFAULT, Settings
 from calib_dsl.strategy.refute import Refuter
 from calib_dsl.strategy.solution import Solution
 from calib_dsl.strategy.tight import STRATEGIES, solve_hc4, solve_tight
-from calib_dsl.strategy.verdict import Effort, Verdict, decide, of_outliers
+from calib_dsl.strategy.verdict import Effort, Verdict, decide
 
 
 def load(model: str | Path, formulation: str = "matrix", data: str | Path | None = None,
@@ -381,7 +382,7 @@ def effort_for(request: SolveRequest, problem: Problem) -> Effort:
             return loader(excluding(given, data_rows(elaborated, prog, ids), first))[1]
 
     return Effort(elaborated, load, request.settings, request.tol, request.max_sweeps,
-                  f"calibc solve {request.model} (with the same options)")
+                  f"calibc solve {request.model} (with the same options)", against_rows)
 
 
 def _told(progress: Progress | None) -> Any:

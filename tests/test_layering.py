@@ -31,6 +31,7 @@ RANKS = {
     "strategy": 8,
     "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
     "outliers.solve": 9, "outliers.proof": 9,  # solves with outliers: tight solves of subsets
+    "outliers.at_fault": 9,  # a verdict's proof against a row at fault: a tight solve
     "accuracy": 9,  # the accuracy statement and predictions: over the strategy, beside a solve
     "report": 10, "plot": 10,
     "sections": 11,  # the report's optional sections, computed (the report only renders)

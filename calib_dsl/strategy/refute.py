@@ -2,11 +2,8 @@
 
 Within a budget of seconds, in this order:
 
-1. *A row at fault.* Each data row that the least-squares fit (`far_rows`) leaves more
-   than `verdict_outlier_bounds` error bounds off, the worst first: the other
-   rows are solved alone, on the same domains. Every solution of all rows is one of theirs,
-   so it lies in their box; where propagation and rounds of LPs over all rows empty that
-   box, there is none (the row fails wherever the others hold).
+1. *A row at fault*, where the caller gives the attempt (`at_fault`: outliers/at_fault.py,
+   a proof against each row least squares leaves far beyond its bound).
 2. *Fine rounds by what they gain.* Rounds of LPs over the result, one of each kind the
    program admits (every product tied by McCormick's inequalities; the readings' errors as
    LP columns with them, where the readings have errors): a kind whose round gains less than
@@ -34,14 +31,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
-from calib_dsl.ir.status import SlotKind, Status
 from calib_dsl.lp.certify import Certificates
-from calib_dsl.outliers.rows import data_rows
+from calib_dsl.outliers.far import Attempts
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
@@ -49,11 +44,9 @@ from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence
 from calib_dsl.strategy.reparametrize import along_combinations
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.solution import Solution
-from calib_dsl.strategy.tight import solve_tight
 
 # The program without these data rows (ids of Slots.row_keys), on the solve's domains
 RowLoader = Callable[[list[int]], Program]
-Attempts = list[tuple[int, float]]  # data row ids and their residuals in bounds
 FAILURES = (CalError, ValueError, ArithmeticError, np.linalg.LinAlgError, MemoryError)
 KIND_NAMES = {"mccormick": "McCormick's inequalities",
               "both": "the readings' errors as LP columns, and McCormick's inequalities"}
@@ -88,6 +81,8 @@ class Refuter:
     box: tuple[np.ndarray, np.ndarray] | None = None  # the result after the fine rounds
     steps: int = 0  # the steps started
     uncut: np.ndarray | None = None  # slots the split leaves whole (members left free)
+    # the first attempt, a proof against a row at fault (needs `model` and `load`)
+    at_fault: Callable[[Refuter], None] | None = None
 
     def run(self, far: Attempts) -> Found:
         self.found.far = far
@@ -139,68 +134,14 @@ class Refuter:
         self.steps -= 1
         return False
 
-    def _say(self, text: str) -> None:
+    def say(self, text: str) -> None:
         if self.progress is not None:
             self.progress(text)
 
     # -- 1. a row at fault -------------------------------------------------------------------
     def _outliers(self) -> None:
-        if self.load is None or self.model is None:
-            return
-        costs: list[float] = []
-        for rid, residual in self.found.far:
-            if not self.affords(float(np.mean(costs)) if costs else self.res.seconds):
-                self.found.tried.append(f"proof against {self._row(rid)}: not "
-                                        "tried (the budget was spent)")
-                continue
-            t = time.perf_counter()
-            self._say(f"verdict: without {self._row(rid)}")
-            proof = self._without(rid, residual)
-            costs.append(time.perf_counter() - t)
-            if proof is not None:
-                self.found.proof = proof
-                self.found.tried.append(f"proof against {self._row(rid)}: proven "
-                                        f"({costs[-1]:.2f} s)")
-                return
-            self.found.tried.append(f"proof against {self._row(rid)} "
-                                    f"({residual:.3g} bounds off by least squares): not "
-                                    f"proven ({costs[-1]:.2f} s)")
-
-    def _without(self, rid: int, residual: float) -> Proof | None:
-        assert self.load is not None
-        other = self.load([rid])
-        sol = solve_tight(other, tol=self.tol, max_sweeps=self.max_sweeps,
-                          settings=self.settings)
-        row = self._row(rid)
-        if sol.status == Status.INFEASIBLE:  # a part of the data is inconsistent: so is the whole
-            assert sol.emptied is not None
-            return Proof(sol.emptied, f"the data without {row} were proven inconsistent "
-                         "(and so are all the data)")
-        lo, hi = self.res.lo.copy(), self.res.hi.copy()
-        names = {other.slots.names[j]: j for j in other.slots.declared
-                 if other.slots.kinds[j] == SlotKind.PARAM}
-        for i in self.prog.slots.declared:
-            j = names.get(self.prog.slots.names[i])
-            if j is not None and self.prog.slots.kinds[i] == SlotKind.PARAM:
-                lo[i], hi[i] = max(lo[i], sol.lo[j]), min(hi[i], sol.hi[j])
-        if np.any(lo > hi):
-            return Proof(Emptied(self.prog.slots.names[int(np.flatnonzero(lo > hi)[0])], None,
-                                 None), self._outlier_text(row, residual))
-        out = self._contract(lo, hi, first_order=True)
-        if out.emptied is None:
-            return None
-        return Proof(out.emptied, self._outlier_text(row, residual))
-
-    @staticmethod
-    def _outlier_text(row: str, residual: float) -> str:
-        return (f"{row} ({residual:.3g} bounds off by least squares) fails wherever the "
-                "other rows hold (their solutions lie in a box where it fails), so no "
-                "parameter vector satisfies every row")
-
-    def _row(self, rid: int) -> str:
-        assert self.model is not None
-        r = data_rows(self.model, self.prog, [rid])[0]
-        return f"{r.file}:{r.line} (data row {r.row})"
+        if self.at_fault is not None and self.load is not None and self.model is not None:
+            self.at_fault(self)
 
     # -- 2. fine rounds by their gain -----------------------------------------------------------
     def _rounds(self) -> None:
@@ -220,7 +161,7 @@ class Refuter:
             if not self.affords(float(np.mean(like)) if like else self.res.seconds):
                 break
             t = time.perf_counter()
-            self._say(f"verdict: fine rounds ({KIND_NAMES[kind]})")
+            self.say(f"verdict: fine rounds ({KIND_NAMES[kind]})")
             out = LPRounds(self.prog, self.settings, Certificates(), self.tol, self.max_sweeps,
                            1, fine_start=True, fine_kind=kind).contract(lo, hi)
             costs.append(time.perf_counter() - t)
@@ -261,8 +202,8 @@ class Refuter:
             queue.pop(0)
             for pa, pb in _halves(a, b, k):
                 t = time.perf_counter()
-                self._say(f"verdict: split piece {len(costs) + 1}")
-                out = self._contract(pa, pb, first_order=False)
+                self.say(f"verdict: split piece {len(costs) + 1}")
+                out = self.contract(pa, pb, first_order=False)
                 costs.append(time.perf_counter() - t)
                 if out.emptied is None:
                     queue.append((out.lo, out.hi))
@@ -289,7 +230,7 @@ class Refuter:
         rel = np.where(np.isfinite(rel), rel, 0.0)
         return int(ind[int(np.argmax(rel))]) if rel.max(initial=0.0) > 0 else None
 
-    def _contract(self, lo: np.ndarray, hi: np.ndarray, first_order: bool) -> Outcome:
+    def contract(self, lo: np.ndarray, hi: np.ndarray, first_order: bool) -> Outcome:
         """Propagation and rounds of LPs over all rows on the box [lo, hi]."""
         s = self.settings
         steps = Sequence((Propagation(self.prog, self.tol, self.max_sweeps),
@@ -297,24 +238,6 @@ class Refuter:
                                    s.split_rounds, second_order=not first_order)),
                          max_sweeps=self.max_sweeps)
         return steps.contract(lo, hi)
-
-
-def far_rows(prog: Program, values: np.ndarray, s: Settings) -> Attempts:
-    """The data rows that the parameter vector `values` (a least-squares fit) leaves more
-    than verdict_outlier_bounds off, worst first (at most verdict_outlier_rows)."""
-    try:
-        with np.errstate(all="ignore"):
-            lin = linearized(prog, values)
-            r = np.abs(lin.d) / np.maximum(lin.half, 1e-300)
-    except FAILURES:
-        return []
-    worst: dict[int, float] = {}
-    for row, x in zip(lin.data_row.tolist(), r.tolist(), strict=True):
-        if row >= 0 and np.isfinite(x):
-            worst[row] = max(worst.get(row, 0.0), x)
-    far = sorted(((k, v) for k, v in worst.items() if v > s.verdict_outlier_bounds),
-                 key=lambda kv: -kv[1])
-    return far[:s.verdict_outlier_rows]
 
 
 def _halves(a: np.ndarray, b: np.ndarray, k: int

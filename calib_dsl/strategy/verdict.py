@@ -5,7 +5,8 @@ inner bounds' points, else the Chebyshev fit). *inconsistent*: a proof that no v
 (the solve's, or one found here). *undecided*: neither. A solve whose point was not certified
 spends a bounded effort (`verdict_share` of its own time) on a proof of inconsistency before
 it says so (strategy/refute.py): a proof against each row least squares leaves
-far beyond their bound, the fine rounds of LPs by what each kind gains, and a split. Nothing
+far beyond their bound (outliers/at_fault.py, where the `Effort` gives it), the fine rounds
+of LPs by what each kind gains, and a split. Nothing
 here narrows a result it keeps: a proof ends the solve as inconsistent, else the result is
 the solve's.
 """
@@ -20,7 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from calib_dsl.analysis.certify_point import check_point
-from calib_dsl.analysis.chebyshev import chebyshev, with_readings
+from calib_dsl.analysis.chebyshev import chebyshev, least_squares_start, with_readings
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.lsq import estimate
 from calib_dsl.analysis.readings import Readings
@@ -28,9 +29,10 @@ from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Consistency, Status
+from calib_dsl.outliers.far import Attempts, far_rows
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
-from calib_dsl.strategy.refute import FAILURES, Attempts, Refuter, RowLoader, far_rows
+from calib_dsl.strategy.refute import FAILURES, Refuter, RowLoader
 from calib_dsl.strategy.solution import Solution
 
 CONSISTENT, INCONSISTENT, UNDECIDED = Consistency
@@ -103,6 +105,8 @@ def certified_point(prog: Program, res: Solution | None, start: np.ndarray | Non
                     prog, np.clip(0.5 * (lo + hi), lo, hi), Readings(prog).middles()):
                 return True, None
             if len(prog.primitives):
+                if start is None:
+                    start = least_squares_start(prog, fits, settings.sampling)
                 point, fit = chebyshev(prog, normalized=True, start=start, fits=fits)
                 need = float(fit) if np.isfinite(fit) else None
                 if fit <= 1.0 and check_point(prog, point).holds:
@@ -132,6 +136,8 @@ class Effort:
     tol: float = 1e-5
     max_sweeps: int = 1000
     command: str = "calibc solve MODEL"  # how the user ran the solve, for the next command
+    # the first attempt at a proof, against a row at fault (outliers/at_fault.py)
+    at_fault: Callable[[Refuter], None] | None = None
 
 
 def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort | None,
@@ -160,7 +166,7 @@ def decide(prog: Program, res: Solution, certified: bool | None, effort: Effort 
                                effort, far)
     budget = effort.settings.verdict_share * res.seconds
     refuter = Refuter(prog, res, effort.model, effort.load, effort.settings, effort.tol,
-                      effort.max_sweeps, budget, start, progress)
+                      effort.max_sweeps, budget, start, progress, at_fault=effort.at_fault)
     far = far_rows(prog, fit, effort.settings) if fit is not None and effort.model else []
     found = refuter.run(far)
     seconds = time.perf_counter() - start
@@ -185,25 +191,6 @@ def _undecided(prog: Program, res: Solution, largest: float | None, tried: tuple
               "but may be empty")
     return Verdict(UNDECIDED, reason, seconds, budget, tried, largest,
                    next_step(prog, effort, far, largest))
-
-
-def of_outliers(res: Solution, kept: Program | None, k: int) -> Verdict:
-    """The verdict of `solve --outliers K` on S_K (the vectors that satisfy all rows but at
-    most K): inconsistent when the solve proved it empty, consistent when a point is proven
-    to satisfy the rows `kept` (all but at most K: those left once the certain outliers are
-    out), else undecided."""
-    rows = f"all data rows but at most {k}"
-    if res.status == Status.INFEASIBLE:
-        return Verdict(INCONSISTENT, f"no parameter vector satisfies {rows}")
-    start = time.perf_counter()
-    proven, largest = certified_point(kept, None) if kept is not None else (False, None)
-    seconds = time.perf_counter() - start
-    if proven:
-        return Verdict(CONSISTENT, f"a parameter vector is proven to satisfy {rows} (every "
-                       "row but the certain outliers)", seconds, largest=largest)
-    return Verdict(UNDECIDED, f"no parameter vector was proven to satisfy {rows}, nor was "
-                   "that proven impossible", seconds, largest=largest,
-                   next_step=f"calibc solve MODEL (with the same options) --outliers {k + 1}")
 
 
 def next_step(prog: Program, effort: Effort | None, far: Attempts,
