@@ -1,6 +1,7 @@
 """Compare every shipped model's `calibc solve --json` result with a base revision's.
 
     python scripts/compare_results.py BASE_REV [--only NAME ...] [--code DIR] [--list]
+                                      [--added-ok]
 
 A refactoring must leave results bit for bit: each case below is solved by the code of
 BASE_REV (extracted with `git archive` into a temporary folder) and by the working tree, on
@@ -11,8 +12,12 @@ working tree (or the package under --code DIR, e.g. a `git archive` of a commit,
 tree changes). Cases whose data are absent (the public UR10 set, CALIBC_UR10 or
 /work/shared/data/ur10 by default) are skipped with a note. Shaving runs a fixed number of
 ends (`--shave N`): by default how many ends it shaves depends on the machine's speed, which
-no comparison can hold fixed. Exit 0: all equal; 1: some differ (the paths that differ are
-printed)."""
+no comparison can hold fixed. With `--added-ok`, a field the working tree writes and the base
+did not is printed as added but is no difference (a feature added beside a refactoring).
+BASE_REV `auto` is what CI compares against (.ci/run): the merge base with origin/main where
+it is not HEAD itself, else HEAD's parent; with neither (a shallow clone without history) the
+comparison is skipped with the reason. Exit 0: all equal; 1: some differ (the paths that
+differ are printed)."""
 
 from __future__ import annotations
 
@@ -62,6 +67,8 @@ CASES: dict[str, list[str]] = {
                           "--rows", "1..1495:15"],
     "ur10_tracker6d_real": ["models/ur10_tracker6d.cal", "--data", REAL,
                             "--rows", "1..1495:30"],
+    "ur5_simulated": ["models/ur5_simulated.cal"],
+    "ur5_tracker": ["models/ur5_tracker.cal", "--residuals"],
 }
 
 
@@ -110,29 +117,64 @@ def extract(rev: str, into: Path) -> str:
     return sha
 
 
-def differences(a: object, b: object, path: str = "") -> list[str]:
+def differences(a: object, b: object, path: str = "",
+                added: list[str] | None = None) -> list[str]:
+    """Where the base's `a` and the tree's `b` differ; with `added` (a list), the fields only
+    `b` has go there instead (added since the base)."""
     if isinstance(a, dict) and isinstance(b, dict):
-        out = [f"{path}.{k}: only in one" for k in sorted(set(a) ^ set(b))]
+        new = set(b) - set(a) if added is not None else set()
+        out = [f"{path}.{k}: only in one" for k in sorted((set(a) ^ set(b)) - new)]
+        if added is not None:
+            added += [f"{path}.{k}" for k in sorted(new)]
         for k in sorted(set(a) & set(b)):
-            out += differences(a[k], b[k], f"{path}.{k}")
+            out += differences(a[k], b[k], f"{path}.{k}", added)
         return out
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
         pairs = enumerate(zip(a, b, strict=True))
-        return [d for i, (x, y) in pairs for d in differences(x, y, f"{path}[{i}]")]
+        return [d for i, (x, y) in pairs for d in differences(x, y, f"{path}[{i}]", added)]
     return [] if a == b else [f"{path}: {json.dumps(a)[:80]} != {json.dumps(b)[:80]}"]
+
+
+def git(*args: str) -> str | None:
+    run = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True)
+    return run.stdout.strip() if run.returncode == 0 else None
+
+
+def auto_base() -> tuple[str | None, str]:
+    """CI's base: the merge base with origin/main where it is not HEAD, else HEAD's parent;
+    (None, why) where the checkout has neither."""
+    head = git("rev-parse", "HEAD")
+    if head is None:
+        return None, "not a git checkout"
+    merge = git("merge-base", "HEAD", "origin/main") if git(
+        "rev-parse", "--verify", "-q", "origin/main") else None
+    if merge and merge != head:
+        return merge, f"the merge base with origin/main ({merge[:12]})"
+    parent = git("rev-parse", "--verify", "-q", "HEAD~1")
+    if parent:
+        return parent, f"HEAD's parent ({parent[:12]})"
+    return None, "the checkout has no history (a shallow clone?): no base revision"
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("base", help="the revision to compare against (e.g. main)")
+    ap.add_argument("base", help="the revision to compare against (e.g. main; auto: CI's)")
     ap.add_argument("--only", nargs="*", help="these cases only")
     ap.add_argument("--list", action="store_true", help="list the cases and exit")
     ap.add_argument("--code", type=Path, default=ROOT,
                     help="the folder holding the calib_dsl to compare (default: this tree)")
+    ap.add_argument("--added-ok", action="store_true",
+                    help="fields only the tree writes are printed as added, not differences")
     opts = ap.parse_args()
     if opts.list:
         print("\n".join(f"{n}: {' '.join(a)}" for n, a in CASES.items()))
         return 0
+    if opts.base == "auto":
+        opts.base, why = auto_base()
+        print(f"compare_results: base {why}" if opts.base else f"compare_results: skipped "
+              f"({why})")
+        if opts.base is None:
+            return 0
     names = opts.only or list(CASES)
     faulty()
     failed = 0
@@ -149,11 +191,14 @@ def main() -> int:
                 saved.write_text(json.dumps(solve(Path(tmp), CASES[name]), indent=1))
             base = json.loads(saved.read_text())
             mine = solve(opts.code.resolve(), CASES[name])
-            diff = differences(base, mine)
+            added: list[str] | None = [] if opts.added_ok else None
+            diff = differences(base, mine, "", added)
             failed += bool(diff)
             print(f"{name}: {'DIFFERS' if diff else 'same'} (exit {mine['exit']})")
             for line in diff[:12]:
                 print("   ", line)
+            for line in (added or [])[:12]:
+                print("    added:", line)
     return 1 if failed else 0
 
 
