@@ -47,7 +47,7 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
     them another program's); `fits` and `sampling`: the settings of the fit that centres
     them."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
-    # them (about 0.5 s at 1000 configurations), so it pauses while they are built.
+    # them (docs/decisions/11), so it pauses while they are built.
     gc.disable()
     try:
         elaborated = elaborate(model, formulation=formulation, data=data, inputs=inputs)

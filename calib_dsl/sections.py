@@ -60,7 +60,7 @@ def inner(extra: Extras, prog: Program, res: Solution, asked: bool = False,
           settings: Settings | None = None) -> None:
     """Certified inner bounds, at every size; unless `asked`, not after the hc4 strategy
     (a quick look, whose loose enclosure takes the candidate points many corrections
-    each: the inner bounds cost 10-15x its solve)."""
+    each: the inner bounds would cost many times its solve, docs/decisions/14)."""
     settings = settings or Settings()
     if not asked and res.strategy == "hc4":
         extra.skipped.append("inner bounds: not computed by default after --strategy hc4 "

@@ -340,12 +340,11 @@ class Settings:
     # A swap of the LP exchange must lower the score by this much: less is within the LPs'
     # tolerance, and the exchange would chase it.
     plan_improvement: float = 1e-6
-    # The LP exchange's budget, in hulls (a hull: two LPs per unknown; about 0.1 s for 23
-    # unknowns and 30 configurations on a loaded host): a count, so a plan is reproducible.
+    # The LP exchange's budget, in hulls (a hull: two LPs per unknown): a count, not seconds,
+    # so a plan is reproducible.
     plan_lp_hulls: int = 40
-    # Noise draws a predicted width is the median of: one draw's median width/domain
-    # spreads about +-15 % (10th-90th percentile, UR10, 60 configurations), and with 5
-    # draws the median was 16 % off at one count; 15 bring it within a few percent.
+    # Noise draws a predicted width is the median of: one draw's width spreads widely, and
+    # few draws leave the median off by as much (docs/decisions/32 has the figures).
     plan_draws: int = 15
     plan_candidates: int = 3000  # configurations drawn when no candidate file is given
 

@@ -110,8 +110,8 @@ def chain_matrix(dag: Dag, frames: list[AnyFrame]) -> Mat34:
 
 
 # The elaborator asks for each tool point of a configuration in turn: hash-consing would
-# share the matrix anyway, but rebuilding it costs 3x the dag.op calls. Nodes never change,
-# so the DAG keeps the last few matrices, by the nodes of their frames.
+# share the matrix anyway, but rebuilding it repeats every dag.op call (docs/decisions/09).
+# Nodes never change, so the DAG keeps the last few matrices, by the nodes of their frames.
 _CACHE_SIZE = 8
 
 

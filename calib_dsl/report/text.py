@@ -69,7 +69,7 @@ def _legend(extra: Extras, centres: bool = False) -> str:
 
 def _kept(rows: list[dict[str, Any]], extra: Extras) -> list[str]:
     """The unknowns whose result is their whole search domain and that the data could
-    identify alone: known beforehand as well as the data know them (Test A's 19)."""
+    identify alone: known beforehand as well as the data know them."""
     unident = extra.not_identifiable()
     return [r["name"] for r in rows
             if r["kind"] in UNKNOWNS and r["result"] is not None
