@@ -56,8 +56,8 @@ class LinearModel:
         self.readings = Readings(prog)
         # the readings as LP columns, at every size (each may take its own value within its
         # interval): at their middles the ends of a thin solution set, where many rows meet,
-        # fall short (docs/decisions/14). A tall LP holds only the rows its row generation added, so a reading of a row left
-        # out is an empty column
+        # fall short (docs/decisions/14). A tall LP holds only the rows its row generation
+        # added, so a reading of a row left out is an empty column
         rows, cols, vals = self.readings.entries(lin)
         self.width = len(self.readings.mid)
         A = Rows.join(dense, rows, cols, vals / unit[rows], self.width)
