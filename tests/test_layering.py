@@ -27,7 +27,7 @@ RANKS = {
     "analysis": 6,  # what the solver relies on: least squares, fits, point proofs, rank
     "inner": 7,  # certified inner bounds: their LPs and warm starts
     "outliers": 7,  # the rows at fault: ranked, named, dropped from relaxations
-    "studies": 7,  # what a user asks beside a solve: predictions, simulation, advice, frames
+    "studies": 7,  # what a user asks beside a solve: simulation, advice, frames, a yardstick
     "strategy": 8,
     "inner.shave": 9,  # contracts a solution's ends towards its inner bounds
     "outliers.solve": 9, "outliers.proof": 9,  # solves with outliers: tight solves of subsets
