@@ -6,6 +6,7 @@ join; and a UR10 campaign of thousands of rows gets the second-order rounds."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -73,6 +74,7 @@ def test_the_working_set_starts_spread_over_the_rows(tmp_path):
     assert start[0] == 0 and start[-1] == 24 and np.all(np.diff(start) > 0)
 
 
+@pytest.mark.slow
 def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off(tmp_path, monkeypatch):
     """A pass that resumes the fine rounds after a check solves no LP again for an end whose
     optimum no row found cuts off (working._settled): on a UR10 campaign whose third pass
