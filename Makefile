@@ -13,23 +13,25 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/pip install -q -e ".[dev]"
 	touch $@
 
-# test: the tests not marked slow, on every core (pytest-xdist, `-n auto` in pyproject.toml),
-# the same pseudo-random property cases on every run (reproducible, as CI runs it): the loop
-# to run while editing, within a few minutes on two cores (test-fast: the same); test-slow:
-# those marked slow (whole-CLI runs, real data, heavy property tests); test-all: both;
-# test-random: fresh cases each run, to look for failures the fixed ones miss. bench-checks:
-# the checks too heavy for the suite (the public UR10 file at scale, campaigns of thousands
-# of rows), which assert and fail loudly.
+# test: every test in tests/ on every core (pytest-xdist, `-n auto` in pyproject.toml), the
+# same pseudo-random property cases on every run (reproducible, as CI runs it), within four
+# minutes on two cores; test-fast: those not marked slow (the slow marker: a whole-CLI run,
+# real data or a browser), the loop to run while editing, within a minute; test-slow: only
+# the slow ones; test-all: another name for test; test-random: fresh cases each run, to look
+# for failures the fixed ones miss. bench-checks: the checks too heavy for the suite (the
+# public UR10 file at scale, campaigns of thousands of rows, whole solves of Test A and B,
+# the suite's soundness properties at their full example counts), which assert and fail
+# loudly.
 test: install
-	$(BIN)/pytest -m "not slow"
+	$(BIN)/pytest
 
-test-fast: test
+test-fast: install
+	$(BIN)/pytest -m "not slow"
 
 test-slow: install
 	$(BIN)/pytest -m slow
 
-test-all: install
-	$(BIN)/pytest
+test-all: test
 
 test-random: install
 	HYPOTHESIS_PROFILE=random $(BIN)/pytest

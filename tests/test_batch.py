@@ -218,6 +218,7 @@ def test_batch_then_resume(tmp_path, monkeypatch):
     assert set(read_lines(out)) == set(STATUS)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_data_glob_batch(tmp_path):
     write_project(tmp_path)

@@ -62,6 +62,7 @@ def test_a_held_lock_fails_at_once(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 @needs_dask
 def test_two_concurrent_runs_run_each_job_once(tmp_path, calibc):
     jobs, out = project(tmp_path), tmp_path / "out.jsonl"

@@ -119,6 +119,7 @@ def _circle_near_1e154(tmp: Path) -> tuple[Path, Path]:
     return tmp / "h.cal", tmp / "h.csv"
 
 
+@pytest.mark.slow
 def test_coordinates_near_1e154(calibc, tmp_path):
     model, data = _circle_near_1e154(tmp_path)
     ident = shell(calibc, "identify", model, "--data", data)

@@ -90,6 +90,7 @@ def outputs_of_every_subcommand(tmp: Path) -> dict[str, str]:
     return out
 
 
+@pytest.mark.slow
 def test_every_subcommands_json_is_strict(tmp_path):
     for label, text in outputs_of_every_subcommand(tmp_path).items():
         try:

@@ -141,16 +141,6 @@ MODELS = Path(__file__).resolve().parents[2] / "models"
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model", ["ur10_tracker.cal", "ur10_simulated.cal"])
-def test_the_shipped_models_brackets_are_within_2_percent(model):
-    """On their shipped (simulated) table (ur10_all.cal, whose ten parameters the data
-    cannot separate need the proof effort in the solve's unknowns, is in
-    tests/strategy/test_verdict_redundant.py)."""
-    found = min_error(MODELS / model, "e")
-    assert found.lo is not None and found.hi / found.lo <= 1.02, (found.lo, found.hi)
-
-
-@pytest.mark.slow
 def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     """ur10_all.cal (33 parameters, some of which end on their domains' bounds): the upper
     end is the fit with the joint readings free, proven where its linear model said (it was

@@ -55,6 +55,7 @@ def test_lsq_domains_are_centred_on_the_data_and_hold_the_truth(tmp_path_factory
         assert sol.lo[i] <= truth <= sol.hi[i]
 
 
+@pytest.mark.slow
 def test_the_report_states_the_prior(tmp_path, calibc):
     path = write_circle(tmp_path, 3.0, -2.0, 5.0, np.random.default_rng(1))
     out = subprocess.run([*calibc, "solve", str(path), "--json", "-"], capture_output=True,

@@ -145,9 +145,9 @@ def solution_case(rng: np.random.Generator, op: str):
     return zbox, boxes, pts, z, n
 
 
-@pytest.mark.slow
+# 6 examples here; bench/checks/test_soundness_full.py runs 60
 @pytest.mark.parametrize("op", ALL_OPS)
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_sound(op: str, seed: int) -> None:
     """forward contains f(point); backward keeps every coordinate of the point (vectorized:
@@ -463,8 +463,8 @@ def _grid_projection(z, y, x, n: int = 401):
     return (ay.min(), ay.max()), (ax.min(), ax.max())
 
 
-@pytest.mark.slow
-@settings(max_examples=200, deadline=None)
+# 20 examples here; bench/checks/test_soundness_full.py runs 200
+@settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_atan2_near_optimal(seed: int) -> None:
     """atan2's projections hold every grid solution and exceed the grid hull by at most

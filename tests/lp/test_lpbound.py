@@ -194,8 +194,8 @@ def test_certified_max_is_an_upper_bound_with_any_dual_known_optimum(seed, n, m,
             1 + float(np.abs(c) @ np.maximum(np.abs(lo), np.abs(hi))))
 
 
-@pytest.mark.slow
-@SETTINGS
+# 15 examples here; bench/checks/test_soundness_full.py runs 150
+@settings(SETTINGS, max_examples=15)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(0, 7),
        unbounded=st.booleans(), nuisance=st.integers(0, 2), solver=SOLVERS)
 def test_lp_bounds_bracket_known_optimum_and_feasible_points(seed, n, m, unbounded, nuisance,
@@ -268,8 +268,8 @@ def linprog_max(A, b, lo, hi, c):
     return -res.fun, res.x, y
 
 
-@pytest.mark.slow
-@settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 25 examples here; bench/checks/test_soundness_full.py runs 250
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8),
        infinite=st.booleans())
 def test_certified_max_random_float_lps(seed, n, m, infinite):
@@ -304,8 +304,8 @@ def test_certified_max_random_float_lps(seed, n, m, infinite):
         assert tight <= sol[0] + 1e-5 * scale
 
 
-@pytest.mark.slow
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 15 examples here; bench/checks/test_soundness_full.py runs 150
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 7),
        infinite=st.booleans(), solver=SOLVERS)
 def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite, solver):
@@ -324,8 +324,8 @@ def test_lp_bounds_bracket_random_feasible_points(seed, n, m, infinite, solver):
             assert lower[i] == -box_max_up(-c, -c, lo, hi)
 
 
-@pytest.mark.slow
-@settings(max_examples=120, deadline=None,
+# 12 examples here; bench/checks/test_soundness_full.py runs 120
+@settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(8, 14), m=st.integers(1, 10))
 def test_probe_points_change_no_bound(seed, n, m, monkeypatch):
@@ -556,8 +556,8 @@ def sides_around(ax: np.ndarray, upper: np.ndarray, lower: np.ndarray, gap: np.n
     return b, b_lo
 
 
-@pytest.mark.slow
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 20 examples here; bench/checks/test_soundness_full.py runs 200
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 8),
        solver=SOLVERS)
 def test_two_sided_rows_certify_with_signed_multipliers(seed, n, m, solver):
@@ -616,8 +616,8 @@ def nearby_lp(rng: np.random.Generator, rel: LinearRelaxation, x0: np.ndarray,
     return out, x1
 
 
-@pytest.mark.slow
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 20 examples here; bench/checks/test_soundness_full.py runs 200
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(1, 8),
        solver=SOLVERS)
 def test_reused_multipliers_bound_every_feasible_point_of_another_box(seed, n, m, solver):
@@ -764,8 +764,8 @@ def test_a_scipy_matrix_is_accepted_where_rows_are():
 
 # -- row generation: a tall LP solved from a subset of its rows ---------------------------
 
-@pytest.mark.slow
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 6 examples here; bench/checks/test_soundness_full.py runs 60
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 120),
        two_sided=st.booleans(), solver=SOLVERS, primal=st.booleans())
 def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver, primal):
@@ -797,8 +797,8 @@ def test_row_generation_gives_the_full_lps_bounds(seed, n, m, two_sided, solver,
             assert le_exact(obj, p, gen[1][i]) and ge_exact(obj, p, gen[0][i])
 
 
-@pytest.mark.slow
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 6 examples here; bench/checks/test_soundness_full.py runs 60
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), m=st.integers(10, 80),
        primal=st.booleans())
 def test_row_generation_from_the_last_rounds_binding_rows(seed, n, m, primal):

@@ -19,7 +19,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -294,8 +293,10 @@ CASES = dict(trees=st.lists(expressions(rotations=True), min_size=1, max_size=4)
              tol=st.sampled_from([0.0, 1e-5, 1e-2]))
 
 
-@pytest.mark.slow
-@settings(max_examples=1200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# The suite runs each property on a share of its examples (quick enough for `make test-fast`);
+# bench/checks/test_soundness_full.py runs each at its full count (the counts there).
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(**CASES)
 def test_propagation_keeps_the_point(trees, point, widths, relations, tol):
     made = make_model(trees, point, widths, relations)
@@ -306,8 +307,7 @@ def test_propagation_keeps_the_point(trees, point, widths, relations, tol):
     check_sound(prog, res, at, f"hc4 {trees}")
 
 
-@pytest.mark.slow
-@settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(**CASES)
 def test_tight_strategy_keeps_the_point(trees, point, widths, relations, tol):
     made = make_model(trees, point, widths, relations)
@@ -318,13 +318,15 @@ def test_tight_strategy_keeps_the_point(trees, point, widths, relations, tol):
     check_sound(prog, res, at, f"tight {trees}")
 
 
-@pytest.mark.slow
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(trees=st.lists(expressions(rotations=True), min_size=1, max_size=3),
-       point=st.tuples(*[POINTS] * NVARS),
-       widths=st.tuples(*[st.tuples(WIDTHS, WIDTHS)] * NVARS),
-       relations=st.lists(RELATIONS, min_size=3, max_size=3),
-       box=st.data())
+BOXES = dict(trees=st.lists(expressions(rotations=True), min_size=1, max_size=3),
+             point=st.tuples(*[POINTS] * NVARS),
+             widths=st.tuples(*[st.tuples(WIDTHS, WIDTHS)] * NVARS),
+             relations=st.lists(RELATIONS, min_size=3, max_size=3),
+             box=st.data())
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(**BOXES)
 def test_propagation_from_a_smaller_box(trees, point, widths, relations, box):
     """propagate(lo=, hi=): a box inside the declared domains that still holds the point."""
     made = make_model(trees, point, widths, relations)
@@ -394,13 +396,16 @@ def bound(x: float) -> str:
     return "-oo" if x == -math.inf else "+oo" if x == math.inf else repr(x)
 
 
-@pytest.mark.slow
-@settings(max_examples=300, deadline=None,
+LANGUAGE = dict(trees=st.lists(expressions(rotations=False).filter(has_var), min_size=1,
+                               max_size=3),
+                point=st.tuples(*[POINTS] * NVARS),
+                widths=st.tuples(*[st.tuples(WIDTHS, WIDTHS)] * NVARS),
+                relations=st.lists(RELATIONS, min_size=3, max_size=3))
+
+
+@settings(max_examples=30, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(trees=st.lists(expressions(rotations=False).filter(has_var), min_size=1, max_size=3),
-       point=st.tuples(*[POINTS] * NVARS),
-       widths=st.tuples(*[st.tuples(WIDTHS, WIDTHS)] * NVARS),
-       relations=st.lists(RELATIONS, min_size=3, max_size=3))
+@given(**LANGUAGE)
 def test_language_models_keep_the_point(trees, point, widths, relations):
     lines = [f"var x{i} in [{bound(p - wl)}, {bound(p + wh)}];"
              for i, (p, (wl, wh)) in enumerate(zip(point, widths, strict=True))]

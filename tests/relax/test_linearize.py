@@ -396,8 +396,8 @@ def random_box(rng: np.random.Generator, prog: Program, p_true: np.ndarray,
     return lo, hi
 
 
-@pytest.mark.slow
-@settings(max_examples=70, deadline=None,
+# 7 examples here; bench/checks/test_soundness_full.py runs 70
+@settings(max_examples=7, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(0, 3),
        n_col=st.integers(1, 3), n_con=st.integers(1, 5), depth=st.integers(1, 4),
@@ -416,8 +416,8 @@ def test_relaxation_holds_at_solutions_of_random_expression_models(seed, n_p, n_
     check_lp_bounds(prog, lo, hi, p_true, modes=(seed % 2 == 0,))
 
 
-@pytest.mark.slow
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 3 examples here; bench/checks/test_soundness_full.py runs 25
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(2, 5), n_cfg=st.integers(1, 4),
        n_con=st.integers(2, 8), models=st.integers(1, 6))
 def test_relaxation_holds_on_linear_and_polynomial_models(seed, n_p, n_cfg, n_con, models):
@@ -578,8 +578,8 @@ def check_boxes(rng: np.random.Generator, sim: Simulated, trials: int, propagate
             check_relaxation(prog, res.lo, res.hi, p_true, cell_true, f"propagated {trial}")
 
 
-@pytest.mark.slow
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 3 examples here; bench/checks/test_soundness_full.py runs 25
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(1, 6),
        spatial=st.booleans(), formulation=st.sampled_from(["matrix", "rotation"]),
        tol_q=st.sampled_from([1e-6, 1e-4, 0.01]), tol_x=st.sampled_from([1e-5, 1e-3]))
@@ -786,8 +786,8 @@ _ENDS = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, -3.0, 1e-300, -1e-300, 5e-32
                          -1e300, math.inf, -math.inf, 0.1, -0.7])
 
 
-@pytest.mark.slow
-@settings(max_examples=1000, deadline=None)
+# 100 examples here; bench/checks/test_soundness_full.py runs 1000
+@settings(max_examples=100, deadline=None)
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        args=st.integers(1, 3), mixed=st.booleans())
 def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, args, mixed):
@@ -846,8 +846,8 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
             assert np.all(lo[zero] == 0) and np.all(hi[zero] == 0)
 
 
-@pytest.mark.slow
-@settings(max_examples=1000, deadline=None)
+# 100 examples here; bench/checks/test_soundness_full.py runs 1000
+@settings(max_examples=100, deadline=None)
 @given(data=st.data(), rows=st.integers(1, 4), cols=st.integers(1, 3),
        signs=st.lists(st.sampled_from([1.0, -1.0]), min_size=1, max_size=3))
 def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):

@@ -162,25 +162,6 @@ def test_the_truth_within_its_bounds_is_never_called_inconsistent(tmp_path, robo
         assert run.res.lo[k] <= float(f"{value:.6f}") <= run.res.hi[k]
 
 
-@pytest.mark.slow
-def test_the_issues_repro_a_moved_coordinate_of_test_a(tmp_path):
-    """Test A (50 rows) with one coordinate of one row moved by 6 mm: proven inconsistent,
-    that row named."""
-    rows = list(csv.reader((ROOT / "models" / "data" / "rx90_50.csv").open(encoding="utf-8")))
-    rows[11][7] = repr(float(rows[11][7]) + 0.006)  # data row 11's a1y
-    data = tmp_path / "moved.csv"
-    with data.open("w", newline="", encoding="utf-8") as f:
-        csv.writer(f).writerows(rows)
-    code, out, text, err = verdict_of(ROOT / "models" / "rx90_lengths.cal", "--data", str(data),
-                                      out=tmp_path / "r.json")
-    assert_said(code, out, text, err)
-    assert out["verdict"] == "inconsistent" and out["status"] == "infeasible"
-    # the solve's own LPs prove it (their relaxation is empty), and the conflict names the row
-    # (before the relaxation's emptiness was certified, the effort's proof against it did)
-    assert [r["row"] for r in out["conflict"]["rows"]] == [11]
-    assert out["conflict"]["rest_consistent"] and "(data row 11" in text
-
-
 def test_an_undecided_solve_says_so(tmp_path):
     """With no effort allowed and no point certifiable (an equation between unknowns), the
     verdict is undecided: first in the report, on standard error, in the JSON, exit 4."""
@@ -195,9 +176,9 @@ def test_an_undecided_solve_says_so(tmp_path):
 
 def test_exact_test_a_below_its_smallest_bound_ends_in_the_solve(tmp_path):
     """Test A with its joints exact (`: +- 0`), every coordinate within +- e, at e = 9.4e-5
-    (3 % below its smallest consistent e, 9.707e-5, the slow test below brackets it): the
-    tight solve's own LPs prove it empty (their relaxation is infeasible, and HiGHS's ray
-    proves it). It used to end "contracted" there, and the verdict undecided."""
+    (3 % below its smallest consistent e, 9.707e-5, as bench/checks/test_verdict_test_a.py
+    brackets it): the tight solve's own LPs prove it empty (their relaxation is infeasible,
+    and HiGHS's ray proves it). It used to end "contracted" there, and the verdict undecided."""
     from calib_dsl.pipeline import load, solve
 
     every = "a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z"
@@ -222,20 +203,6 @@ def exact_test_a(tmp: Path, columns: str, e: float) -> Path:
     model = tmp / "exact.cal"
     model.write_text(text, encoding="utf-8")
     return model
-
-
-@pytest.mark.slow
-def test_exact_test_a_below_its_smallest_bound_is_proven_inconsistent(tmp_path):
-    """The issue's RX90 case: Test A with exact joints and every coordinate within +- e, at 3 %
-    below its smallest consistent e (the bracket's upper end). It ended undecided: the LPs
-    found their relaxation empty, which was not certified (lp/bounds.py `_farkas` now is)."""
-    model = exact_test_a(tmp_path, "a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z", 1e-4)
-    found = min_error(model, "e")
-    assert found.lo is not None and found.hi / found.lo <= 1.02, (found.lo, found.hi)
-    code, out, text, err = verdict_of(model, "-D", f"e={0.97 * found.hi!r}",
-                                      out=tmp_path / "r.json")
-    assert_said(code, out, text, err)
-    assert out["verdict"] == "inconsistent"
 
 
 UR10_DATA = [p / "shared" / "data" / "ur10" / "measurements_joint_configurations.csv"

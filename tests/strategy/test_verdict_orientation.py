@@ -133,13 +133,6 @@ def test_a_simulated_six_dof_campaign_is_certified_consistent(tmp_path):
 
 
 @pytest.mark.slow
-def test_simulated_six_dof_campaigns_are_certified_consistent(tmp_path):
-    draw = random.Random(4405)
-    verdicts = [certified_with_truth(tmp_path / f"c{i}", draw, 24) for i in range(6)]
-    assert verdicts == ["consistent"] * len(verdicts)
-
-
-@pytest.mark.slow
 def test_one_six_dof_draw_of_each_fault(tmp_path):
     draw = random.Random(4406)
     assert moved_verdict(tmp_path / "moved", draw) == "inconsistent"

@@ -75,37 +75,6 @@ def test_the_working_set_starts_spread_over_the_rows(tmp_path):
 
 
 @pytest.mark.slow
-@settings(max_examples=4, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(rows=st.sampled_from([20, 30, 40]), amplitude=st.floats(0.3, 1.0),
-       shape=st.sampled_from(["random", "grid", "repeated"]), seed=st.integers(0, 500))
-def test_ur10_campaigns_of_several_sizes_hold_the_truth(tmp_path_factory, rows, amplitude,
-                                                        shape, seed):
-    """The UR10 tracker model on simulated campaigns with a systematic error, a working set
-    of 10 rows at the start (so the check and the rows it adds carry the result): the truth
-    lies inside at a bound of the error's size. (Two to four times the working set: what
-    holds does not depend on the campaign's size; bench/checks runs 2100 rows.)"""
-    from calib_dsl.elaborate.elaborator import Inputs
-    from calib_dsl.pipeline import load
-    from calib_dsl.studies.campaign import Campaign
-    from calib_dsl.studies.simulate import simulate
-    from tests.test_ur10 import TRACKER, _noisy_simulation_model, truth
-
-    tmp = tmp_path_factory.mktemp("ur10")
-    table = tmp / "sim.csv"
-    simulate(_noisy_simulation_model(tmp, 0.05), rows, seed, out_csv=table,
-             campaign=Campaign(shape, 4, systematic=amplitude))
-    prog = load(TRACKER, inputs=Inputs(data={"m": table},
-                                       consts={"e": repr(amplitude + 0.05)}))
-    sol = solve_tight(prog, settings=DEFAULT.tuned(working_rows=10))
-    assert sol.status == "contracted"
-    for name, t in truth().items():
-        i = prog.slots.names.index(name)
-        assert sol.lo[i] <= t <= sol.hi[i], (name, sol.lo[i], t, sol.hi[i])
-    labels = [step.label for step in sol.history.steps]
-    assert any(f"row check on all {rows} rows" in label for label in labels), labels
-
-
 def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off(tmp_path, monkeypatch):
     """A pass that resumes the fine rounds after a check solves no LP again for an end whose
     optimum no row found cuts off (working._settled): on a UR10 campaign whose third pass

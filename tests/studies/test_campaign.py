@@ -119,6 +119,7 @@ def _model_with_noise(tmp_path: Path, noise: float) -> Path:
     return path
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None)
 @given(amplitude=st.floats(0.2, 1.5), noise=st.sampled_from([0.0, 0.05]),
        shape=st.sampled_from(POSES), seed=st.integers(0, 1000),
