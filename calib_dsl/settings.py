@@ -185,6 +185,11 @@ class RoundsSettings:
     wide_solver: str = "simplex"
     wide_own_bases: bool = False
     wide_probes: bool = False
+    # A fine round's tall LP (row generation) keeps a column per reading's error, thousands
+    # that a new objective leaves at their bounds: HiGHS's dual simplex (1) from the last
+    # optimum took fewer pivots there than the primal (lp.tall_simplex), in half the time
+    # on most rounds (docs/decisions/35).
+    fine_simplex: int = 1
     wide_iterations: int = 20000  # simplex pivots per objective in a second-order round
     wide_seconds: float = 30.0
     # After a round of LPs the next rounds reuse its multipliers on the new box (a matrix

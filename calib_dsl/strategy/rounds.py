@@ -257,7 +257,8 @@ class _Rounds(Composable):
         if this.quad is None:
             return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds)
+        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds,
+                       tall_simplex=s.rounds.fine_simplex if self.phase.fine else lp.tall_simplex)
         tl, th = _bounds(rel, n, self.skipped_ends(), certs, this.fresh, wide,
                          solver=s.rounds.wide_solver, probes=s.rounds.wide_probes,
                          own_bases=s.rounds.wide_own_bases)
