@@ -185,6 +185,11 @@ class RoundsSettings:
     wide_solver: str = "simplex"
     wide_own_bases: bool = False
     wide_probes: bool = False
+    # A fine round's tall LP (row generation) keeps a column per reading's error, thousands
+    # that a new objective leaves at their bounds: HiGHS's dual simplex (1) from the last
+    # optimum took fewer pivots there than the primal (lp.tall_simplex), in half the time
+    # on most rounds (docs/decisions/35).
+    fine_simplex: int = 1
     wide_iterations: int = 20000  # simplex pivots per objective in a second-order round
     wide_seconds: float = 30.0
     # After a round of LPs the next rounds reuse its multipliers on the new box (a matrix
@@ -216,6 +221,11 @@ class SamplingSettings:
     # At most this many checks of the optima on every row (each a fine second-order round
     # on the working set and a point check per bound on every row).
     working_passes: int = 2
+    # A pass that a check follows runs this many fine rounds: a further round on the same
+    # rows only confirmed the last one's fixed point (gains of 1e-4 and 4e-3 of a width on
+    # the 1500-row campaign, docs/decisions/35), while the next pass's rounds run with the
+    # rows the check joins; where it joins none, the rounds go on until their phases end.
+    fine_rounds_per_check: int = 1
     # A least-squares estimate (analysis/lsq.py) over many configurations starts on an
     # evenly spread sample of them, a tenth, at least lsq_min_rows and at most lsq_rows,
     # then is polished on every row with lsq_polish evaluations (then more if needed)

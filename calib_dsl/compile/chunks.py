@@ -60,6 +60,13 @@ class Chunk:
         moved = lay.shared + self.rows[np.minimum(r, len(self.rows) - 1)] * lay.width + j
         return np.where(local >= lay.shared, moved, local)
 
+    def prims(self, local: np.ndarray) -> np.ndarray:
+        """This chunk's primitive numbers as the whole program's."""
+        lay = self.layout
+        r, j = np.divmod(np.maximum(local - lay.shared_prims, 0), max(lay.count, 1))
+        moved = lay.shared_prims + self.rows[np.minimum(r, len(self.rows) - 1)] * lay.count + j
+        return np.where(local >= lay.shared_prims, moved, local)
+
     def row_ids(self, local: np.ndarray) -> np.ndarray:
         """Table row ids (Slots.cell_row, owners) of this chunk as the whole program's: a
         loop row's id is its row's; a shared table row's and the markers (negative) are

@@ -228,10 +228,14 @@ def unknowns_at(rel: LinearRelaxation, x: np.ndarray) -> np.ndarray | None:
 
 def mapped(old_keys: np.ndarray, values: np.ndarray, keys: np.ndarray,
            missing: float) -> np.ndarray:
-    """The value of each key of `keys` in (sorted) old_keys, `missing` for a key not there
-    (a key twice in old_keys: the first one's)."""
+    """The value of each key of `keys` in old_keys, `missing` for a key not there (a key
+    twice in old_keys: the first one's). A relaxation's keys need not increase (a
+    second-order one's follow its expansion's rows): they are sorted here where they do not."""
     if len(old_keys) == 0:
         return np.full(len(keys), missing, dtype=values.dtype)
+    if np.any(old_keys[1:] < old_keys[:-1]):
+        order = np.argsort(old_keys, kind="stable")
+        old_keys, values = old_keys[order], values[order]
     at = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
     return np.where(old_keys[at] == keys, values[at], missing)
 

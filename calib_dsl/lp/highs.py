@@ -66,9 +66,12 @@ def set_basis(h: Any, rows: np.ndarray, cols: np.ndarray) -> None:
 
 
 def starting_rows(rel: LinearRelaxation) -> np.ndarray:
-    """Evenly spread rows, a few per column: enough to bound the LP well at the start."""
+    """Evenly spread rows, a few per unknown (main column; all columns where none is
+    marked): enough to bound the LP well at the start. An optimum of an unknown binds on
+    about as many rows as the columns it leaves off their bounds, and the nuisance columns
+    (products, a reading's error) mostly sit at theirs; the row generation adds the rest."""
     m, n = rel.A.shape
-    return np.unique(np.linspace(0, m - 1, min(m, 8 * n)).astype(np.int64))
+    return np.unique(np.linspace(0, m - 1, min(m, 8 * (rel.main or n))).astype(np.int64))
 
 
 class RowCheck:

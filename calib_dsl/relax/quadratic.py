@@ -28,12 +28,13 @@ from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.models import Models
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
-from calib_dsl.relax.taylor import Expansion, expand
+from calib_dsl.relax.taylor import Expansion, expand, ids_end
 from calib_dsl.settings import RoundsSettings
 
 FAMILY = "second order"  # LinearRelaxation.family of these relaxations
 # LinearRelaxation.key_space of every second-order relaxation: a constraint row is known by
-# its place among the expansion's rows, a McCormick row by its product (after them)
+# its constraint's id in the whole program (row_keys), a McCormick row by its product (after
+# every constraint's id)
 KEY_SPACE = "expansion rows"
 
 
@@ -52,8 +53,8 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray,
     ok &= np.isfinite(m.c0)
     if not np.any(ok):
         return None
-    keys = np.flatnonzero(ok)
-    m = m.take(keys)
+    at = np.flatnonzero(ok)
+    m = m.take(at)
     tlo, thi = ex.rows.lo[ok], ex.rows.hi[ok]
     keep, dropped = kept_products(m, tlo, thi, prune)
     ex.kept = keep
@@ -70,15 +71,35 @@ def relax_quadratic(prog: Program, lo: np.ndarray, hi: np.ndarray,
     matrix = Rows.join(dense, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 0)
     clo = np.concatenate([-np.ones(n), np.where(pairs.diagonal[keep], 0.0, -1.0)])
     chi = np.ones(ncols)
+    keys, targets = row_keys(ex, at), ex.rows.slots[at]
     if mccormick:
         matrix, b_up, b_lo = with_mccormick(matrix, b_up, b_lo, pairs, keep, n)
-        # a McCormick row is known by its product and its place among the product's 4 rows
-        keys = np.concatenate([keys, len(ok) + (4 * keep[:, None] + np.arange(4)).ravel()])
+        keys, targets = mccormick_keys(prog, keys, targets, keep)
     rel = LinearRelaxation(matrix, b_up, clo, chi, main=n, b_lo=b_lo, keys=keys,
+                           targets=targets,
                            scale=ex.half, family=FAMILY, key_space=KEY_SPACE, center=ex.center,
                            col_keys=np.concatenate([np.arange(n), n + keep]),
                            curvature=_curvature(m), slack=padded(slack, len(b_up)))
     return rel, ex
+
+
+def row_keys(ex: Expansion, at: np.ndarray) -> np.ndarray:
+    """The keys of the expansion's rows `at`: their constraints' ids in the whole program
+    (taylor.constraint_ids), so that rows joining a relaxation leave the others' keys
+    unchanged (the multipliers and rows carried from one relaxation to the next stay on
+    their constraints)."""
+    assert ex.rows.ids is not None  # (every expansion numbers its rows so)
+    return ex.rows.ids[at]
+
+
+def mccormick_keys(prog: Program, keys: np.ndarray, targets: np.ndarray, keep: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The keys and targets with McCormick's rows after the constraint rows: each known by
+    its product and its place among the product's 4 rows, after every constraint's id; no
+    target (-1)."""
+    extra = ids_end(prog) + (4 * keep[:, None] + np.arange(4)).ravel()
+    return (np.concatenate([keys, extra]),
+            np.concatenate([targets, np.full(len(extra), -1, dtype=targets.dtype)]))
 
 
 def _curvature(m: Models) -> float:

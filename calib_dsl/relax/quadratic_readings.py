@@ -38,7 +38,14 @@ from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import cell_columns, mid_rad
 from calib_dsl.relax.ownership import MIXED, NONE, combine, value_rows
-from calib_dsl.relax.quadratic import KEY_SPACE, kept_products, padded, with_mccormick
+from calib_dsl.relax.quadratic import (
+    KEY_SPACE,
+    kept_products,
+    mccormick_keys,
+    padded,
+    row_keys,
+    with_mccormick,
+)
 from calib_dsl.relax.relaxation import RHS_REL, LinearRelaxation, Rows
 from calib_dsl.relax.taylor import CHUNK_SLOTS, Expansion, chunk_rows, expand, joined
 
@@ -75,7 +82,7 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
                  for ch in chunks]
     if any(part is None for part in parts):
         return None
-    return _joined([part for part in parts if part is not None], mccormick, prune)
+    return _joined(prog, [part for part in parts if part is not None], mccormick, prune)
 
 
 @dataclass
@@ -131,10 +138,10 @@ def _part(prog: Program, reading: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     return _Part(ex, ok, q[ok], qrad[ok], owner, ev.e)
 
 
-def _joined(parts: list[_Part], mccormick: bool, prune: float
+def _joined(prog: Program, parts: list[_Part], mccormick: bool, prune: float
             ) -> tuple[LinearRelaxation, Expansion] | None:
-    """One relaxation of the parts' usable rows, each known by its place among all the
-    parts' rows (as quadratic.relax_quadratic numbers an expansion in chunks)."""
+    """One relaxation of the parts' usable rows of `prog`, each known by its constraint's id
+    in it (as quadratic.relax_quadratic numbers them)."""
     first = parts[0].ex
     if len(parts) == 1:
         ex = first
@@ -147,17 +154,19 @@ def _joined(parts: list[_Part], mccormick: bool, prune: float
     # (the chunks' program is one: the same readings' columns, each chunk's own bounds)
     q, qrad = (np.concatenate([getattr(p, a) for p in parts]) for a in ("q", "qrad"))
     e = functools.reduce(widest, [p.e for p in parts])
-    return _relaxation(ex, ok, q, qrad, np.concatenate([p.owner for p in parts]), e, mccormick,
-                       prune)
+    return _relaxation(prog, ex, ok, (q, qrad, np.concatenate([p.owner for p in parts]), e),
+                       mccormick, prune)
 
 
-def _relaxation(ex: Expansion, ok: np.ndarray, q: np.ndarray, qrad: np.ndarray,
-                owner: np.ndarray, e: np.ndarray, mccormick: bool, prune: float
-                ) -> tuple[LinearRelaxation, Expansion]:
-    """The relaxation of the expansion's rows where `ok` holds."""
-    keys, nrows = np.flatnonzero(ok), len(ok)
-    m = ex.rows.models.take(keys)
-    tlo, thi = ex.rows.lo[keys], ex.rows.hi[keys]
+def _relaxation(prog: Program, ex: Expansion, ok: np.ndarray,
+                readings: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                mccormick: bool, prune: float) -> tuple[LinearRelaxation, Expansion]:
+    """The relaxation of the expansion's rows where `ok` holds; `readings`: their readings'
+    derivatives (midpoints q, radii qrad), configurations and error bounds."""
+    q, qrad, owner, e = readings
+    at = np.flatnonzero(ok)
+    m = ex.rows.models.take(at)
+    tlo, thi = ex.rows.lo[at], ex.rows.hi[at]
     keep, dropped = kept_products(m, tlo, thi, prune)
     ex.kept = keep
     n, pairs = m.c1.shape[1], ex.pairs
@@ -169,18 +178,17 @@ def _relaxation(ex: Expansion, ok: np.ndarray, q: np.ndarray, qrad: np.ndarray,
         b_lo = dn1(tlo - m.c0) - slack - err
     (rows, cols, vals), xlo, xhi, cells = cell_columns(q, owner, e)
     matrix = Rows.join(np.hstack([m.c1, m.c2[:, keep]]), rows, cols, vals, len(xlo))
-    mkeys = np.zeros(0, np.int64)
+    keys, targets = row_keys(ex, at), ex.rows.slots[at]
     if mccormick:
         matrix, b_up, b_lo = with_mccormick(matrix, b_up, b_lo, pairs, keep, n)
-        mkeys = nrows + (4 * keep[:, None] + np.arange(4)).ravel()
+        keys, targets = mccormick_keys(prog, keys, targets, keep)
     clo = np.concatenate([-np.ones(n), np.where(pairs.diagonal[keep], 0.0, -1.0), xlo])
     chi = np.concatenate([np.ones(n + len(keep)), xhi])
     cell_keys = n + len(pairs.i) + cells[:, 0] * q.shape[1] + cells[:, 1]
     rel = LinearRelaxation(
         matrix, b_up, clo, chi, main=n, b_lo=b_lo, scale=ex.half, center=ex.center, family=FAMILY,
         key_space=KEY_SPACE, slack=padded(slack, len(b_up)),
-        keys=np.concatenate([keys, mkeys]),
-        col_keys=np.concatenate([np.arange(n), n + keep, cell_keys]))
+        keys=keys, targets=targets, col_keys=np.concatenate([np.arange(n), n + keep, cell_keys]))
     return rel, ex
 
 

@@ -98,10 +98,10 @@ class LinearRelaxation:
     # How curved the model is over the box: the median over rows of the remainder over the
     # first-order range (linearize); LP rounds stall above about 1/7. 0 when unknown.
     curvature: float = 0.0
-    # Which constraint each row relaxes (increasing ids, the same in every relaxation of the
-    # same kind, `family`), and how much of its unknown one unit of each main column is (p =
-    # center + scale t): with them, multipliers found on one box certify bounds on another
-    # (Certificates). None: no reuse.
+    # Which constraint each row relaxes (distinct ids, the same in every relaxation of the
+    # same kind, `family`, whichever rows it takes), and how much of its unknown one unit of
+    # each main column is (p = center + scale t): with them, multipliers found on one box
+    # certify bounds on another (Certificates). None: no reuse.
     keys: np.ndarray | None = None
     scale: np.ndarray | None = None
     family: str = ""
@@ -115,8 +115,10 @@ class LinearRelaxation:
     # drops (the model's higher orders over the box), where known. Multipliers times it are
     # what the remainders cost a bound (Certificates.remainder_cost).
     slack: np.ndarray | None = None
-    # the slot each row compares with (its measured or bounded side), where known: what a row
-    # means in any LP over the same constraints (inner/starts.py)
+    # the slot each row compares with (its measured or bounded side; -1 for a row that
+    # compares with none, as McCormick's), where known: what a row means in any LP over the
+    # same constraints (inner/starts.py), and which data row it is of (the working set's
+    # relaxed check)
     targets: np.ndarray | None = None
 
     def one_sided(self) -> tuple[sparse.csr_matrix, np.ndarray]:

@@ -50,10 +50,14 @@ class Constraints:
     # each row's place in the program (row_key; None for a program expanded in chunks):
     # how the rows of another pass over the same program are matched with these
     keys: np.ndarray | None = None
+    # each row's constraint in the whole program's numbering (constraint_ids): the same id
+    # in every expansion of the program, chunked or not, whichever of its rows it takes
+    ids: np.ndarray | None = None
 
     def take(self, pick: np.ndarray) -> Constraints:
         return Constraints(self.models.take(pick), self.lo[pick], self.hi[pick],
-                           self.slots[pick], None if self.keys is None else self.keys[pick])
+                           self.slots[pick], None if self.keys is None else self.keys[pick],
+                           None if self.ids is None else self.ids[pick])
 
 
 @dataclass
@@ -93,19 +97,59 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
 
 def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
     """The rows of a chunk's expansion that the chunk contributes (compile/chunks.py), their
-    slots numbered as in the whole program; their keys stay the chunk's (matched only
-    against another pass over the same chunk)."""
+    slots and ids numbered as in the whole program; their keys stay the chunk's (matched
+    only against another pass over the same chunk)."""
     part = rows.take(np.flatnonzero(ch.kept(rows.slots)))
     part.slots = ch.slots(part.slots)
+    if part.keys is not None:
+        part.ids = constraint_ids(ch.prog, part.keys, ch)
     return part
 
 
 def joined(parts: list[Constraints]) -> Constraints:
     """The rows of several passes, one after the other, without keys (a key is a place in
-    one pass's program)."""
-    return Constraints(_concat([c.models for c in parts]),
-                       *(np.concatenate([getattr(c, a) for c in parts])
-                         for a in ("lo", "hi", "slots")))
+    one pass's program); their ids are the whole program's."""
+    ids = None if any(c.ids is None for c in parts) else np.concatenate([c.ids for c in parts])
+    lo, hi, slots = (np.concatenate([getattr(c, a) for c in parts])
+                     for a in ("lo", "hi", "slots"))
+    return Constraints(_concat([c.models for c in parts]), lo, hi, slots, ids=ids)
+
+
+def constraint_ids(prog: Program, keys: np.ndarray, chunk: Chunk | None = None) -> np.ndarray:
+    """The constraint rows of `prog` (a chunk's program if `chunk`) known by their row_key,
+    as ids of the whole program: a primitive's output is its primitive's number times the
+    outputs a primitive can have, plus the output; a capped temporary's row comes after
+    every primitive's, by its slot (ids_end: after every row). A data row's constraints are
+    known by its own primitives and slots, so rows joining an expansion leave the others'
+    ids as they were."""
+    out, total = _outputs(prog), _primitives(prog, chunk)
+    group, output, at = keys >> 40, (keys >> 32) & 0xFF, keys & 0xFFFFFFFF
+    capped = group >= len(prog.groups)
+    prim = np.zeros(len(keys), dtype=np.int64)
+    for g in np.unique(group[~capped]):
+        mine = group == g
+        prim[mine] = prog.groups[int(g)].prim[at[mine]]
+    slot = np.where(capped, at, 0)
+    if chunk is not None:
+        prim, slot = chunk.prims(prim), chunk.slots(slot)
+    return np.where(capped, total * out + slot, prim * out + output)
+
+
+def ids_end(prog: Program) -> int:
+    """One past the largest constraint id of the (whole) program `prog` (constraint_ids)."""
+    return _primitives(prog, None) * _outputs(prog) + len(prog.slots.lo)
+
+
+def _outputs(prog: Program) -> int:
+    return max((g.out.shape[1] for g in prog.groups), default=1)
+
+
+def _primitives(prog: Program, chunk: Chunk | None) -> int:
+    """The whole program's count of primitives (`prog` a chunk's program if `chunk`)."""
+    if chunk is None:
+        return len(prog.primitives)
+    lay = chunk.layout
+    return lay.shared_prims + len(lay.rows) * lay.count
 
 
 def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
@@ -158,6 +202,8 @@ def _expand(prog: Program, lo: np.ndarray, hi: np.ndarray) -> Expansion | None:
         return None
     rows = Constraints(_concat([f[0] for f in found]),
                        *(np.concatenate([f[k] for f in found]) for k in (1, 2, 3, 4)))
+    assert rows.keys is not None
+    rows.ids = constraint_ids(prog, rows.keys)
     return Expansion(center, half, pairs, rows)
 
 

@@ -64,10 +64,10 @@ def _violated(prog: Program, certs: Certificates, rows: np.ndarray
         return None
     if built is None:
         return None
-    rel, ex = built
-    if rel.keys is None or rel.col_keys is None:
+    rel, _ = built
+    if rel.targets is None or rel.col_keys is None:
         return None
-    slots = ex.rows.slots[rel.keys]
+    slots = rel.targets
     data_row = (slots - lay.shared) // max(lay.width, 1)
     points = np.array([mapped(keys, values, rel.col_keys, np.nan)
                        for keys, values in certs.columns.values()])

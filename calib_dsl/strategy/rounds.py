@@ -99,6 +99,10 @@ class LPRounds(Composable):
     # had keeps that optimum): their ends take the box's bound, tightened by those LPs'
     # multipliers certified again on this round's relaxation
     settled: frozenset[tuple[int, float]] = frozenset()
+    # the fine rounds of LPs at most (None: until their phases end): a working set's pass
+    # that a check follows (working.py) ends after its first, and the rounds go on in the
+    # next pass with the rows the check joins
+    fine_rounds: int | None = None
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         rounds = FixPoint(_Rounds(self, lo, hi), ratio=None, most=None, name=self.name)
@@ -257,7 +261,8 @@ class _Rounds(Composable):
         if this.quad is None:
             return _bounds(this.target, n, self.skip, certs, this.fresh, lp)
         rel, ex = this.quad
-        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds)
+        wide = replace(lp, iterations=s.rounds.wide_iterations, seconds=s.rounds.wide_seconds,
+                       tall_simplex=s.rounds.fine_simplex if self.phase.fine else lp.tall_simplex)
         tl, th = _bounds(rel, n, self.skipped_ends(), certs, this.fresh, wide,
                          solver=s.rounds.wide_solver, probes=s.rounds.wide_probes,
                          own_bases=s.rounds.wide_own_bases)
@@ -323,6 +328,9 @@ class _Rounds(Composable):
             return True
         self.work = self.work + Work(lp_rounds=1, fine_rounds=int(self.phase.fine))
         self.kind_rounds += 1
+        limit = self.spec.fine_rounds
+        if self.phase.fine and limit is not None and self.work.fine_rounds >= limit:
+            return False
         # the next round first tries this round's multipliers, unless its LPs are as cheap
         # as a relaxation (folded first-order rounds), or the second-order phase is over
         # (a round without a first-order relaxation: the second-order one's estimate of the

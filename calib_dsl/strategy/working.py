@@ -10,10 +10,14 @@ the fine rounds' own relaxation rows (relaxed_check.py). The rows it
 violates are where the working set's LPs let through parameters the whole campaign
 excludes: the worst of them join the set and the rounds run again, until no optimum
 violates a row (or `working_passes` checks); a pass after a check resumes the fine
-rounds. Where it resumes the phase the pass before ran in, an end whose optimum no row
-found cuts off gets no LP in its first round: with those rows joined, the same LP keeps that
-optimum (the box it is relaxed on has moved by less than the rounds' stop ratio, so another
-LP would gain little there). A working set of every row is the plain rounds on all rows,
+rounds. A pass that a check follows ends after its first fine round
+(`fine_rounds_per_check`): another round on the same rows would only confirm that one's
+fixed point, while the next pass's rounds run with the rows the check joins; where the
+check joins none, the rounds go on on the same rows until their phases end. Where a
+pass resumes the phase the pass before ran in, to its end, an end whose optimum no row
+found cuts off gets no LP in its first round: with those rows joined, the same LP keeps
+that optimum (the box it is relaxed on has moved by less than the rounds' stop ratio, so
+another LP would gain little there). A working set of every row is the plain rounds on all rows,
 with no check.
 
 Every relaxation of some rows holds every solution (fewer constraints: looser, never wrong),
@@ -76,21 +80,26 @@ class WorkingRows(Composable):
         # working set grows by few rows, and the optima move little)
         fine = Certificates()
         settled: frozenset[tuple[int, float]] = frozenset()
+        whole = False  # the next pass runs its fine rounds until their phases end
         for passes in range(s.sampling.working_passes + 1):
             every = rows is None or len(rows) >= loop_rows(self.prog)
+            last = every or rows is None or passes == s.sampling.working_passes
             certs = self.certs if every else Certificates()
+            # (a pass a check follows: one fine round, then the check's rows join)
+            limit = None if last or whole else s.sampling.fine_rounds_per_check
             rounds = LPRounds(self.prog, s, certs, self.tol, self.max_sweeps - work.sweeps,
                               self.max_rounds or s.rounds.max_rounds, self.second_order,
                               unsolved=self.unsolved, progress=self.progress,
                               history=self.history, rows=None if every else rows,
                               fine_start=self.fine_start or resume,
                               fine_kind=kind if resume else "readings",
-                              fine_certs=fine, settled=settled)
+                              fine_certs=fine, settled=settled, fine_rounds=limit)
+            before = work
             out = rounds.contract(out.lo, out.hi)
             work = work + out.work
-            if (every or rows is None or out.empty or work.sweeps >= self.max_sweeps
-                    or passes == s.sampling.working_passes):
+            if last or out.empty or work.sweeps >= self.max_sweeps:
                 break
+            assert rows is not None  # (`last` otherwise)
             # the last LPs' optima: the fine rounds' where they ran, else the first order's
             points = fine.points if fine.points else certs.points
             found, cut = self.violated(out.lo, out.hi, points, rows)
@@ -100,13 +109,21 @@ class WorkingRows(Composable):
                 self.history.record(f"row check on all {loop_rows(self.prog)} rows: "
                                     f"{len(violated)} rows violated by the optima of LPs on "
                                     f"{len(rows)} working rows", out.lo, out.hi)
-            if len(violated) == 0:
+            # a pass cut short (its fine rounds reached the limit) whose check joins no row
+            # goes on with the rounds on the same rows, until their phases end: the
+            # check's rows were the reason to stop early
+            cut_short = limit is not None and (work - before).fine_rounds >= limit
+            if len(violated) == 0 and not cut_short:
                 break
+            whole = len(violated) == 0
             rows = np.union1d(rows, violated)
             # a pass that resumes the phase the last one ran (the fine rounds with both,
-            # after such a pass) re-solves the ends whose optima the rows found cut off
+            # after such a pass) re-solves the ends whose optima the rows found cut off;
+            # every end after a pass cut short (its box moved since by a whole round's gain,
+            # not less than the rounds' stop ratio)
             settled = (_settled(set(points) & set(fine.columns), cut | relaxed_cut)
-                       if resume and relaxed_cut is not None else frozenset())
+                       if resume and relaxed_cut is not None and not cut_short
+                       else frozenset())
             resume = bool(fine.points)
         return Outcome(out.lo, out.hi, out.stop, work, out.emptied)
 

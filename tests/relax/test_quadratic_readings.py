@@ -204,9 +204,9 @@ def test_solves_with_the_readings_rounds_hold_the_truth(tmp_path_factory, after_
 def test_chunks_give_the_whole_programs_relaxation(tmp_path_factory, monkeypatch, seed, joints,
                                                   rows, formulation, mccormick):
     """Relaxed two rows at a time (compile/chunks.py), the relaxation has the whole one's
-    rows and columns (matched by target slot and by cell), holds the truth, and certifies
-    the same bounds; its rows are numbered as relax_quadratic numbers the same chunks (the
-    row keys a later LP starts from)."""
+    rows and columns (matched by target slot and by cell), with the same keys, holds the
+    truth, and certifies the same bounds; its rows are numbered as relax_quadratic numbers
+    the same chunks (the row keys a later LP starts from)."""
     import calib_dsl.relax.quadratic_readings as qr
     import calib_dsl.relax.taylor as taylor
     from calib_dsl.relax.quadratic import relax_quadratic
@@ -229,11 +229,11 @@ def test_chunks_give_the_whole_programs_relaxation(tmp_path_factory, monkeypatch
         plain = relax_quadratic(prog, lo, hi, prune=0.0, mccormick=mccormick)
     assume(whole is not None)
     assert parts is not None and plain is not None
-    (rw, ew), (rp, ep) = whole, parts
+    (rw, _), (rp, ep) = whole, parts
     assert rw.A.shape == rp.A.shape and sorted(rw.col_keys) == sorted(rp.col_keys)
-    m = len(ew.rows.slots)
-    rows_of = [sorted(e.rows.slots[r.keys[r.keys < m]]) for r, e in (whole, parts)]
+    rows_of = [sorted(r.targets[r.targets >= 0]) for r in (rw, rp)]
     assert rows_of[0] == rows_of[1]
+    assert sorted(rw.keys) == sorted(rp.keys)
     z = true_columns(prog, lo, hi, rp, ep, sim.p_true, sim.cell_true)
     assert z is not None
     assert_holds_truth(rp, ep, z, sim.p_true, "chunks", False)
@@ -241,8 +241,7 @@ def test_chunks_give_the_whole_programs_relaxation(tmp_path_factory, monkeypatch
     bw, bp = lp_bounds(rw, np.eye(n)), lp_bounds(rp, np.eye(n))
     assert np.allclose(bw[0], bp[0], atol=1e-7) and np.allclose(bw[1], bp[1], atol=1e-7)
     # the same key means the same constraint in both second-order families
-    rq, eq = plain
-    own = rq.keys[rq.keys < m]
-    at = {int(k): int(s) for k, s in zip(own, eq.rows.slots[own], strict=True)}
-    for k in rp.keys[rp.keys < m]:
-        assert at.get(int(k)) == int(ep.rows.slots[k])
+    rq = plain[0]
+    at = {int(k): int(t) for k, t in zip(rq.keys, rq.targets, strict=True) if t >= 0}
+    for k, t in zip(rp.keys, rp.targets, strict=True):
+        assert t < 0 or at.get(int(k)) == int(t)

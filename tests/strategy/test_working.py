@@ -102,7 +102,9 @@ def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off(tmp_path, mon
 
     def widths(settled) -> np.ndarray:
         monkeypatch.setattr(working, "_settled", settled)
-        sol = solve_tight(prog, settings=DEFAULT.tuned(working_rows=10, working_passes=3),
+        # (passes run their fine rounds to the end: the rule is about such passes)
+        sol = solve_tight(prog, settings=DEFAULT.tuned(working_rows=10, working_passes=3,
+                                                       fine_rounds_per_check=40),
                           split=False, combinations=False)
         assert sol.status == "contracted"
         for name, t in truth().items():
@@ -125,3 +127,42 @@ def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off(tmp_path, mon
     assert skipped and max(skipped) > 0  # (the case skips some ends)
     assert sum(flagged) - before > before  # (and the LPs were told to skip more ends)
     assert np.all(np.abs(ratio - 1.0) <= 1e-4), ratio
+
+
+def test_a_pass_cut_short_goes_on_where_the_check_joins_no_row(tmp_path, monkeypatch):
+    """A pass that a check follows ends after one fine round (fine_rounds_per_check); where
+    the check then joins no row, the rounds go on on the same rows until their phases end
+    (working.py). With the check made to join none, the solve runs more than that one fine
+    round, and its box is as narrow as the rounds' run to their end without the cut
+    (widths to 1e-4), the truth inside. Without the guard it stops after one fine round."""
+    from calib_dsl.elaborate.elaborator import Inputs
+    from calib_dsl.pipeline import load
+    from calib_dsl.strategy import working
+    from calib_dsl.studies.campaign import Campaign
+    from calib_dsl.studies.simulate import simulate
+    from tests.test_ur10 import TRACKER, _noisy_simulation_model, truth
+
+    table = tmp_path / "sim.csv"
+    simulate(_noisy_simulation_model(tmp_path, 0.05), 30, 5, out_csv=table,
+             campaign=Campaign("random", 4, systematic=0.6))
+    prog = load(TRACKER, inputs=Inputs(data={"m": table}, consts={"e": "0.65"}))
+    ind = independents(prog)
+    none = (np.zeros(0, dtype=np.int64), set())
+    monkeypatch.setattr(working.WorkingRows, "violated", lambda self, *a: none)
+    monkeypatch.setattr(working.WorkingRows, "relaxed_violated", lambda self, *a: none)
+
+    def solved(per_check: int):
+        sol = solve_tight(prog, settings=DEFAULT.tuned(working_rows=10,
+                                                       fine_rounds_per_check=per_check),
+                          split=False, combinations=False)
+        assert sol.status == "contracted"
+        for name, t in truth().items():
+            i = prog.slots.names.index(name)
+            assert sol.lo[i] <= t <= sol.hi[i], name
+        return sol
+
+    cut, whole = solved(1), solved(40)
+    assert whole.work.fine_rounds > 1  # (the case's rounds have more than one to run)
+    assert cut.work.fine_rounds > 1
+    ratio = (cut.hi[ind] - cut.lo[ind]) / (whole.hi[ind] - whole.lo[ind])
+    assert np.all(ratio <= 1.0 + 1e-4), ratio
