@@ -10,6 +10,10 @@ not with their slots.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
 import numpy as np
 
 from calib_dsl.compile.chunks import Chunk, chunked
@@ -18,10 +22,13 @@ from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.gradients import Iv
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.ownership import row_owners
-from calib_dsl.settings import Settings
+from calib_dsl.settings import LPSettings, Settings
 
 Row = tuple[Iv, Iv, Iv, np.ndarray]  # what Evaluation.run gives per block of rows
 CHUNK_SLOTS = Settings.chunk_slots  # (a module attribute: tests make chunks small)
+# the threads a chunked pass shares its chunks among: as many as the LPs' (the cores); two
+# chunks' arrays at once, each sized to stay in the cache
+CHUNK_THREADS = LPSettings.workers
 
 
 class Evaluated:
@@ -71,34 +78,70 @@ class Chunked(Evaluated):
 
     def run(self) -> list[Row]:
         out: list[Row] = []
-        lo, hi = self.box
-        for ch in self.chunks:
-            ev = Evaluation(ch.prog, ch.box(lo), ch.box(hi), self.ind, self.center,
-                            point=self.point, mixed=self.mixed)
-            diffs = ev.run()
-            owners = (row_owners(ch.prog, self.ind, ev.sources, [r[5] for r in ev.rows])
-                      if self.owners else None)
-            at = 0
-            for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
-                size = len(raw[5])
-                keep = ch.kept(raw[5])
-                mine = owners[at: at + size] if owners is not None else None
-                at += size
-                if not np.any(keep):
-                    continue
-                pick = None if bool(np.all(keep)) else np.flatnonzero(keep)
-                out.append(_mapped_row(diff, ch, pick))
-                self.rows.append(_mapped_raw(raw, ch, pick))
-                self.sources.append(ch.slots(src if pick is None else src[pick]))
-                if mine is not None:
-                    self._owners.append(ch.row_ids(mine if pick is None else mine[pick]))
-            self.e = widest(self.e, ev.e)
+        for rows, raws, sources, owners, e in in_threads(self._chunk, self.chunks):
+            out += rows
+            self.rows += raws
+            self.sources += sources
+            self._owners += owners
+            self.e = widest(self.e, e)
         return out
+
+    def _chunk(self, ch: Chunk) -> tuple[list[Row], list[tuple], list[np.ndarray],
+                                         list[np.ndarray], np.ndarray]:
+        """One chunk's constraint rows, raw rows, sources and owners (the kept ones, numbered
+        as in the whole program), and its error bounds."""
+        lo, hi = self.box
+        ev = Evaluation(ch.prog, ch.box(lo), ch.box(hi), self.ind, self.center,
+                        point=self.point, mixed=self.mixed)
+        diffs = ev.run()
+        owners = (row_owners(ch.prog, self.ind, ev.sources, [r[5] for r in ev.rows])
+                  if self.owners else None)
+        out: list[Row] = []
+        raws: list[tuple] = []
+        sources: list[np.ndarray] = []
+        mine_all: list[np.ndarray] = []
+        at = 0
+        for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
+            size = len(raw[5])
+            keep = ch.kept(raw[5])
+            mine = owners[at: at + size] if owners is not None else None
+            at += size
+            if not np.any(keep):
+                continue
+            pick = None if bool(np.all(keep)) else np.flatnonzero(keep)
+            out.append(_mapped_row(diff, ch, pick))
+            raws.append(_mapped_raw(raw, ch, pick))
+            sources.append(ch.slots(src if pick is None else src[pick]))
+            if mine is not None:
+                mine_all.append(ch.row_ids(mine if pick is None else mine[pick]))
+        return out, raws, sources, mine_all, ev.e
 
     def data_rows(self) -> np.ndarray:
         assert self.owners, "made without owners=True"
         return (np.concatenate(self._owners).astype(np.int64) if self._owners
                 else np.zeros(0, dtype=np.int64))
+
+
+T = TypeVar("T")
+U = TypeVar("U")
+
+
+def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = None) -> list[U]:
+    """[fn(x) for x in items], shared among `threads` threads (CHUNK_THREADS if None), in
+    the items' order. The first runs alone (it makes the derived tables of a program the
+    others read), and each runs under the caller's floating-point error handling (np.errstate,
+    which a thread does not inherit)."""
+    if not items:
+        return []
+    err = np.geterr()
+
+    def run(x: T) -> U:
+        with np.errstate(**err):
+            return fn(x)
+
+    first = [fn(items[0])]
+    with ThreadPoolExecutor(max(1, min(threads or CHUNK_THREADS, len(items) - 1))) as pool:
+        return first + list(pool.map(run, items[1:]))
 
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
