@@ -4,14 +4,12 @@ box."""
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
 from calib_dsl.accuracy.fit import Seen, polish
 from calib_dsl.accuracy.statement import Accuracy, accuracy, nominal_point
-from calib_dsl.analysis.lsq import linearized
 from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.inner.bounds import Inner, Witness
 from calib_dsl.ir.program import Program
@@ -27,25 +25,19 @@ def solve_statement(prog: Program, lo: np.ndarray, hi: np.ndarray, lsq: Any,
     from the certified centre or the box's middle) and the certified centre."""
     ind = independents(prog)
     points = {"nominal": nominal_point(prog)}
+    centre = certified_centre(inner)
+    seen: Seen = {}  # (the polish's rows at its start, the centre, and at its result)
+    if lsq is None:
+        mid = 0.5 * (lo[ind] + hi[ind])
+        start = centre if centre is not None else mid
+        if np.all(np.isfinite(start)):
+            lsq = polish(prog, start, settings, seen)
+    if lsq is not None and np.all(np.isfinite(lsq.values)):
+        points["least_squares"] = lsq.values
+    if centre is not None:
+        points["certified"] = centre
     box = {prog.slots.names[k]: (float(lo[k]), float(hi[k])) for k in ind}
-    # the bounds over the box and the rows at the nominal point do not depend on the
-    # polish: another thread makes them meanwhile (numpy's array work runs outside the GIL)
-    with ThreadPoolExecutor(1) as pool:
-        ranges = pool.submit(residual_ranges, prog, box)
-        nominal = pool.submit(linearized, prog, points["nominal"], False)
-        centre = certified_centre(inner)
-        seen: Seen = {}  # (the polish's rows at its start, the centre, and at its result)
-        if lsq is None:
-            mid = 0.5 * (lo[ind] + hi[ind])
-            start = centre if centre is not None else mid
-            if np.all(np.isfinite(start)):
-                lsq = polish(prog, start, settings, seen)
-        if lsq is not None and np.all(np.isfinite(lsq.values)):
-            points["least_squares"] = lsq.values
-        if centre is not None:
-            points["certified"] = centre
-        seen.setdefault(points["nominal"].tobytes(), nominal.result())
-        return accuracy(prog, ranges.result(), points, angles, seen)
+    return accuracy(prog, residual_ranges(prog, box), points, angles, seen)
 
 
 def certified_centre(inner: Inner | None) -> np.ndarray | None:
