@@ -10,6 +10,7 @@ not with their slots.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
@@ -127,21 +128,41 @@ U = TypeVar("U")
 
 
 def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = None) -> list[U]:
-    """[fn(x) for x in items], shared among `threads` threads (CHUNK_THREADS if None), in
-    the items' order. The first runs alone (it makes the derived tables of a program the
-    others read), and each runs under the caller's floating-point error handling (np.errstate,
-    which a thread does not inherit)."""
-    if not items:
-        return []
+    """[fn(x) for x in items], shared among `threads` threads (CHUNK_THREADS if None): this
+    one and the others of one pool that lives as long as the process, in the items' order.
+    The first runs alone (it makes the derived tables of a program the others read), and
+    each runs under the caller's floating-point error handling (np.errstate, which a thread
+    does not inherit). Few, lasting threads: each thread's freed memory stays in its own
+    malloc arena, so a new thread per pass would grow the process's peak."""
+    n = threads or CHUNK_THREADS
+    if len(items) <= 2 or n <= 1 or getattr(_here, "worker", False):
+        return [fn(x) for x in items]  # (a pool's worker never waits on its own pool)
     err = np.geterr()
 
     def run(x: T) -> U:
+        _here.worker = True
         with np.errstate(**err):
             return fn(x)
 
-    first = [fn(items[0])]
-    with ThreadPoolExecutor(max(1, min(threads or CHUNK_THREADS, len(items) - 1))) as pool:
-        return first + list(pool.map(run, items[1:]))
+    out: list[U] = [fn(items[0])]
+    rest = items[1:]
+    theirs = [_pool(n - 1).submit(run, x) for i, x in enumerate(rest) if i % n]
+    mine = [fn(x) for x in rest[::n]]
+    for i in range(len(rest)):
+        out.append(mine[i // n] if i % n == 0 else theirs[i - i // n - 1].result())
+    return out
+
+
+_here = threading.local()
+_pools: dict[int, ThreadPoolExecutor] = {}
+_lock = threading.Lock()
+
+
+def _pool(workers: int) -> ThreadPoolExecutor:
+    with _lock:  # (callers in several threads: the inner bounds' own)
+        if workers not in _pools:
+            _pools[workers] = ThreadPoolExecutor(workers, thread_name_prefix="chunks")
+        return _pools[workers]
 
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
