@@ -176,8 +176,7 @@ def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
 
 def test_the_statement_is_each_part_computed_afresh(ur10):
     """The statement reuses the polish's evaluations at the certified centre and the
-    least-squares point, and makes the bounds in another thread: every array equals the one
-    computed on its own, bit for bit."""
+    least-squares point: every array equals the one computed on its own, bit for bit."""
     acc, prog, res = ur10.extra.accuracy, ur10.prog, ur10.res
     at, ind = layout(prog), independents(prog)
     from calib_dsl.accuracy.fit import polish
