@@ -11,21 +11,39 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import Estimate, residuals
+from calib_dsl.analysis.lsq import Estimate, Linearized, linearized
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
 
+Seen = dict[bytes, Linearized]  # a point's bytes -> every row there (floating point)
 
-def polish(prog: Program, start: np.ndarray, settings: Settings) -> Estimate:
+
+def polish(prog: Program, start: np.ndarray, settings: Settings,
+           seen: Seen | None = None) -> Estimate:
     """The least-squares point from `start` (independents' order): damped Gauss-Newton steps
     scaled by the Jacobian's columns (Marquardt), each projected onto the domains and taken
-    only when it lowers the sum of squares."""
+    only when it lowers the sum of squares. `seen`, if given, is given the rows at the
+    start and at the result (the statement's residuals there: each evaluation of every
+    row of a large campaign costs as much as a step)."""
     ind = independents(prog)
     names = [prog.slots.names[k] for k in ind]
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     x = np.clip(start, lo, hi)
-    r, jac = residuals(prog, x)
+    last: list[tuple[np.ndarray, Linearized]] = []
+
+    def residuals(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # (as analysis/lsq.residuals: every row normalized by its bound)
+        with np.errstate(all="ignore"):  # an overflow is a non-finite residual
+            lin = linearized(prog, p, owners=False)
+            last[:] = [(p, lin)]
+            scale = np.maximum(lin.half, 1e-12)
+            return lin.d / scale, lin.jac / scale[:, None]
+
+    r, jac = residuals(x)
+    kept = last[0]
+    if seen is not None:
+        seen[x.tobytes()] = kept[1]
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
         return Estimate(names, x, float("inf"), float("inf"), False)
     cost, damping, converged = float(r @ r), settings.fit_damping, False
@@ -33,11 +51,11 @@ def polish(prog: Program, start: np.ndarray, settings: Settings) -> Estimate:
         scale = np.maximum(np.linalg.norm(jac, axis=0), 1e-300)
         step = _step(jac, r, scale, damping)
         trial = np.clip(x + step, lo, hi)
-        tr, tj = residuals(prog, trial)
+        tr, tj = residuals(trial)
         tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
         if tcost < cost and np.all(np.isfinite(tj)):
             gain = cost - tcost
-            x, r, jac, cost = trial, tr, tj, tcost
+            x, r, jac, cost, kept = trial, tr, tj, tcost, last[0]
             damping = max(damping / 3.0, 1e-12)
             if gain <= settings.fit_tolerance * max(cost, 1e-300):
                 converged = True
@@ -48,6 +66,8 @@ def polish(prog: Program, start: np.ndarray, settings: Settings) -> Estimate:
             if np.all(np.abs(trial - x) <= 1e-15 * np.maximum(np.abs(x), 1.0)):
                 converged = True
                 break
+    if seen is not None:
+        seen[x.tobytes()] = kept[1]
     n = max(len(r), 1)
     return Estimate(names, x, float(np.sqrt(cost / n)) if len(r) else 0.0,
                     float(np.max(np.abs(r))) if len(r) else 0.0, converged)

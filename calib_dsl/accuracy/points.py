@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.accuracy.fit import polish
+from calib_dsl.accuracy.fit import Seen, polish
 from calib_dsl.accuracy.statement import Accuracy, accuracy, nominal_point
 from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.inner.bounds import Inner, Witness
@@ -26,17 +26,18 @@ def solve_statement(prog: Program, lo: np.ndarray, hi: np.ndarray, lsq: Any,
     ind = independents(prog)
     points = {"nominal": nominal_point(prog)}
     centre = certified_centre(inner)
+    seen: Seen = {}  # (the polish's rows at its start, the centre, and at its result)
     if lsq is None:
         mid = 0.5 * (lo[ind] + hi[ind])
         start = centre if centre is not None else mid
         if np.all(np.isfinite(start)):
-            lsq = polish(prog, start, settings)
+            lsq = polish(prog, start, settings, seen)
     if lsq is not None and np.all(np.isfinite(lsq.values)):
         points["least_squares"] = lsq.values
     if centre is not None:
         points["certified"] = centre
     box = {prog.slots.names[k]: (float(lo[k]), float(hi[k])) for k in ind}
-    return accuracy(prog, residual_ranges(prog, box), points, angles)
+    return accuracy(prog, residual_ranges(prog, box), points, angles, seen)
 
 
 def certified_centre(inner: Inner | None) -> np.ndarray | None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import linearized
+from calib_dsl.analysis.lsq import Linearized, linearized
 from calib_dsl.analysis.residuals import Ranges
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -52,12 +52,13 @@ def layout(prog: Program) -> Layout:
     return Layout(list(configs), list(columns), side)
 
 
-def point_residuals(prog: Program, at: Layout, p: np.ndarray) -> np.ndarray:
+def point_residuals(prog: Program, at: Layout, p: np.ndarray,
+                    lin: Linearized | None = None) -> np.ndarray:
     """Measured minus predicted at the parameter vector p (independents' order), readings at
     their middles: (configurations, columns), nan where a column is not measured or no row
     compares it (a merge of slots: `x == m.v[k]` makes x the cell) or the model is not
-    defined at p."""
-    lin = linearized(prog, p, owners=False)
+    defined at p. `lin`: the rows at p (linearized(prog, p, owners=False)) if made already."""
+    lin = linearized(prog, p, owners=False) if lin is None else lin
     first: dict[int, int] = {}
     for i, t in enumerate(lin.slots.tolist()):
         first.setdefault(t, i)
@@ -152,17 +153,21 @@ class Accuracy:
 
 
 def accuracy(prog: Program, ranges: Ranges, points: dict[str, np.ndarray],
-             angles: frozenset[str] = frozenset()) -> Accuracy:
+             angles: frozenset[str] = frozenset(),
+             seen: dict[bytes, Linearized] | None = None) -> Accuracy:
     """The accuracy at `points` (label -> parameter vector, independents' order) with the
     bounds of `ranges` (residuals.residual_ranges over the result box); the columns named
     in `angles` (measured in an angle unit) have their own statistics but no part in the
-    distance, unless every column is one."""
+    distance, unless every column is one. `seen`: the rows at some points, made already
+    (by their bytes)."""
+    seen = seen or {}
     at = layout(prog)
     among = np.array([c not in angles for c in at.columns], dtype=bool)
     if not among.any():
         among[:] = True
     worst, box = bound_table(ranges, at), bound_table(ranges, at, consistent=False)
-    return Accuracy(at, {k: point_residuals(prog, at, p) for k, p in points.items()},
+    return Accuracy(at, {k: point_residuals(prog, at, p, seen.get(p.tobytes()))
+                         for k, p in points.items()},
                     worst, distance_bounds(worst, among), box, distance_bounds(box, among),
                     among)
 

@@ -22,6 +22,7 @@ import numpy as np
 from calib_dsl.arith.projections import forward
 from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program, derived
+from calib_dsl.relax.chunked import in_threads
 from calib_dsl.relax.gradients import OUTPUTS
 from calib_dsl.relax.layout import definitions, independents
 from calib_dsl.relax.ownership import NONE, combine
@@ -138,18 +139,20 @@ def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
     shared part's, then row after row)."""
     base = box if box is not None else (prog.slots.lo, prog.slots.hi)
     at = reading_slots(prog)
-    got: list[_Rows] = []
-    parts: list[np.ndarray] = []  # each kept row's group output
-    for ch in chunks:
+
+    def one(ch: Chunk) -> tuple[_Rows, np.ndarray]:
         mine = None if readings is None else \
             readings[:, np.searchsorted(at, ch.slots(reading_slots(ch.prog)))]
         r = _evaluate(ch.prog, points, mine, owners, (ch.box(base[0]), ch.box(base[1])))
         keep = ch.kept(r.s)
-        parts.append(np.repeat(np.arange(len(r.parts)), r.parts)[keep])
-        got.append(_Rows(ch.slots(r.s[keep]), r.a[keep], r.b[keep], r.tlo[keep],
-                         r.thi[keep], r.computed[keep],
-                         None if r.owners is None else ch.row_ids(r.owners[keep]),
-                         r.in_domain, []))
+        return (_Rows(ch.slots(r.s[keep]), r.a[keep], r.b[keep], r.tlo[keep], r.thi[keep],
+                      r.computed[keep], None if r.owners is None else ch.row_ids(r.owners[keep]),
+                      r.in_domain, []),
+                np.repeat(np.arange(len(r.parts)), r.parts)[keep])  # each kept row's output
+
+    # (the chunks shared among threads, joined in their order: relax/chunked.py)
+    done = in_threads(one, chunks)
+    got, parts = [g for g, _ in done], [p for _, p in done]
     # (a stable sort by group output keeps each one's rows in the chunks' order: the rows')
     order = np.argsort(np.concatenate(parts), kind="stable")
 

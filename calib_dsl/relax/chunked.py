@@ -10,6 +10,11 @@ not with their slots.
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
 import numpy as np
 
 from calib_dsl.compile.chunks import Chunk, chunked
@@ -18,10 +23,13 @@ from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.gradients import Iv
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.ownership import row_owners
-from calib_dsl.settings import Settings
+from calib_dsl.settings import LPSettings, Settings
 
 Row = tuple[Iv, Iv, Iv, np.ndarray]  # what Evaluation.run gives per block of rows
 CHUNK_SLOTS = Settings.chunk_slots  # (a module attribute: tests make chunks small)
+# the threads a chunked pass shares its chunks among: as many as the LPs' (the cores); two
+# chunks' arrays at once, each sized to stay in the cache
+CHUNK_THREADS = LPSettings.workers
 
 
 class Evaluated:
@@ -71,34 +79,90 @@ class Chunked(Evaluated):
 
     def run(self) -> list[Row]:
         out: list[Row] = []
-        lo, hi = self.box
-        for ch in self.chunks:
-            ev = Evaluation(ch.prog, ch.box(lo), ch.box(hi), self.ind, self.center,
-                            point=self.point, mixed=self.mixed)
-            diffs = ev.run()
-            owners = (row_owners(ch.prog, self.ind, ev.sources, [r[5] for r in ev.rows])
-                      if self.owners else None)
-            at = 0
-            for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
-                size = len(raw[5])
-                keep = ch.kept(raw[5])
-                mine = owners[at: at + size] if owners is not None else None
-                at += size
-                if not np.any(keep):
-                    continue
-                pick = None if bool(np.all(keep)) else np.flatnonzero(keep)
-                out.append(_mapped_row(diff, ch, pick))
-                self.rows.append(_mapped_raw(raw, ch, pick))
-                self.sources.append(ch.slots(src if pick is None else src[pick]))
-                if mine is not None:
-                    self._owners.append(ch.row_ids(mine if pick is None else mine[pick]))
-            self.e = widest(self.e, ev.e)
+        for rows, raws, sources, owners, e in in_threads(self._chunk, self.chunks):
+            out += rows
+            self.rows += raws
+            self.sources += sources
+            self._owners += owners
+            self.e = widest(self.e, e)
         return out
+
+    def _chunk(self, ch: Chunk) -> tuple[list[Row], list[tuple], list[np.ndarray],
+                                         list[np.ndarray], np.ndarray]:
+        """One chunk's constraint rows, raw rows, sources and owners (the kept ones, numbered
+        as in the whole program), and its error bounds."""
+        lo, hi = self.box
+        ev = Evaluation(ch.prog, ch.box(lo), ch.box(hi), self.ind, self.center,
+                        point=self.point, mixed=self.mixed)
+        diffs = ev.run()
+        owners = (row_owners(ch.prog, self.ind, ev.sources, [r[5] for r in ev.rows])
+                  if self.owners else None)
+        out: list[Row] = []
+        raws: list[tuple] = []
+        sources: list[np.ndarray] = []
+        mine_all: list[np.ndarray] = []
+        at = 0
+        for raw, diff, src in zip(ev.rows, diffs, ev.sources, strict=True):
+            size = len(raw[5])
+            keep = ch.kept(raw[5])
+            mine = owners[at: at + size] if owners is not None else None
+            at += size
+            if not np.any(keep):
+                continue
+            pick = None if bool(np.all(keep)) else np.flatnonzero(keep)
+            out.append(_mapped_row(diff, ch, pick))
+            raws.append(_mapped_raw(raw, ch, pick))
+            sources.append(ch.slots(src if pick is None else src[pick]))
+            if mine is not None:
+                mine_all.append(ch.row_ids(mine if pick is None else mine[pick]))
+        return out, raws, sources, mine_all, ev.e
 
     def data_rows(self) -> np.ndarray:
         assert self.owners, "made without owners=True"
         return (np.concatenate(self._owners).astype(np.int64) if self._owners
                 else np.zeros(0, dtype=np.int64))
+
+
+T = TypeVar("T")
+U = TypeVar("U")
+
+
+def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = None) -> list[U]:
+    """[fn(x) for x in items], shared among `threads` threads (CHUNK_THREADS if None): this
+    one and the others of one pool that lives as long as the process, in the items' order.
+    The first runs alone (it makes the derived tables of a program the others read), and
+    each runs under the caller's floating-point error handling (np.errstate, which a thread
+    does not inherit). Few, lasting threads: each thread's freed memory stays in its own
+    malloc arena, so a new thread per pass would grow the process's peak."""
+    n = threads or CHUNK_THREADS
+    if len(items) <= 2 or n <= 1 or getattr(_here, "worker", False):
+        return [fn(x) for x in items]  # (a pool's worker never waits on its own pool)
+    err = np.geterr()
+
+    def run(x: T) -> U:
+        _here.worker = True
+        with np.errstate(**err):
+            return fn(x)
+
+    out: list[U] = [fn(items[0])]
+    rest = items[1:]
+    theirs = [_pool(n - 1).submit(run, x) for i, x in enumerate(rest) if i % n]
+    mine = [fn(x) for x in rest[::n]]
+    for i in range(len(rest)):
+        out.append(mine[i // n] if i % n == 0 else theirs[i - i // n - 1].result())
+    return out
+
+
+_here = threading.local()
+_pools: dict[int, ThreadPoolExecutor] = {}
+_lock = threading.Lock()
+
+
+def _pool(workers: int) -> ThreadPoolExecutor:
+    with _lock:  # (callers in several threads: the inner bounds' own)
+        if workers not in _pools:
+            _pools[workers] = ThreadPoolExecutor(workers, thread_name_prefix="chunks")
+        return _pools[workers]
 
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,

@@ -33,7 +33,7 @@ import numpy as np
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program
-from calib_dsl.relax.chunked import widest
+from calib_dsl.relax.chunked import in_threads, widest
 from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import cell_columns, mid_rad
@@ -78,8 +78,8 @@ def relax_quadratic_readings(prog: Program, lo: np.ndarray, hi: np.ndarray,
         local = _readings(chunks[0].prog)
         if local is None:
             return None
-        parts = [_part(ch.prog, local, ch.box(lo), ch.box(hi), ind, centre, ch)
-                 for ch in chunks]
+        parts = in_threads(lambda ch: _part(ch.prog, local, ch.box(lo), ch.box(hi), ind,
+                                            centre, ch), chunks)
     if any(part is None for part in parts):
         return None
     return _joined(prog, [part for part in parts if part is not None], mccormick, prune)

@@ -29,6 +29,7 @@ import numpy as np
 
 from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.ir.program import Program, derived
+from calib_dsl.relax.chunked import in_threads
 from calib_dsl.relax.layout import Layout, independents, layout, row_key
 from calib_dsl.relax.models import SUPPORTED, Models, Pairs, add, apply, constant, up
 from calib_dsl.settings import Settings
@@ -84,15 +85,18 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
     chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return _expand(prog, lo, hi)
-    parts = []
-    ex: Expansion | None = None
-    for ch in chunks:
+
+    def one(ch: Chunk) -> tuple[np.ndarray, np.ndarray, Pairs, Constraints] | None:
+        # (only the chunk's rows are kept: its slots' models are dropped with it)
         ex = _expand(ch.prog, ch.box(lo), ch.box(hi))
-        if ex is None:
-            return None
-        parts.append(chunk_rows(ex.rows, ch))
-    assert ex is not None  # (chunks are never empty)
-    return Expansion(ex.center, ex.half, ex.pairs, joined(parts))
+        return None if ex is None else (ex.center, ex.half, ex.pairs, chunk_rows(ex.rows, ch))
+
+    done = in_threads(one, chunks)
+    if any(d is None for d in done):
+        return None
+    last = done[-1]
+    assert last is not None  # (chunks are never empty)
+    return Expansion(*last[:3], joined([d[3] for d in done if d is not None]))
 
 
 def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:

@@ -13,7 +13,9 @@ holds every solution.
 
 The rows are checked a chunk at a time (each chunk's relaxation made, evaluated and
 dropped): the memory follows the chunk, not the campaign, and a row's relaxed inequalities
-are its own, so the rows found are those of one relaxation of them all.
+are its own, so the rows found are those of one relaxation of them all. The chunks are
+shared among `workers` threads (numpy's array work runs outside the GIL), their results
+joined in the chunks' order: the same on every run.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import Certificates, mapped
+from calib_dsl.relax.chunked import in_threads
 from calib_dsl.relax.quadratic import FAMILY as SECOND_ORDER
 from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.relax.quadratic_readings import FAMILY as READINGS_FAMILY
@@ -30,11 +33,12 @@ from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import CHUNK_SLOTS
 
 
-def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
+def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray, workers: int = 1
                   ) -> list[tuple[np.ndarray, np.ndarray]] | None:
     """For each optimum kept in the LP columns of `certs` (a second-order family, with its
     box): the loop rows of `rows` whose relaxed inequalities cut it off, and by how much
-    (in the rows' own units). None where the check cannot be made this way."""
+    (in the rows' own units), the chunks shared among `workers` threads. None where the
+    check cannot be made this way."""
     if prog.rows is None or certs.box is None or not certs.columns or len(rows) == 0:
         return None
     # (chunk-sized groups of the rows, as compile/chunks.py sizes them; each relaxed on its
@@ -42,7 +46,7 @@ def violated_rows(prog: Program, certs: Certificates, rows: np.ndarray
     lay = prog.rows
     size = max(1, (CHUNK_SLOTS - lay.shared) // max(lay.width, 1))
     parts = [rows[a:a + size] for a in range(0, len(rows), size)]
-    found = [_violated(prog, certs, part) for part in parts]
+    found = in_threads(lambda part: _violated(prog, certs, part), parts, workers)
     if any(f is None for f in found):
         return None
     return [(np.concatenate([f[k][0] for f in found if f is not None]),

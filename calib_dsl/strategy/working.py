@@ -134,7 +134,7 @@ class WorkingRows(Composable):
         the optima (relaxed_check.py); and the ends (keys of `fine.columns`) whose optimum
         some row cuts off (None: not checked)."""
         outside = np.setdiff1d(np.arange(loop_rows(self.prog)), rows)
-        found = violated_rows(self.prog, fine, outside)
+        found = violated_rows(self.prog, fine, outside, self.settings.lp.workers)
         if not found:
             return np.zeros(0, dtype=np.int64), None
         cut = {end for end, (row, _) in zip(fine.columns, found, strict=True) if len(row)}

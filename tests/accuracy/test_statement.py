@@ -172,3 +172,24 @@ def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
     assert found["distance_columns"] == ["x", "y"] and set(found["points"]["nominal"]["axes"]) \
         == {"x", "y", "z"}
     assert np.all(acc.bound <= ur10.extra.accuracy.bound)  # one axis fewer
+
+
+def test_the_statement_is_each_part_computed_afresh(ur10):
+    """The statement reuses the polish's evaluations at the certified centre and the
+    least-squares point: every array equals the one computed on its own, bit for bit."""
+    acc, prog, res = ur10.extra.accuracy, ur10.prog, ur10.res
+    at, ind = layout(prog), independents(prog)
+    from calib_dsl.accuracy.fit import polish
+    from calib_dsl.settings import DEFAULT
+
+    assert {"nominal", "least_squares", "certified"} == set(acc.points)
+    centre = certified_centre(ur10.extra.inner)
+    assert centre is not None
+    for label, p in (("nominal", nominal_point(prog)),
+                     ("least_squares", polish(prog, centre, DEFAULT).values),
+                     ("certified", centre)):
+        assert np.array_equal(acc.points[label], point_residuals(prog, at, p), equal_nan=True)
+    box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
+    fresh = accuracy(prog, residual_ranges(prog, box), {})
+    for field in ("worst", "bound", "box_worst", "box_bound"):
+        assert np.array_equal(getattr(acc, field), getattr(fresh, field), equal_nan=True)

@@ -159,3 +159,37 @@ def test_second_order_models_in_chunks(tmp_path_factory, monkeypatch, seed, join
     owned = (whole.rows.slots - lay.shared) // lay.width
     expect = whole.rows.slots[(whole.rows.slots < lay.shared) | np.isin(owned, pick)]
     assert sorted(some.rows.slots.tolist()) == sorted(expect.tolist())
+
+
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), rows=st.integers(5, 14), point=st.booleans())
+def test_chunks_shared_among_threads_give_one_threads_rows_in_its_order(tmp_path_factory, seed,
+                                                                       rows, point):
+    """The chunks shared among threads give what one thread gives, bit for bit and in the
+    same order (the rows joined in the chunks' order, not as the threads finish)."""
+    sim = random_robot(tmp_path_factory.mktemp("threads"), seed, 2, rows, "matrix")
+    prog = sim.prog
+    if prog.rows is None:
+        return
+    ind = independents(prog)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    center = 0.5 * (lo[ind] + hi[ind])
+    if point:
+        lo[ind], hi[ind] = center, center
+    runs = []
+    for threads in (1, 3):
+        with chunk_slots(prog.rows.shared + prog.rows.width), \
+                mock.patch.object(chunked_module, "CHUNK_THREADS", threads):
+            ev = evaluation(prog, lo, hi, center, point=point, mixed=not point, owners=True)
+            runs.append((ev, ev.run()))
+    (one, out1), (many, out3) = runs
+    assert len(out1) == len(out3) > 1
+    for r1, r3 in zip(out1, out3, strict=True):
+        for x1, x3 in zip(r1, r3, strict=True):
+            for a, b in zip(*(x if isinstance(x, tuple) else (x,) for x in (x1, x3)),
+                            strict=True):
+                assert np.array_equal(a, b, equal_nan=True)
+    assert np.array_equal(one.targets(), many.targets())
+    assert np.array_equal(one.data_rows(), many.data_rows())
+    assert np.array_equal(one.e, many.e)

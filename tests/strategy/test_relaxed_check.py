@@ -123,7 +123,12 @@ def test_the_rows_checked_a_chunk_at_a_time_are_those_of_one_relaxation(tmp_path
     whole = relaxed_check.violated_rows(prog, fine, outside)
     monkeypatch.setattr(relaxed_check, "CHUNK_SLOTS", prog.rows.shared + prog.rows.width)
     parts = relaxed_check.violated_rows(prog, fine, outside)
-    assert whole is not None and parts is not None and len(whole) == len(parts)
+    # the chunks shared among threads: the same rows and excesses in the same order
+    shared = relaxed_check.violated_rows(prog, fine, outside, workers=2)
+    assert shared is not None and parts is not None
+    for (r1, e1), (r2, e2) in zip(parts, shared, strict=True):
+        assert np.array_equal(r1, r2) and np.array_equal(e1, e2)
+    assert whole is not None and len(whole) == len(parts)
     assert sum(len(r) for r, _ in whole) > 0
     for (r1, e1), (r2, e2) in zip(whole, parts, strict=True):
         a, b = np.lexsort((e1, r1)), np.lexsort((e2, r2))
