@@ -48,13 +48,15 @@ def corrected(prog: Program, found: Candidates, start: Found, settings: Settings
               pull_back: PullBack) -> list[Found | None]:
     """Per candidate, a certified point near its LP's optimum: the optimum where it is
     proven, else its LP's optimum with the violated rows tightened
-    (`settings.prediction_corrections` times at most), and one still failing pulled back
-    towards `start` (a certified point) by `pull_back`; None where none was proven."""
+    (`settings.prediction_corrections` times at most), and one still failing (or whose
+    tightened LP had no optimum: from its last) pulled back towards `start` (a certified
+    point) by `pull_back`; None where none was proven."""
     lm, k = found.lm, len(found.steps)
     out: list[Found | None] = [None] * k
     tighten = np.zeros((k, lm.rows))
     steps, bases = found.steps.copy(), list(found.bases)
     open_ = np.arange(k)
+    stuck: list[int] = []
     for round_ in range(settings.prediction_corrections + 1):
         if not len(open_):
             break
@@ -70,8 +72,11 @@ def corrected(prog: Program, found: Candidates, start: Found, settings: Settings
         for i, (y, basis) in zip(order, solved, strict=True):
             if y is not None:
                 steps[i], bases[i] = y, basis
+        # (an LP its tightened rows left infeasible is pulled back from its last optimum)
+        stuck.extend(i for i, (y, _) in zip(order, solved, strict=True) if y is None)
         open_ = np.array([i for i, (y, _) in zip(order, solved, strict=True)
                           if y is not None], dtype=np.int64)
+    open_ = np.array(sorted([*open_.tolist(), *stuck]), dtype=np.int64)
     if len(open_):
         ends = [lm.point(steps[i]) for i in open_]
         back = pull_back(np.repeat(start[0][None], len(open_), axis=0),
