@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from calib_dsl import sections
-from calib_dsl.accuracy.extremes import linearized_optima, pulled_back
+from calib_dsl.accuracy.extremes import certified_extremes
 from calib_dsl.accuracy.points import centre_witness
 from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, predict
 from calib_dsl.analysis.min_error import MinError
@@ -165,10 +165,7 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
         # their search (a singular or overflowing step) leaves the ones the inner bounds
         # found; a point outside the domains (ValueError) is a bug, not caught
         try:
-            near, readings = linearized_optima(prog, box, centre, directions, settings)
-            far = np.repeat(centre.readings[None], len(optima), axis=0)
-            return pulled_back(prog, centre, np.concatenate([near, optima]),
-                               np.concatenate([readings, far]), settings.pullback_steps)
+            return certified_extremes(prog, box, centre, directions, optima, settings)
         except (ArithmeticError, np.linalg.LinAlgError):
             return []
 

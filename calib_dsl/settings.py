@@ -389,6 +389,12 @@ class Settings:
     # linearized at the certified centre become candidates too: near the solution set's
     # boundary, where the relaxation's optima lie beyond it
     prediction_linear_lps: int = 1024
+    # Each such optimum that its check rejects is re-solved with the rows it violated moved
+    # inside (the inner bounds' rule, accuracy/corrections.py) at most this many times
+    # before it is pulled back: a correction slides along the solution set's boundary where
+    # the pull-back stops on the segment to the centre. On the UR10 most are proven after
+    # 2-4; each costs one point check and one LP per candidate still open.
+    prediction_corrections: int = 6
     # Whether the relaxation the predictions' LPs run over (accuracy/second_order.py) ties
     # each product column to its factors by McCormick's inequalities: they narrow the
     # predictions a little (their extreme vertices) but give the LP four rows a product,

@@ -1,11 +1,13 @@
 """Certified points towards the extremes of predictions, for their inner intervals.
 
 Candidates come from two LPs per direction (a prediction's gradient in the parameters): over
-the calibration's model linearized at the certified centre (inner_lp.py's, its rows narrowed
+the calibration's model linearized at the certified centre (inner/lp.py's, its rows narrowed
 a little: its optima lie near the solution set's boundary, readings included), and the
-prediction LPs' own optima over the relaxation (outside the solution set, in general). Each
-is pulled back towards the certified centre by bisection until certify_point.py proves it,
-all candidates checked in one pass per step.
+prediction LPs' own optima over the relaxation (outside the solution set, in general). The
+first are corrected (accuracy/corrections.py: their LPs solved again with the rows their
+checks found violated tightened); what is still unproven, and the second, is pulled back
+towards the certified centre by bisection until certify_point.py proves it, all candidates
+checked in one pass per step.
 """
 
 from __future__ import annotations
@@ -15,81 +17,105 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from calib_dsl.accuracy.batch_lp import path, spread
-from calib_dsl.analysis.certify_point import check_points
+from calib_dsl.accuracy.corrections import Candidates, Found, corrected
+from calib_dsl.analysis.certify_point import check_points, exact_inside
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.highs import load, optimal
+from calib_dsl.lp.highs import current_basis, load, optimal
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings, Settings
 
 
+def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
+                       directions: np.ndarray, optima: np.ndarray, settings: Settings
+                       ) -> list[Found]:
+    """Certified points towards the extremes of `directions` (one a row, independents'
+    order) within `box` (the independents' bounds): the corrected optima of the model
+    linearized at `centre`, and the relaxation's `optima` (with the centre's readings)
+    pulled back towards the centre."""
+    def back(starts: np.ndarray, start_readings: np.ndarray, ends: np.ndarray,
+             readings: np.ndarray) -> list[Found | None]:
+        return pulled_back(prog, (starts, start_readings), ends, readings,
+                           settings.pullback_steps)
+
+    near = linearized_optima(prog, box, centre, directions, settings)
+    got = [] if near is None else \
+        corrected(prog, near, (centre.point, centre.readings), settings, back)
+    at_centre = np.repeat(centre.readings[None], len(optima), axis=0)
+    far = back(np.repeat(centre.point[None], len(optima), axis=0), at_centre, optima,
+               at_centre)
+    return [w for w in [*got, *far] if w is not None]
+
+
 def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
-                      directions: np.ndarray, settings: Settings
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """The optima (points, readings) of the largest and smallest of each of a spread of the
-    `directions` (one a row, independents' order) over the model linearized at `centre`
-    within `box` (the independents' bounds)."""
+                      directions: np.ndarray, settings: Settings) -> Candidates | None:
+    """The optima of the largest and smallest of each of a spread of the `directions` (one
+    a row, independents' order) over the model linearized at `centre` within `box` (the
+    independents' bounds), with their objectives and bases (None: no LP)."""
+    box = _inside(prog, box)
     free = np.flatnonzero(box[1] > box[0])
-    n = len(centre.point)
-    none = (np.zeros((0, n)), np.zeros((0, len(centre.readings))))
     if not len(free) or not len(directions):
-        return none
-    lm = LinearModel(prog, box, centre.point, free)
+        return None
+    lm = LinearModel(prog, box, centre.point, free, lp=settings.lp, inner=settings.inner)
     if not lm.finite:
-        return none
+        return None
     picked = directions[spread(directions, settings.prediction_linear_lps)]
-    objectives = picked[:, free] * lm.scale
+    objectives = np.zeros((len(picked), lm.n + lm.width))
+    objectives[:, :lm.n] = picked[:, free] * lm.scale
     # (each sign walks the directions in a path, each LP from its neighbour's optimum)
-    order = path(objectives, settings.prediction_path_window)
+    order = path(objectives[:, :lm.n], settings.prediction_path_window)
     with ThreadPoolExecutor(2 if settings.lp.workers > 1 else 1) as pool:
-        walks = list(pool.map(lambda sign: _optima(lm.rel, sign * objectives[order],
-                                                   settings.lp), (1.0, -1.0)))
-    found = [lm.point(y) for walk in walks for y in walk]
+        walks = list(pool.map(lambda sign: (sign, _optima(lm.rel, sign * objectives[order],
+                                                          settings.lp)), (1.0, -1.0)))
+    found = [(sign * objectives[order[i]], y, basis) for sign, walk in walks
+             for i, y, basis in walk]
     if not found:
-        return none
-    return np.array([p for p, _ in found]), np.array([r for _, r in found])
+        return None
+    return Candidates(lm, np.array([c for c, _, _ in found]), np.array([y for _, y, _ in found]),
+                      [b for _, _, b in found])
 
 
 def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
-            ) -> list[np.ndarray]:
+            ) -> list[tuple[int, np.ndarray, tuple[np.ndarray, np.ndarray] | None]]:
     """The optima of max c.x over `rel` for each row c of `objectives` in turn, on one HiGHS
-    model, each LP from the last one's basis (a new cost leaves it primal feasible); an LP
-    that did not end optimal gives none. Candidates only: nothing here is certified."""
+    model, each LP from the last one's basis (a new cost leaves it primal feasible): per
+    LP that ended optimal, its row, optimum and basis. Candidates only: nothing here is
+    certified."""
     h = load(rel, None, lp.iterations, lp.scaling)
     h.setOptionValue("simplex_strategy", lp.tall_simplex)
     n = objectives.shape[1]
     cols = np.arange(n, dtype=np.int32)
     found = []
-    for c in objectives:
+    for i, c in enumerate(objectives):
         h.changeColsCost(n, cols, -c.astype(float))
         h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
         h.run()
         if optimal(h):
-            found.append(np.asarray(h.getSolution().col_value))
+            found.append((i, np.asarray(h.getSolution().col_value), current_basis(h)))
     return found
 
 
-def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
-                readings: np.ndarray, steps: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def pulled_back(prog: Program, starts: Found, candidates: np.ndarray, readings: np.ndarray,
+                steps: int) -> list[Found | None]:
     """For each candidate (independents' order, with its readings), the certified point
-    farthest from the certified `centre` on the segment towards it that bisection finds in
-    `steps` halvings (points and readings moved together); candidates with none left out."""
+    farthest from its certified start (a row of `starts`: points, readings) on the segment
+    towards it that bisection finds in `steps` halvings (points and readings moved
+    together); None for a candidate with none."""
     if not len(candidates):
         return []
-    ind = independents(prog)
     # (an LP's optimum may stand a tolerance outside the domains: the box is convex, so
-    # the segment from the centre to its nearest point inside stays inside)
-    candidates = np.clip(candidates, prog.slots.lo[ind], prog.slots.hi[ind])
+    # the segment from the start to its nearest point inside stays inside)
+    candidates = np.clip(candidates, *_inside(prog, None))
     good = np.zeros(len(candidates))  # the largest share t of the segment proven
     bad = np.ones(len(candidates))
     t = np.ones(len(candidates))
 
-    def at(i: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return (_between(centre.point, candidates[i], share),
-                _between(centre.readings, readings[i], share))
+    def at(i: np.ndarray, share: np.ndarray) -> Found:
+        return (_between(starts[0][i], candidates[i], share),
+                _between(starts[1][i], readings[i], share))
 
     for _ in range(steps + 1):
         open_ = np.flatnonzero(bad > good)
@@ -104,11 +130,30 @@ def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
         t = np.where(good >= 1.0, 1.0, 0.5 * (good + bad))
     proven = np.flatnonzero(good > 0)
     points, values = at(proven, good[proven])
-    return list(zip(points, values, strict=True))
+    out: list[Found | None] = [None] * len(candidates)
+    for i, p, r in zip(proven, points, values, strict=True):
+        out[int(i)] = (p, r)
+    return out
+
+
+def _inside(prog: Program, box: tuple[np.ndarray, np.ndarray] | None
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """`box` (the independents' bounds; None: their domains) within the declared domains
+    exactly: their floats are rounded outward, and a point on one proves nothing (a domain
+    a few ulps wide, with no float inside, keeps its own)."""
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    dlo, dhi = exact_inside(lo, hi)
+    some = dlo <= dhi
+    dlo, dhi = np.where(some, dlo, lo), np.where(some, dhi, hi)
+    if box is None:
+        return dlo, dhi
+    return np.maximum(box[0], dlo), np.minimum(box[1], dhi)
 
 
 def _between(start: np.ndarray, ends: np.ndarray, share: np.ndarray) -> np.ndarray:
-    """start + share (end - start) for each row of `ends`, kept within the two (rounded, a
-    share of 1 can land an ulp beyond the end: outside the domains the check requires)."""
+    """start + share (end - start) for each row of `ends` (and of `start`, where it has as
+    many), kept within the two (rounded, a share of 1 can land an ulp beyond the end:
+    outside the domains the check requires)."""
     moved = start + share[:, None] * (ends - start)
     return np.clip(moved, np.minimum(start, ends), np.maximum(start, ends))
