@@ -22,6 +22,7 @@ from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
+from calib_dsl.analysis.row_screen import row_screen
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.units import dimension
@@ -164,7 +165,8 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
             near, readings = linearized_optima(prog, box, centre, directions, settings)
             far = np.repeat(centre.readings[None], len(optima), axis=0)
             return pulled_back(prog, centre, np.concatenate([near, optima]),
-                               np.concatenate([readings, far]), settings.pullback_steps)
+                               np.concatenate([readings, far]), settings.pullback_steps,
+                               row_screen(prog, *box))
         except (ArithmeticError, np.linalg.LinAlgError):
             return []
 

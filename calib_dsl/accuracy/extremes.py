@@ -17,6 +17,7 @@ import numpy as np
 from calib_dsl.accuracy.batch_lp import path, spread
 from calib_dsl.analysis.certify_point import check_points
 from calib_dsl.analysis.existence import prove_point
+from calib_dsl.analysis.row_screen import RowScreen, screened_holds
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
@@ -73,10 +74,13 @@ def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
 
 
 def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
-                readings: np.ndarray, steps: int) -> list[tuple[np.ndarray, np.ndarray]]:
+                readings: np.ndarray, steps: int, screen: RowScreen | None = None
+                ) -> list[tuple[np.ndarray, np.ndarray]]:
     """For each candidate (independents' order, with its readings), the certified point
     farthest from the certified `centre` on the segment towards it that bisection finds in
-    `steps` halvings (points and readings moved together); candidates with none left out."""
+    `steps` halvings (points and readings moved together); candidates with none left out.
+    `screen` (over a box holding the candidates and the centre): each point checked only on
+    the rows its second-order bound does not prove (analysis/row_screen.py)."""
     if not len(candidates):
         return []
     ind = independents(prog)
@@ -96,15 +100,20 @@ def pulled_back(prog: Program, centre: Witness, candidates: np.ndarray,
         if not len(open_):
             break
         points, values = at(open_, t[open_])
-        checks = check_points(prog, points, values)
-        holds = np.array([c.holds or prove_point(prog, p, r, c)
-                          for p, r, c in zip(points, values, checks, strict=True)])
+        holds = screened_holds(screen, points, values) if screen is not None else \
+            _holds(prog, points, values)
         good[open_] = np.where(holds, t[open_], good[open_])
         bad[open_] = np.where(holds, bad[open_], t[open_])
         t = np.where(good >= 1.0, 1.0, 0.5 * (good + bad))
     proven = np.flatnonzero(good > 0)
     points, values = at(proven, good[proven])
     return list(zip(points, values, strict=True))
+
+
+def _holds(prog: Program, points: np.ndarray, values: np.ndarray) -> np.ndarray:
+    checks = check_points(prog, points, values)
+    return np.array([c.holds or prove_point(prog, p, r, c)
+                     for p, r, c in zip(points, values, checks, strict=True)])
 
 
 def _between(start: np.ndarray, ends: np.ndarray, share: np.ndarray) -> np.ndarray:
