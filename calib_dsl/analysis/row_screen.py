@@ -6,9 +6,11 @@ margin. The rows' second-order Taylor models over a box (relax/taylor.py: each r
 in c0 + c1.t + c2.m(t) + [-r, r] for every t in [-1, 1]^n and every reading within its
 interval) bound a row at a point of the box with a few float products, their roundings
 bounded here; a row whose bound lies inside its measured interval's exact inside holds
-there, whatever the readings within their intervals. The loop's rows (configurations) with
-a row the bound does not prove are checked by interval evaluation, each a chunk of the
-program (compile/chunks.py), at just the points that need it. A point holds when it lies in
+there, whatever the readings within their intervals; one whose bound lies outside the
+target's enclosure fails there, whatever the readings (no evaluation could prove the
+point). The loop's rows (configurations) with a row the bound leaves open are checked by
+interval evaluation, each a chunk of the program (compile/chunks.py), at just the points
+that need it. A point holds when it lies in
 the domains and every row is proven by one or the other (where the evaluation fails only
 rows comparing two computed values, existence.py's proof is tried, as for a whole check).
 """
@@ -85,10 +87,10 @@ def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
     satisfies every constraint of the screen's program for some values of its measured
     intervals (check_points' `holds`, or prove_point's where that is needed)."""
     prog = screen.prog
-    need = _needs(screen, points)  # (points, loop rows + 1): evaluate that row's chunk
+    need, false = _needs(screen, points)  # (points, loop rows + 1): evaluate that chunk
     ind = independents(prog)
     dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
-    holds = np.all(points >= dlo, axis=1) & np.all(points <= dhi, axis=1)
+    holds = np.all(points >= dlo, axis=1) & np.all(points <= dhi, axis=1) & ~false
     # a shared row left unproven is evaluated with some loop row's chunk (each has the
     # shared part): the first that point needs anyway, else row 0
     alone = need[:, -1] & ~need[:, :-1].any(axis=1)
@@ -116,37 +118,46 @@ def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
                 only_computed[i] &= not np.any(bad & ~chk.computed)
     # rows comparing two computed values: the whole check's existence proof, as check_points'
     # callers try it
-    for i in np.flatnonzero(~holds & only_computed & np.all(points >= dlo, axis=1)
+    for i in np.flatnonzero(~holds & only_computed & ~false & np.all(points >= dlo, axis=1)
                             & np.all(points <= dhi, axis=1)):
         holds[i] = prove_point(prog, points[i], readings[i])
     return holds
 
 
-def _needs(screen: RowScreen, points: np.ndarray) -> np.ndarray:
+def _needs(screen: RowScreen, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(points, loop rows + 1): which loop rows (the last column: the shared part) have a row
-    the models do not prove inside its target at the point; every one for a point outside
-    the models' box."""
+    the models do not prove inside its target at the point, every one for a point outside
+    the models' box; and per point, whether the models prove some row false there."""
     configs = len(screen.always) - 1
     need = np.tile(screen.always, (len(points), 1))
+    false = np.zeros(len(points), dtype=bool)
     inside = np.all((points >= screen.lo) & (points <= screen.hi), axis=1)
     need[~inside] = True
     at = np.flatnonzero(inside)
     col = np.where(screen.config >= 0, screen.config, configs)
     for a in range(0, len(at), _BLOCK):
         block = at[a:a + _BLOCK]
-        unproven = ~_proven(screen, points[block])
+        holds, fails = _judged(screen, points[block])
         hit = np.zeros((len(block), configs + 1), dtype=bool)
-        rows, cols = np.nonzero(unproven)
+        rows, cols = np.nonzero(~holds)
         hit[rows, col[cols]] = True
         need[block] |= hit
-    return need
+        false[block] = fails.any(axis=1)
+    return need, false
 
 
 def _proven(screen: RowScreen, points: np.ndarray) -> np.ndarray:
-    """(points, rows): whether the row's model bounds its value at the point (inside the
-    models' box) inside its target's exact inside, every rounding of the float evaluation
-    bounded: the terms' magnitudes times (terms + 16) 4U (each product, sum and the point's
-    own t = (p - c) / w contribute a few U of a term's magnitude)."""
+    """(points, rows): whether the row's model bounds its value at the point inside its
+    target's exact inside (_judged's first)."""
+    return _judged(screen, points)[0]
+
+
+def _judged(screen: RowScreen, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(points, rows) twice, at points inside the models' box: whether the row's model bounds
+    its value inside its target's exact inside (the row holds), and outside the target's
+    float enclosure (it fails, for every reading within its interval), every rounding of the
+    float evaluation bounded: the terms' magnitudes times (terms + 16) 4U (each product, sum
+    and the point's own t = (p - c) / w contribute a few U of a term's magnitude)."""
     ex = screen.ex
     m = ex.rows.models
     # exact t lies in [-1, 1] (the half-widths are rounded up): clipping only moves the
@@ -162,4 +173,6 @@ def _proven(screen: RowScreen, points: np.ndarray) -> np.ndarray:
     slack = reach + 2.0**-40 * (np.abs(value) + reach)
     tlo, thi = screen.inside
     with np.errstate(invalid="ignore"):
-        return (value - slack >= tlo[None, :]) & (value + slack <= thi[None, :])
+        holds = (value - slack >= tlo[None, :]) & (value + slack <= thi[None, :])
+        fails = (value + slack < ex.rows.lo[None, :]) | (value - slack > ex.rows.hi[None, :])
+    return holds, fails

@@ -73,8 +73,9 @@ def test_screened_verdicts_equal_the_whole_checks(tmp_path_factory, seed, joints
                           _full(prog, pts, readings))
 
 
-def _line(tmp: Path, rows: str = "1,1\n1,1\n1,1\n1,1\n"):
-    (tmp / "line.cal").write_text(LINE, encoding="utf-8")
+def _line(tmp: Path, rows: str = "1,1\n1,1\n1,1\n1,1\n", shared: str = ""):
+    text = LINE.replace("a - b == [0.9, 1.1];", shared) if shared else LINE
+    (tmp / "line.cal").write_text(text, encoding="utf-8")
     (tmp / "pts.csv").write_text("x,y\n" + rows, encoding="utf-8")
     prog = load(tmp / "line.cal")
     assert prog.rows is not None  # (a loop compiled once: the screen's case)
@@ -86,20 +87,22 @@ def test_the_screen_proves_rows_and_skips_their_evaluation(tmp_path):
     screen = rs.row_screen(prog, np.array([0.9, -0.05]), np.array([1.05, 0.05]))
     assert screen is not None
     pts = np.array([[1.0, 0.0], [0.99, 0.005]])
-    assert not rs._needs(screen, pts).any()  # every row, the shared one too, proven
+    need, false = rs._needs(screen, pts)
+    assert not need.any() and not false.any()  # every row, the shared one too, proven
     with mock.patch.object(rs, "check_points", side_effect=AssertionError("evaluated")):
         assert rs.screened_holds(screen, pts, _middles(prog, 2)).all()
 
 
 def test_a_shared_row_left_open_is_evaluated(tmp_path):
-    # a = 0.6, b = 0.4 fits every row of the loop (a + b = 1) but not a - b in [0.9, 1.1]:
-    # the loop's rows are proven, the shared row is not, and only a chunk evaluates it
-    prog = _line(tmp_path)
+    # a = 0.8, b = 0.2 fits every row of the loop (a + b = 1) but misses sin(a) - b in
+    # [0.52, 0.6] by 0.003, less than its model's third-order remainder over the box: the
+    # loop's rows are proven, the shared row is left open, and only a chunk evaluates it
+    prog = _line(tmp_path, shared="sin(a) - b == [0.52, 0.6];")
     screen = rs.row_screen(prog, np.array([0.5, -0.1]), np.array([1.1, 0.5]))
     assert screen is not None
-    pts = np.array([[0.6, 0.4], [1.0, 0.0]])
-    need = rs._needs(screen, pts)
-    assert need[0, -1] and not need[0, :-1].any()
+    pts = np.array([[0.8, 0.2], [0.82, 0.18]])
+    need, false = rs._needs(screen, pts)
+    assert need[0, -1] and not need[0, :-1].any() and not false.any()
     readings = _middles(prog, 2)
     assert list(rs.screened_holds(screen, pts, readings)) == [False, True]
     assert list(_full(prog, pts, readings)) == [False, True]
@@ -112,7 +115,7 @@ def test_a_point_outside_the_models_box_is_evaluated_on_every_row(tmp_path):
     screen = rs.row_screen(prog, np.array([0.95, -0.05]), np.array([1.05, 0.05]))
     assert screen is not None
     pts = np.array([[1.15, 0.15]])
-    assert rs._needs(screen, pts)[0, :-1].all()
+    assert rs._needs(screen, pts)[0][0, :-1].all()
     assert not rs.screened_holds(screen, pts, _middles(prog, 1))[0]
 
 
@@ -154,3 +157,24 @@ def test_a_bound_at_the_targets_end_is_not_proven():
     assert not rs._proven(_one_row(1.0, 0.0, (0.0, 1.0)), np.zeros((1, 1)))[0, 0]
     assert not rs._proven(_one_row(0.5, 0.5, (0.0, 1.0)), np.zeros((1, 1)))[0, 0]
     assert rs._proven(_one_row(0.5, 0.4999, (0.0, 1.0)), np.zeros((1, 1)))[0, 0]
+
+
+def test_a_bound_just_beyond_the_targets_end_fails_no_point():
+    # an excess within the evaluation's roundings refutes nothing; a larger one does
+    one = np.zeros((1, 1))
+    assert not rs._judged(_one_row(1.0 + 2.0**-50, 0.0, (0.0, 1.0)), one)[1][0, 0]
+    assert rs._judged(_one_row(1.0 + 1e-9, 0.0, (0.0, 1.0)), one)[1][0, 0]
+    assert rs._judged(_one_row(-0.5, 0.4, (0.0, 1.0)), one)[1][0, 0]
+    assert not rs._judged(_one_row(-0.5, 0.5, (0.0, 1.0)), one)[1][0, 0]
+
+
+def test_a_point_the_models_prove_false_is_not_evaluated(tmp_path):
+    # a = 1.2, b = 0: every loop row's a + b is 0.2 from its y (0.01): refuted by the models
+    prog = _line(tmp_path)
+    screen = rs.row_screen(prog, np.array([0.9, -0.1]), np.array([1.3, 0.1]))
+    assert screen is not None
+    pts = np.array([[1.2, 0.0]])
+    assert rs._needs(screen, pts)[1][0]
+    with mock.patch.object(rs, "check_points", side_effect=AssertionError("evaluated")):
+        assert not rs.screened_holds(screen, pts, _middles(prog, 1))[0]
+    assert not _full(prog, pts, _middles(prog, 1))[0]
