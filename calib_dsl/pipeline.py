@@ -166,7 +166,7 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
             far = np.repeat(centre.readings[None], len(optima), axis=0)
             return pulled_back(prog, centre, np.concatenate([near, optima]),
                                np.concatenate([readings, far]), settings.pullback_steps,
-                               row_screen(prog, *box))
+                               row_screen(prog, *box, settings.pullback_most_open))
         except (ArithmeticError, np.linalg.LinAlgError):
             return []
 

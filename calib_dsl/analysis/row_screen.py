@@ -49,11 +49,17 @@ class RowScreen:
     # magnitudes (made once: every block of points multiplies by both)
     coef: np.ndarray
     size: np.ndarray
+    # above this share of the points' loop rows left open, a pass is the whole check
+    most_open: float = 1.0
 
 
-def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | None:
+def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float = 1.0
+               ) -> RowScreen | None:
     """The screen of `prog`'s rows over the box [lo, hi] of its independents (within their
-    domains); None where the program has no loop compiled once or no second-order models."""
+    domains); None where the program has no loop compiled once or no second-order models.
+    `most_open`: the share of the points' loop rows left open above which a pass evaluates
+    the whole program at every point decided by no model (in chunks of many points and
+    rows: cheaper a row than one-row chunks at a few points each)."""
     lay = prog.rows
     ind = independents(prog)
     if lay is None or not len(ind):
@@ -78,7 +84,7 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | Non
     m = ex.rows.models
     coef = np.ascontiguousarray(np.hstack([m.c1, m.c2]).T)
     return RowScreen(prog, ex, lo.copy(), hi.copy(), exact_inside(ex.rows.lo, ex.rows.hi),
-                     config_of(ex.rows.slots), always, coef, np.abs(coef))
+                     config_of(ex.rows.slots), always, coef, np.abs(coef), most_open)
 
 
 def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
@@ -91,6 +97,8 @@ def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
     ind = independents(prog)
     dlo, dhi = exact_inside(prog.slots.lo[ind], prog.slots.hi[ind])
     holds = np.all(points >= dlo, axis=1) & np.all(points <= dhi, axis=1) & ~false
+    if need[holds, :-1].sum() > screen.most_open * holds.sum() * (need.shape[1] - 1):
+        return _whole(prog, points, readings, holds)
     # a shared row left unproven is evaluated with some loop row's chunk (each has the
     # shared part): the first that point needs anyway, else row 0
     alone = need[:, -1] & ~need[:, :-1].any(axis=1)
@@ -121,6 +129,19 @@ def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
     for i in np.flatnonzero(~holds & only_computed & ~false & np.all(points >= dlo, axis=1)
                             & np.all(points <= dhi, axis=1)):
         holds[i] = prove_point(prog, points[i], readings[i])
+    return holds
+
+
+def _whole(prog: Program, points: np.ndarray, readings: np.ndarray, some: np.ndarray
+           ) -> np.ndarray:
+    """check_points' verdicts (prove_point's where needed) for the points `some`, False for
+    the others."""
+    holds = np.zeros(len(points), dtype=bool)
+    at = np.flatnonzero(some)
+    if len(at):
+        checks = check_points(prog, points[at], readings[at])
+        holds[at] = [c.holds or prove_point(prog, points[i], readings[i], c)
+                     for i, c in zip(at, checks, strict=True)]
     return holds
 
 

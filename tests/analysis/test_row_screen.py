@@ -48,9 +48,11 @@ def _middles(prog, k: int) -> np.ndarray:
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(5, 12),
-       formulation=st.sampled_from(["matrix", "rotation"]), spread=st.floats(1e-4, 0.05))
+       formulation=st.sampled_from(["matrix", "rotation"]), spread=st.floats(1e-4, 0.05),
+       most_open=st.sampled_from([0.0, 0.15, 1.0]))
 def test_screened_verdicts_equal_the_whole_checks(tmp_path_factory, seed, joints, rows,
-                                                  formulation, spread):
+                                                  formulation, spread, most_open):
+    # (most_open 0: every pass the whole check; 1: one-row chunks however many are open)
     sim = random_robot(tmp_path_factory.mktemp("screen"), seed, joints, rows, formulation)
     prog = sim.prog
     ind = independents(prog)
@@ -58,7 +60,7 @@ def test_screened_verdicts_equal_the_whole_checks(tmp_path_factory, seed, joints
     rng = np.random.default_rng(seed)
     width = (dhi - dlo) * spread
     lo, hi = np.maximum(sim.p_true - width, dlo), np.minimum(sim.p_true + width, dhi)
-    screen = rs.row_screen(prog, lo, hi)
+    screen = rs.row_screen(prog, lo, hi, most_open)
     if screen is None:
         return
     # points in the box (the truth among them), and some beyond it
