@@ -22,6 +22,7 @@ from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
+from calib_dsl.analysis.row_screen import row_screen
 from calib_dsl.elaborate.elaborator import Inputs
 from calib_dsl.elaborate.rows import Selection
 from calib_dsl.elaborate.units import dimension
@@ -165,7 +166,8 @@ def certified_points(prog: Program, sol: Solution, settings: Settings
         # their search (a singular or overflowing step) leaves the ones the inner bounds
         # found; a point outside the domains (ValueError) is a bug, not caught
         try:
-            return certified_extremes(prog, box, centre, directions, optima, settings)
+            return certified_extremes(prog, box, centre, directions, optima, settings,
+                                      row_screen(prog, *box, settings.pullback_most_open))
         except (ArithmeticError, np.linalg.LinAlgError):
             return []
 

@@ -385,6 +385,11 @@ class Settings:
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps
     # of the segment short of the last certified share.
     pullback_steps: int = 8
+    # Each pass of that bisection evaluates a point only on the calibration rows the rows'
+    # second-order bounds leave open (analysis/row_screen.py), one-row chunks at a few points
+    # each: about 74 us a point and row against 12 us in the whole check's large chunks
+    # (UR10, 100 rows). Above this share of open rows the pass is the whole check.
+    pullback_most_open: float = 0.15
     # Directions (predictions' gradients, spread apart) whose extremes over the calibration
     # linearized at the certified centre become candidates too: near the solution set's
     # boundary, where the relaxation's optima lie beyond it

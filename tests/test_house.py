@@ -223,6 +223,7 @@ NOT_TUNING = {
     "calib_dsl.accuracy.batch_lp._BLOCK": "a memory block: the bounds are the same for any",
     "calib_dsl.analysis.certify_point.CHECK_CELLS": "a memory block: results the same for any",
     "calib_dsl.analysis.certify_point.CHUNK_CELLS": "a memory block: results the same for any",
+    "calib_dsl.analysis.row_screen._BLOCK": "a memory block: each block's bounds rigorous",
     # what `calibc simulate --systematic` draws: the error model the data are made with (with
     # the seed, the file), not a choice of speed against tightness
     "calib_dsl.studies.campaign.TERMS": "sinusoids per column in the systematic error drawn",

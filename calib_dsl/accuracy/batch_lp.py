@@ -89,31 +89,45 @@ def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
     ys: dict[int, np.ndarray] = {}
     points: list[tuple[int, np.ndarray]] = []
     ended = np.zeros(len(seg), dtype=bool)
+    limits = (lp.seconds, runs, lp.iterations)
     for k in range(len(seg)):
-        _solve(h, C, sign, (k, int(seg[k])), (lp.seconds, runs), ys, points, ended)
+        _solve(h, C, sign, (k, int(seg[k])), limits, ys, points, ended)
     # an LP stopped by its limits (the path's first starts from no basis) is solved once
     # more after the walk, from the last LP's basis, usually near an optimum
     for j in np.flatnonzero(~ended):
-        _solve(h, C, sign, (int(j), int(seg[j])), (lp.seconds, runs), ys, points, ended)
+        _solve(h, C, sign, (int(j), int(seg[j])), limits, ys, points, ended)
     at = sorted(ys)
     return (np.array([ys[k] for k in at]).reshape(len(at), m), np.array(at, dtype=np.int64),
             points, ended)
 
 
 def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
-           limits: tuple[float, int], ys: dict[int, np.ndarray],
+           limits: tuple[float, int, int], ys: dict[int, np.ndarray],
            points: list[tuple[int, np.ndarray]], ended: np.ndarray) -> None:
     """One LP of _walk: objective `which` = (its place k in the walk, its row i of C), at
-    most limits[1] runs of limits[0] seconds; its multipliers into ys[k] (a stopped solve's
-    only where there are none yet), its feasible optimum into points, ended[k]."""
+    most limits[1] runs of limits[0] seconds and limits[2] pivots; its multipliers into
+    ys[k] (a stopped solve's only where there are none yet), its feasible optimum into
+    points, ended[k]."""
     k, i = which
+    seconds, runs, pivots = limits
     n = C.shape[1]
     h.changeColsCost(n, np.arange(n, dtype=np.int32), (-sign * C[i]).astype(float))
-    for _ in range(limits[1]):  # a run stopped by its pivot or time limit goes on from there
-        h.setOptionValue("time_limit", h.getRunTime() + limits[0])
+    raised = False
+    for _ in range(runs):  # a run stopped by its time limit goes on from there
+        h.setOptionValue("time_limit", h.getRunTime() + seconds)
         h.run()
         if optimal(h) or infeasible(h):
             break
+        if _pivot_limited(h):
+            # HiGHS does not go on from a run its pivot limit stopped before a feasible
+            # basis (another run repeats the same pivots): one more run, allowed every
+            # run's pivots at once
+            if raised:
+                break
+            raised = True
+            h.setOptionValue("simplex_iteration_limit", pivots * runs)
+    if raised:
+        h.setOptionValue("simplex_iteration_limit", pivots)
     done = optimal(h)
     sol = h.getSolution()
     if sol.dual_valid and (done or k not in ys):  # (a stopped solve's still certify a bound)
@@ -121,6 +135,12 @@ def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
     if sol.value_valid and h.getInfo().primal_solution_status == 2:
         points.append((i, np.asarray(sol.col_value)))
     ended[k] = ended[k] or done
+
+
+def _pivot_limited(h: Any) -> bool:
+    import highspy
+
+    return bool(h.getModelStatus() == highspy.HighsModelStatus.kIterationLimit)
 
 
 def _certified(rel: LinearRelaxation, C: np.ndarray, Y: np.ndarray,

@@ -20,6 +20,7 @@ from calib_dsl.accuracy.batch_lp import path, spread
 from calib_dsl.accuracy.corrections import Candidates, Found, corrected
 from calib_dsl.analysis.certify_point import check_points, exact_inside
 from calib_dsl.analysis.existence import prove_point
+from calib_dsl.analysis.row_screen import RowScreen, screened_holds
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
@@ -30,16 +31,16 @@ from calib_dsl.settings import LPSettings, Settings
 
 
 def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
-                       directions: np.ndarray, optima: np.ndarray, settings: Settings
-                       ) -> list[Found]:
+                       directions: np.ndarray, optima: np.ndarray, settings: Settings,
+                       screen: RowScreen | None = None) -> list[Found]:
     """Certified points towards the extremes of `directions` (one a row, independents'
     order) within `box` (the independents' bounds): the corrected optima of the model
     linearized at `centre`, and the relaxation's `optima` (with the centre's readings)
-    pulled back towards the centre."""
+    pulled back towards the centre (`screen`: as pulled_back's)."""
     def back(starts: np.ndarray, start_readings: np.ndarray, ends: np.ndarray,
              readings: np.ndarray) -> list[Found | None]:
         return pulled_back(prog, (starts, start_readings), ends, readings,
-                           settings.pullback_steps)
+                           settings.pullback_steps, screen)
 
     near = linearized_optima(prog, box, centre, directions, settings)
     got = [] if near is None else \
@@ -99,11 +100,13 @@ def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
 
 
 def pulled_back(prog: Program, starts: Found, candidates: np.ndarray, readings: np.ndarray,
-                steps: int) -> list[Found | None]:
+                steps: int, screen: RowScreen | None = None) -> list[Found | None]:
     """For each candidate (independents' order, with its readings), the certified point
     farthest from its certified start (a row of `starts`: points, readings) on the segment
     towards it that bisection finds in `steps` halvings (points and readings moved
-    together); None for a candidate with none."""
+    together); None for a candidate with none. `screen` (over the solve's box): each point
+    inside it checked only on the rows its second-order bound does not decide
+    (analysis/row_screen.py)."""
     if not len(candidates):
         return []
     # (an LP's optimum may stand a tolerance outside the domains: the box is convex, so
@@ -122,9 +125,8 @@ def pulled_back(prog: Program, starts: Found, candidates: np.ndarray, readings: 
         if not len(open_):
             break
         points, values = at(open_, t[open_])
-        checks = check_points(prog, points, values)
-        holds = np.array([c.holds or prove_point(prog, p, r, c)
-                          for p, r, c in zip(points, values, checks, strict=True)])
+        holds = screened_holds(screen, points, values) if screen is not None else \
+            _holds(prog, points, values)
         good[open_] = np.where(holds, t[open_], good[open_])
         bad[open_] = np.where(holds, bad[open_], t[open_])
         t = np.where(good >= 1.0, 1.0, 0.5 * (good + bad))
@@ -149,6 +151,12 @@ def _inside(prog: Program, box: tuple[np.ndarray, np.ndarray] | None
     if box is None:
         return dlo, dhi
     return np.maximum(box[0], dlo), np.minimum(box[1], dhi)
+
+
+def _holds(prog: Program, points: np.ndarray, values: np.ndarray) -> np.ndarray:
+    checks = check_points(prog, points, values)
+    return np.array([c.holds or prove_point(prog, p, r, c)
+                     for p, r, c in zip(points, values, checks, strict=True)])
 
 
 def _between(start: np.ndarray, ends: np.ndarray, share: np.ndarray) -> np.ndarray:
