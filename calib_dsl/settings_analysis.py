@@ -53,3 +53,44 @@ class MinErrorSettings:
     # most, costs about ten solves where parameters the data cannot separate keep their
     # whole domains (the solve is quick, its rounds over them loose).
     share: float = 12.0
+
+
+@dataclass(frozen=True)
+class OutlierSettings:
+    """Solves with at most K rows at fault (outliers/solve.py, outliers/proof.py)."""
+
+    # Rounds of LPs over the relaxations that let at most K rows fail: a round that narrows
+    # no unknown by `gain` of its width ends them; LP pivots per objective (a stopped LP
+    # still certifies a weaker bound).
+    gain: float = 0.01
+    max_rounds: int = 40
+    lp_iterations: int = 5000
+    most_sets: int = 4  # tight solves of sets of rows at most, unless K + 1 are needed
+    # With suspects in groups of their own, the sets at most (k = 1: four suspects): with the
+    # rows at fault alone, the sets that leave one out are consistent and the others refuted,
+    # which names exactly those rows (docs/decisions/16).
+    most_suspect_sets: int = 8
+    suspect_residual: float = 1.0  # a least-squares residual above this many bounds: a suspect
+    deal_seed: int = 0  # the shuffle that deals the other rows into groups (fixed: results repeat)
+    extra_suspects: int = 3  # suspects beyond k (as many as most_suspect_sets allows)
+    # Rows proven outliers before any LP (proof.py): candidates tried beyond K (a candidate
+    # may fail to be proven), and the least residual (in error bounds) of a candidate: a row
+    # the least-squares fit satisfies is none.
+    extra_candidates: int = 2
+    min_residual: float = 1.0
+    # Naming what makes data inconsistent (conflict.py): rows left out at most (each count
+    # k tries the k worst rows; beyond a few, the fault is rarely rows);
+    conflict_rows: int = 3
+    # the widened domains that test the priors (prior_faults.py): this many times the
+    # declared half-widths, far enough for a wrong prior's value, near enough to fit from;
+    prior_widen: float = 10.0
+    # the units (unit_hints.py): least squares leaves data drawn within their bounds with
+    # most residuals near a bound (the largest just over it), and this quantile of them
+    # measures the bound, a few gross rows aside; a bound in the wrong unit leaves more than
+    # unit_most of the rows beyond it; a joint turns at most unit_turns turns either way (a
+    # UR's limits are +- 2 pi), readings beyond are not radians; the robust fit takes at
+    # most unit_evaluations evaluations from the least-squares estimate (nearby).
+    unit_quantile: float = 0.9
+    unit_most: float = 0.5
+    unit_turns: int = 2
+    unit_evaluations: int = 50

@@ -105,9 +105,6 @@ RESULT_WORDS, KIND_WORDS = _words()
 # comparisons of these words that stay text, with why
 WORDS_LEFT = {
     ("calib_dsl.batch.jobs", "kind == 'data'"): "a job file's key (data, rows, exclude)",
-    # files other branches were rewriting when this rule came: swap once they are merged
-    ("calib_dsl.relax.layout", "s.kinds[i] in ('param', 'var')"): "perf6's file: UNKNOWNS",
-    ("calib_dsl.strategy.tight", "s.kinds[i] in ('param', 'var')"): "perf6's file: UNKNOWNS",
 }
 
 

@@ -10,12 +10,13 @@ import numpy as np
 
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.ir.rows import tiled_mask
+from calib_dsl.ir.status import UNKNOWNS
 
 
 def independents(prog: Program) -> np.ndarray:
     """The slots of the declared unknowns: the LP's variables."""
     s = prog.slots
-    return np.array(sorted({i for i in s.declared if s.kinds[i] in ("param", "var")}),
+    return np.array(sorted({i for i in s.declared if s.kinds[i] in UNKNOWNS}),
                     dtype=np.int64)
 
 

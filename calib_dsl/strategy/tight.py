@@ -19,6 +19,7 @@ import numpy as np
 
 from calib_dsl.inner.starts import from_certificates
 from calib_dsl.ir.program import Program
+from calib_dsl.ir.status import UNKNOWNS
 from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter, Progress
 from calib_dsl.relax.layout import independents
@@ -114,7 +115,7 @@ def _meter(prog: Program, progress: Progress | None, start: float) -> Meter | No
     if progress is None:
         return None
     s = prog.slots
-    slots = np.array([i for i in s.declared if s.kinds[i] in ("param", "var")], dtype=np.int64)
+    slots = np.array([i for i in s.declared if s.kinds[i] in UNKNOWNS], dtype=np.int64)
     meter = Meter.over(progress, slots, s.lo, s.hi, start)
     meter("start", s.lo, s.hi)
     return meter
