@@ -158,7 +158,8 @@ def test_a_point_on_a_domain_bound_is_proven_at_the_readings_fit():
     point, plain = chebyshev(prog, rows)
     step = with_readings(prog, point, rows)
     assert step is not None and step[2] < 0.99 * plain
-    hi, _, _, _ = found._upper(found.Upper("e", problem, MinErrorSettings(), None, None), prog, rows)
+    up = found.Upper("e", problem, MinErrorSettings(), None, None)
+    hi, _, _, _ = found._upper(up, prog, rows)
     assert hi <= step[2] * 1.001
 
 
