@@ -46,6 +46,16 @@ def chunk_slots(n: int):
     return mock.patch.object(chunked_module, "CHUNK_SLOTS", n)
 
 
+def _box(prog, point: bool):
+    """The domains and their centre's independents; with `point`, the box is the centre."""
+    ind = independents(prog)
+    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
+    center = 0.5 * (lo[ind] + hi[ind])
+    if point:
+        lo[ind], hi[ind] = center, center
+    return lo, hi, center
+
+
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(5, 14),
@@ -56,11 +66,7 @@ def test_chunks_give_the_whole_programs_rows(tmp_path_factory, seed, joints, row
     prog = sim.prog
     if prog.rows is None:  # (a planar arm's shared measured side: unrolled)
         return
-    ind = independents(prog)
-    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
-    center = 0.5 * (lo[ind] + hi[ind])
-    if point:
-        lo[ind], hi[ind] = center, center
+    lo, hi, center = _box(prog, point)
     width = prog.rows.width
     small = prog.rows.shared + 2 * width  # two rows a chunk (the last may have one)
     assert len(chunked(prog, small)) == (rows + 1) // 2
@@ -172,11 +178,7 @@ def test_chunks_shared_among_threads_give_one_threads_rows_in_its_order(tmp_path
     prog = sim.prog
     if prog.rows is None:
         return
-    ind = independents(prog)
-    lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
-    center = 0.5 * (lo[ind] + hi[ind])
-    if point:
-        lo[ind], hi[ind] = center, center
+    lo, hi, center = _box(prog, point)
     runs = []
     for threads in (1, 3):
         with chunk_slots(prog.rows.shared + prog.rows.width), \
