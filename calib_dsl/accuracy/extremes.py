@@ -18,9 +18,9 @@ import numpy as np
 
 from calib_dsl.accuracy.batch_lp import path, spread
 from calib_dsl.accuracy.corrections import Candidates, Found, corrected
-from calib_dsl.analysis.certify_point import check_points, exact_inside
-from calib_dsl.analysis.existence import prove_point
+from calib_dsl.analysis.certify_point import exact_inside
 from calib_dsl.analysis.row_screen import RowScreen, screened_holds
+from calib_dsl.analysis.row_screen import holds as holds_all
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
@@ -126,7 +126,7 @@ def pulled_back(prog: Program, starts: Found, candidates: np.ndarray, readings: 
             break
         points, values = at(open_, t[open_])
         holds = screened_holds(screen, points, values) if screen is not None else \
-            _holds(prog, points, values)
+            holds_all(prog, points, values)
         good[open_] = np.where(holds, t[open_], good[open_])
         bad[open_] = np.where(holds, bad[open_], t[open_])
         t = np.where(good >= 1.0, 1.0, 0.5 * (good + bad))
@@ -151,12 +151,6 @@ def _inside(prog: Program, box: tuple[np.ndarray, np.ndarray] | None
     if box is None:
         return dlo, dhi
     return np.maximum(box[0], dlo), np.minimum(box[1], dhi)
-
-
-def _holds(prog: Program, points: np.ndarray, values: np.ndarray) -> np.ndarray:
-    checks = check_points(prog, points, values)
-    return np.array([c.holds or prove_point(prog, p, r, c)
-                     for p, r, c in zip(points, values, checks, strict=True)])
 
 
 def _between(start: np.ndarray, ends: np.ndarray, share: np.ndarray) -> np.ndarray:

@@ -132,6 +132,11 @@ def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray
     return holds
 
 
+def holds(prog: Program, points: np.ndarray, readings: np.ndarray) -> np.ndarray:
+    """Each point proven consistent (check_points, prove_point where it fails) or not."""
+    return _whole(prog, points, readings, np.ones(len(points), dtype=bool))
+
+
 def _whole(prog: Program, points: np.ndarray, readings: np.ndarray, some: np.ndarray
            ) -> np.ndarray:
     """check_points' verdicts (prove_point's where needed) for the points `some`, False for
