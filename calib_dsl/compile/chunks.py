@@ -10,9 +10,10 @@ The program of `size` rows is a prefix of the whole program: its shared slots, t
 first `size` rows' blocks, and each group's entries up to the end of those rows (the groups
 are laid out shared entries first, then row after row: replicate.tile_groups). It is built
 once (with what the passes derive from it), and a chunk is that program on the box of some
-`size` rows, read off the whole box (two slices when the rows are contiguous). A last,
-shorter chunk repeats its last row to fill the size, and the copies' results are dropped:
-one program serves every chunk. Slot numbers and table-row ids (`Slots.cell_row`) of a
+`size` rows, read off the whole box (two slices when the rows are contiguous). The rows
+are shared evenly among as few chunks as `max_slots` allows; a last, shorter chunk repeats
+its last row to fill the size, and the copies' results are dropped: one program serves
+every chunk. Slot numbers and table-row ids (`Slots.cell_row`) of a
 chunk map back to the whole program's by its rows.
 """
 
@@ -100,7 +101,11 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
         rows = np.arange(len(lay.rows))
     if len(rows) == 0:
         raise ValueError("no rows to take")
-    size = min(max(1, (max_slots - lay.shared) // max(lay.width, 1)), len(rows))
+    most = min(max(1, (max_slots - lay.shared) // max(lay.width, 1)), len(rows))
+    # as many chunks as the largest size needs, of even sizes: a short last chunk is padded
+    # with copies of its last row, so it costs as much as a full one
+    count = -(-len(rows) // most)
+    size = -(-len(rows) // count)
     whole = prefix(prog, size)
     out = []
     for a in range(0, len(rows), size):

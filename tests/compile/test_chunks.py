@@ -1,0 +1,53 @@
+"""compile/chunks.py: a loop's rows in chunks of even sizes, each row in one chunk."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib_dsl.compile.chunks import chunked
+from calib_dsl.relax.chunked import evaluation
+from calib_dsl.relax.layout import independents
+from tests.relax.test_chunked import _rows, chunk_slots, same
+from tests.relax.test_linearize import clean_version, robot_source, simulate_cal
+
+
+def _program(tmp_path, rows: int):
+    rng = np.random.default_rng(3)
+    source = robot_source(rng, 2, 1e-6, 1e-4, spatial=True)
+    prog = simulate_cal(tmp_path, source, clean_version(source), rows, 3, "matrix").prog
+    assert prog.rows is not None
+    return prog
+
+
+def test_chunks_are_as_many_as_the_largest_size_needs_and_even(tmp_path):
+    prog = _program(tmp_path, 9)
+    lay = prog.rows
+    for most in range(1, 10):
+        chunks = chunked(prog, lay.shared + most * lay.width)
+        if most >= 9:  # (the whole program fits: no chunks)
+            assert chunks is None
+            continue
+        assert chunks is not None
+        assert len(chunks) == -(-9 // most)  # no more chunks than the size allows
+        sizes = [len(ch.rows) for ch in chunks]
+        real = [ch.real for ch in chunks]
+        assert max(sizes) <= most and len(set(sizes)) == 1
+        assert max(real) - min(real) <= 1  # (a short last chunk costs a full one)
+        got = np.concatenate([ch.rows[:ch.real] for ch in chunks])
+        assert np.array_equal(got, np.arange(9))
+
+
+def test_even_chunks_give_the_whole_programs_rows(tmp_path):
+    # 9 rows at 4 a chunk: three chunks of 3 (were 4, 4 and 1 padded to 4)
+    prog = _program(tmp_path, 9)
+    lay = prog.rows
+    ind = independents(prog)
+    lo, hi = prog.slots.lo, prog.slots.hi
+    center = 0.5 * (lo[ind] + hi[ind])
+    small = lay.shared + 4 * lay.width
+    assert [len(ch.rows) for ch in chunked(prog, small)] == [3, 3, 3]
+    with chunk_slots(10**9):
+        whole = evaluation(prog, lo, hi, center, mixed=True, owners=True)
+    with chunk_slots(small):
+        parts = evaluation(prog, lo, hi, center, mixed=True, owners=True)
+    same(_rows(whole, whole.run()), _rows(parts, parts.run()))
