@@ -11,7 +11,8 @@ first `size` rows' blocks, and each group's entries up to the end of those rows 
 are laid out shared entries first, then row after row: replicate.tile_groups). It is built
 once (with what the passes derive from it), and a chunk is that program on the box of some
 `size` rows, read off the whole box (two slices when the rows are contiguous). The rows
-are shared evenly among as few chunks as `max_slots` allows; a last, shorter chunk repeats
+are shared evenly among as few chunks as `max_slots` allows (a multiple of the threads
+that run them); a last, shorter chunk repeats
 its last row to fill the size, and the copies' results are dropped: one program serves
 every chunk. Slot numbers and table-row ids (`Slots.cell_row`) of a
 chunk map back to the whole program's by its rows.
@@ -19,6 +20,7 @@ chunk map back to the whole program's by its rows.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -26,6 +28,10 @@ import numpy as np
 from calib_dsl.ir.primitives import Slots
 from calib_dsl.ir.program import Group, Program, derived
 from calib_dsl.ir.rows import RowLayout, Tiled
+from calib_dsl.settings import LPSettings
+
+# the threads a chunked pass shares its chunks among (relax/chunked.in_threads: the LPs')
+THREADS = LPSettings.workers
 
 
 @dataclass(frozen=True)
@@ -102,14 +108,18 @@ def chunked(prog: Program, max_slots: int, rows: np.ndarray | None = None
     if len(rows) == 0:
         raise ValueError("no rows to take")
     most = min(max(1, (max_slots - lay.shared) // max(lay.width, 1)), len(rows))
-    # as many chunks as the largest size needs, of even sizes: a short last chunk is padded
-    # with copies of its last row, so it costs as much as a full one
+    # as many chunks as the largest size needs, rounded up to a multiple of the threads that
+    # share a pass's chunks (none idle in the last turn), of even sizes: a short last chunk
+    # is padded with copies of its last row, so it costs as much as a full one
     count = -(-len(rows) // most)
-    size = -(-len(rows) // count)
+    if count > 1:
+        count = min(-(-count // THREADS) * THREADS, len(rows))
+    ends = [len(rows) * k // count for k in range(count + 1)]  # (sizes differ by one at most)
+    size = max(b - a for a, b in itertools.pairwise(ends))
     whole = prefix(prog, size)
     out = []
-    for a in range(0, len(rows), size):
-        part = np.asarray(rows[a: a + size], dtype=np.int64)
+    for a, b in itertools.pairwise(ends):
+        part = np.asarray(rows[a:b], dtype=np.int64)
         real = len(part)
         part = np.concatenate([part, np.full(size - real, part[-1], dtype=np.int64)])
         out.append(Chunk(whole, part, lay, a == 0, real))

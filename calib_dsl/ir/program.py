@@ -5,6 +5,7 @@ program once.
 
 from __future__ import annotations
 
+import threading
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -93,10 +94,18 @@ def _count(seq: Sequence[T], key: Callable[[T], str]) -> Counter[str]:
 
 def derived(prog: Program, kind: str, build: Callable[[], T]) -> T:
     """build(), made once per program and `kind` (the tight strategy runs the same program
-    dozens of times), and made again if the program's groups were replaced."""
+    dozens of times), and made again if the program's groups were replaced. Threads that
+    ask while another builds wait for its table (one build, not one per thread)."""
     cached = prog.derived_cache.get(kind)
     if cached is not None and cached[0] is prog.groups:
         return cached[1]  # type: ignore[no-any-return]
-    value = build()
-    prog.derived_cache[kind] = (prog.groups, value)
-    return value
+    with _BUILDING:  # (reentrant: a build may ask for other tables)
+        cached = prog.derived_cache.get(kind)
+        if cached is not None and cached[0] is prog.groups:
+            return cached[1]  # type: ignore[no-any-return]
+        value = build()
+        prog.derived_cache[kind] = (prog.groups, value)
+        return value
+
+
+_BUILDING = threading.RLock()  # held while a derived table is built

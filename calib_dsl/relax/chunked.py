@@ -130,12 +130,11 @@ U = TypeVar("U")
 def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = None) -> list[U]:
     """[fn(x) for x in items], shared among `threads` threads (CHUNK_THREADS if None): this
     one and the others of one pool that lives as long as the process, in the items' order.
-    The first runs alone (it makes the derived tables of a program the others read), and
-    each runs under the caller's floating-point error handling (np.errstate, which a thread
+    Each runs under the caller's floating-point error handling (np.errstate, which a thread
     does not inherit). Few, lasting threads: each thread's freed memory stays in its own
     malloc arena, so a new thread per pass would grow the process's peak."""
     n = threads or CHUNK_THREADS
-    if len(items) <= 2 or n <= 1 or getattr(_here, "worker", False):
+    if len(items) <= 1 or n <= 1 or getattr(_here, "worker", False):
         return [fn(x) for x in items]  # (a pool's worker never waits on its own pool)
     err = np.geterr()
 
@@ -144,13 +143,12 @@ def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = N
         with np.errstate(**err):
             return fn(x)
 
-    out: list[U] = [fn(items[0])]
-    rest = items[1:]
-    theirs = [_pool(n - 1).submit(run, x) for i, x in enumerate(rest) if i % n]
-    mine = [fn(x) for x in rest[::n]]
-    for i in range(len(rest)):
-        out.append(mine[i // n] if i % n == 0 else theirs[i - i // n - 1].result())
-    return out
+    # (the first items may each build a program's derived tables that the others read: a
+    # table built twice is the same table, for a small part of a chunk's time)
+    theirs = [_pool(n - 1).submit(run, x) for i, x in enumerate(items) if i % n]
+    mine = [fn(x) for x in items[::n]]
+    return [mine[i // n] if i % n == 0 else theirs[i - i // n - 1].result()
+            for i in range(len(items))]
 
 
 _here = threading.local()

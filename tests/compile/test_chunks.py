@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+import calib_dsl.compile.chunks as chunks_module
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.relax.chunked import evaluation
 from calib_dsl.relax.layout import independents
@@ -19,25 +21,31 @@ def _program(tmp_path, rows: int):
     return prog
 
 
-def test_chunks_are_as_many_as_the_largest_size_needs_and_even(tmp_path):
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_chunks_are_as_many_as_the_largest_size_needs_and_even(tmp_path, monkeypatch,
+                                                               threads):
     prog = _program(tmp_path, 9)
     lay = prog.rows
+    monkeypatch.setattr(chunks_module, "THREADS", threads)
     for most in range(1, 10):
         chunks = chunked(prog, lay.shared + most * lay.width)
         if most >= 9:  # (the whole program fits: no chunks)
             assert chunks is None
             continue
         assert chunks is not None
-        assert len(chunks) == -(-9 // most)  # no more chunks than the size allows
+        # as few chunks as the size allows, rounded up to a multiple of the threads
+        least = -(-9 // most)
+        count = min(-(-least // threads) * threads, 9) if least > 1 else 1
+        assert len(chunks) == count
         sizes = [len(ch.rows) for ch in chunks]
         real = [ch.real for ch in chunks]
         assert max(sizes) <= most and len(set(sizes)) == 1
-        assert max(real) - min(real) <= 1  # (a short last chunk costs a full one)
+        assert max(real) - min(real) <= 1  # (a short chunk costs a full one)
         got = np.concatenate([ch.rows[:ch.real] for ch in chunks])
         assert np.array_equal(got, np.arange(9))
 
 
-def test_even_chunks_give_the_whole_programs_rows(tmp_path):
+def test_even_chunks_give_the_whole_programs_rows(tmp_path, monkeypatch):
     # 9 rows at 4 a chunk: three chunks of 3 (were 4, 4 and 1 padded to 4)
     prog = _program(tmp_path, 9)
     lay = prog.rows
@@ -45,7 +53,10 @@ def test_even_chunks_give_the_whole_programs_rows(tmp_path):
     lo, hi = prog.slots.lo, prog.slots.hi
     center = 0.5 * (lo[ind] + hi[ind])
     small = lay.shared + 4 * lay.width
+    monkeypatch.setattr(chunks_module, "THREADS", 1)
     assert [len(ch.rows) for ch in chunked(prog, small)] == [3, 3, 3]
+    monkeypatch.setattr(chunks_module, "THREADS", 2)
+    assert [ch.real for ch in chunked(prog, small)] == [2, 2, 2, 3]
     with chunk_slots(10**9):
         whole = evaluation(prog, lo, hi, center, mixed=True, owners=True)
     with chunk_slots(small):

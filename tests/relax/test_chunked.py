@@ -10,6 +10,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import calib_dsl.compile.chunks as chunks_module
 import calib_dsl.relax.chunked as chunked_module
 import calib_dsl.relax.taylor as taylor
 from calib_dsl.compile.chunks import chunked
@@ -41,6 +42,13 @@ def _rows(ev, out) -> dict[int, tuple]:
     return pieces
 
 
+def chunk_count(least: int, rows: int) -> int:
+    """The chunks compile/chunks.py makes of `rows` rows that need at least `least`: a
+    multiple of the threads sharing them."""
+    return least if least <= 1 else min(-(-least // chunks_module.THREADS) * chunks_module.THREADS,
+                                        rows)
+
+
 def chunk_slots(n: int):
     """Chunks of about n slots while the block runs (a hypothesis test has no monkeypatch)."""
     return mock.patch.object(chunked_module, "CHUNK_SLOTS", n)
@@ -69,7 +77,7 @@ def test_chunks_give_the_whole_programs_rows(tmp_path_factory, seed, joints, row
     lo, hi, center = _box(prog, point)
     width = prog.rows.width
     small = prog.rows.shared + 2 * width  # two rows a chunk (the last may have one)
-    assert len(chunked(prog, small)) == (rows + 1) // 2
+    assert len(chunked(prog, small)) == chunk_count((rows + 1) // 2, rows)
     with chunk_slots(10**9):
         whole = evaluation(prog, lo, hi, center, point=point, mixed=not point, owners=True)
     with chunk_slots(small):
