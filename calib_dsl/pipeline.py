@@ -18,7 +18,7 @@ import numpy as np
 from calib_dsl import sections
 from calib_dsl.accuracy.extremes import certified_extremes
 from calib_dsl.accuracy.points import centre_witness
-from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, predict
+from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, held_at, predict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -122,6 +122,8 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
         Problem.load(model, formulation, inputs or Inputs(), settings.fits,
                      settings.sampling)
     prog = problem.program
+    held = held_at(Source(problem.path, problem.formulation, problem.inputs, problem.model,
+                          problem.with_table), at, at_rows=at_rows)
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == Status.INFEASIBLE:
         return sol, None
@@ -138,9 +140,7 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
         cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
                                               max_cell_columns=settings.rounds.max_cell_columns),
                          points=points, certify=certify)
-    source = Source(problem.path, problem.formulation, problem.inputs, problem.model,
-                    problem.with_table)
-    return sol, predict(source, at, cal, at_rows=at_rows)
+    return sol, predict(held, cal)
 
 
 Certify = Callable[[np.ndarray, np.ndarray], list]
