@@ -32,6 +32,7 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Status
 from calib_dsl.outliers.at_fault import against_rows, of_outliers
+from calib_dsl.outliers.beyond_limits import beyond_limits
 from calib_dsl.outliers.conflict import Conflict, find_conflict
 from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
@@ -354,8 +355,9 @@ def report_on(request: SolveRequest, problem: Problem,
     if res.status == Status.INFEASIBLE and r.diagnose:
         found = conflict(problem, settings=settings)
     sections.leverage(extra, prog, res, elaborated, settings)
-    return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
-                       verdict=verdict, problem=problem)
+    warnings = beyond_limits(elaborated) + solve_warnings(prog, res, extra)
+    return SolveReport(prog, res, extra, r.strategy, found, warnings, verdict=verdict,
+                       problem=problem)
 
 
 def _units_of(elaborated: Model | None) -> tuple[str | None, frozenset[str]]:
