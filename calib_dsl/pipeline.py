@@ -18,7 +18,7 @@ import numpy as np
 from calib_dsl import sections
 from calib_dsl.accuracy.extremes import certified_extremes
 from calib_dsl.accuracy.points import centre_witness
-from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, predict
+from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, held_at, predict
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -32,6 +32,7 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Status
 from calib_dsl.outliers.at_fault import against_rows, of_outliers
+from calib_dsl.outliers.beyond_limits import beyond_limits
 from calib_dsl.outliers.conflict import Conflict, find_conflict
 from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
@@ -122,6 +123,8 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
         Problem.load(model, formulation, inputs or Inputs(), settings.fits,
                      settings.sampling)
     prog = problem.program
+    held = held_at(Source(problem.path, problem.formulation, problem.inputs, problem.model,
+                          problem.with_table), at, at_rows=at_rows)
     sol = solve(prog, strategy, settings=settings, progress=progress)
     if sol.status == Status.INFEASIBLE:
         return sol, None
@@ -138,9 +141,7 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
         cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
                                               max_cell_columns=settings.rounds.max_cell_columns),
                          points=points, certify=certify)
-    source = Source(problem.path, problem.formulation, problem.inputs, problem.model,
-                    problem.with_table)
-    return sol, predict(source, at, cal, at_rows=at_rows)
+    return sol, predict(held, cal)
 
 
 Certify = Callable[[np.ndarray, np.ndarray], list]
@@ -354,8 +355,9 @@ def report_on(request: SolveRequest, problem: Problem,
     if res.status == Status.INFEASIBLE and r.diagnose:
         found = conflict(problem, settings=settings)
     sections.leverage(extra, prog, res, elaborated, settings)
-    return SolveReport(prog, res, extra, r.strategy, found, solve_warnings(prog, res, extra),
-                       verdict=verdict, problem=problem)
+    warnings = beyond_limits(elaborated) + solve_warnings(prog, res, extra)
+    return SolveReport(prog, res, extra, r.strategy, found, warnings, verdict=verdict,
+                       problem=problem)
 
 
 def _units_of(elaborated: Model | None) -> tuple[str | None, frozenset[str]]:

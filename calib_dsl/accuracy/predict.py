@@ -70,11 +70,12 @@ class Prediction:
     inner_from: np.ndarray | None = None
 
     def covered(self) -> np.ndarray:
-        """Per row: every measured value within its box widened by its bound."""
+        """Per row: every measured value within its box widened by its bound (a column the
+        file lacks, nan, has no value to compare: it neither covers nor fails a row)."""
         with np.errstate(invalid="ignore"):
             inside = (self.measured >= self.lo - self.bound) & \
                 (self.measured <= self.hi + self.bound)
-        return np.all(inside, axis=1)
+        return np.all(inside | np.isnan(self.measured), axis=1)
 
 
 Certified = tuple[np.ndarray, np.ndarray]  # a certified point and the readings of its proof
@@ -115,19 +116,35 @@ class Source:
     derive: Callable[[CsvData], Held | None] | None = None
 
 
-def predict(source: Source, at: str | Path, calibrated: Calibrated, table: str | None = None,
-            at_rows: Selection | None = None) -> Prediction:
-    """Boxes of the measurements of table `table` (the model's first) at the configurations
-    of the file `at` (its rows `at_rows`, all by default), for every parameter vector of
-    the calibration (`calibrated`), and their certified inner intervals where it has
-    certified points."""
+@dataclass(frozen=True)
+class HeldAt:
+    """The file of configurations read and compiled, before any calibration: its faults
+    are found before the solve's time is spent."""
+
+    file: str
+    table: Table
+    program: Program
+    present: set[str]
+
+
+def held_at(source: Source, at: str | Path, table: str | None = None,
+            at_rows: Selection | None = None) -> HeldAt:
+    """The configurations of the file `at` (its rows `at_rows`, all by default) as table
+    `table` (the model's first) reads them, compiled."""
     t = _table(source.model, table)
     lines, present = _present(Path(at), t)
     held = _derived(source, Path(at), t, present, at_rows) or \
         _elaborated(source, (Path(at), lines), t, present, at_rows)
     model, prog = held
     _inputs_present(prog, _table(model, t.name), present, str(at))
-    return _enclose(prog, _table(model, t.name), calibrated, present, str(at))
+    return HeldAt(str(at), _table(model, t.name), prog, present)
+
+
+def predict(held: HeldAt, calibrated: Calibrated) -> Prediction:
+    """Boxes of the measurements of the held configurations for every parameter vector of
+    the calibration (`calibrated`), and their certified inner intervals where it has
+    certified points."""
+    return _enclose(held.program, held.table, calibrated, held.present, held.file)
 
 
 def _derived(source: Source, at: Path, t: Table, present: set[str],

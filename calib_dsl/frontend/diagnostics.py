@@ -40,8 +40,20 @@ class CalError(Exception):
         if line is None:
             return head
         col = _field_start(line, self.loc.col, self.loc.sep) if self.loc.field else self.loc.col
-        caret = " " * len(visible(line[:max(col, 1) - 1])) + "^"
-        return f"{head}\n    {visible(line)}\n    {caret}"
+        before, after = _window(line, max(col, 1) - 1)
+        caret = " " * len(visible(before)) + "^"
+        return f"{head}\n    {visible(before + after)}\n    {caret}"
+
+
+def _window(line: str, at: int, half: int = 60) -> tuple[str, str]:
+    """The line before and from character `at`, each cut to `half` characters with '...'
+    where cut: one long line (a JSON file, a wide CSV row) stays one readable line."""
+    before, after = line[:at], line[at:]
+    if len(before) > half:
+        before = "..." + before[len(before) - half:]
+    if len(after) > half:
+        after = after[:half] + "..."
+    return before, after
 
 
 def visible(text: str) -> str:

@@ -12,8 +12,16 @@ from calib_dsl.handover.documents import Documents, read
 from calib_dsl.handover.render import render
 
 
-def write_report(docs: Documents, output: str) -> None:
-    html = render(docs)
+def write_report(docs: Documents, output: str, given: str | None = None) -> None:
+    """The report of `docs` into `output`; `given`: the file they were read from, whose
+    malformed field (a hand edit, another program's JSON) is a user error, not a bug."""
+    try:
+        html = render(docs)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+        if given is None:
+            raise
+        raise CalError(f"'{given}' is malformed: a field the report reads has an unexpected "
+                       f"value ({err!r}); write it anew (calibc solve --json)") from None
     try:
         Path(output).write_text(html, encoding="utf-8")
     except OSError as err:
@@ -37,7 +45,8 @@ def report(result: str, validation: str | None, identify: str | None,
     """A handover report of RESULT (the JSON of `calibc solve --json`) as one HTML file:
     the verdict, the accuracy, the parameters, the data and where the result came from;
     printable to PDF from a browser."""
-    write_report(read(result, validation, identify, min_error), output)
+    given = ", ".join(f for f in (result, validation, identify, min_error) if f)
+    write_report(read(result, validation, identify, min_error), output, given)
     click.echo(f"wrote the report to {output}")
 
 

@@ -98,10 +98,15 @@ def validation_json(p: Prediction) -> dict[str, Any]:
     comparable(p)
     covered = p.covered()
     return {"at": p.file, "rows": len(covered), "coverage": float(covered.mean()),
-            "width": widths(p), "tightness": tightness_of(p),
+            "not_measured": not_measured(p), "width": widths(p), "tightness": tightness_of(p),
             "not_covered": [{"row": p.rows[k], "line": p.lines[k]}
                             for k in np.flatnonzero(~covered)],
             "held_out": held_out(p, covered)}
+
+
+def not_measured(p: Prediction) -> list[str]:
+    """The predicted columns the held-out file has no value of: not compared."""
+    return [c for j, c in enumerate(p.columns) if np.all(np.isnan(p.measured[:, j]))]
 
 
 def held_out(p: Prediction, covered: np.ndarray) -> list[dict[str, Any]]:
@@ -135,6 +140,9 @@ def render_validation(p: Prediction) -> str:
              f"  box widths: median {_shown(v['width']['median'])}, "
              f"max {_shown(v['width']['max'])} "
              "(the model's units)", *("  " + t for t in _tightness_line(p))]
+    if v["not_measured"]:
+        lines.insert(2, f"  not compared: {', '.join(v['not_measured'])} (no such column "
+                        f"in {p.file}): the coverage is of the others")
     for r in v["not_covered"][:20]:
         lines.append(f"  not covered: {p.file}:{r['line']} (data row {r['row']})")
     if len(v["not_covered"]) > 20:

@@ -1,0 +1,41 @@
+"""Joint readings outside the robot's joint limits: a reading the joint cannot take is a
+fault of the file (a unit, a typo, a corrupted cell), yet it does not always show as an
+inconsistency (a huge angle's sine is all of [-1, 1], so the row constrains nothing and the
+solve proves nothing either way). The rows are named so the user can look."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib_dsl.ir.model import Model, Table
+
+
+def beyond_limits(model: Model | None) -> list[str]:
+    """A warning per table column whose readings leave the limits of the joint they feed."""
+    out: list[str] = []
+    if model is None:
+        return out
+    for t in model.tables:
+        for c in t.columns:
+            limits = model.joint_limits.get((t.name, c.name))
+            if limits is None or c.name not in t.readings:
+                continue
+            lo, hi = t.readings[c.name]
+            bad = np.flatnonzero((hi < limits[0]) | (lo > limits[1]))
+            if len(bad):
+                out.append(_line(t, c.name, limits, bad, 0.5 * (lo + hi)))
+    return out
+
+
+def _line(t: Table, column: str, limits: tuple[float, float], bad: np.ndarray,
+          value: np.ndarray) -> str:
+    # five rows named, the count says the rest
+    where = [f"{t.path}:{t.lines[k]} (data row {t.numbers[k]}) {value[k]:.6g}"
+             if k < len(t.lines) else f"row {k + 1} {value[k]:.6g}" for k in bad[:5]]
+    more = f", ... ({len(bad) - 5} more)" if len(bad) > 5 else ""
+    many = len(bad) > 1
+    return (f"{len(bad)} reading{'s' if many else ''} of {t.name}.{column} "
+            f"lie{'' if many else 's'} "
+            f"outside the joint's limits [{limits[0]:.6g}, {limits[1]:.6g}] (the robot "
+            f"cannot be there: check the file and the column's unit): {'; '.join(where)}"
+            f"{more}")
