@@ -336,6 +336,16 @@ class Settings:
     # its multipliers are certified as they stand: the path's first LP starts from no basis
     # and a tall relaxation's can need more pivots than one run allows.
     prediction_lp_runs: int = 4
+    # The prediction LPs run on the rows the path needs (accuracy/working_rows.py): a row
+    # stays in the model until it was inactive at this many consecutive optima (HiGHS's
+    # cost per run grows with the model's rows; a row dropped too early comes back as a
+    # violated row and costs a re-run); at most prediction_rows_added violated rows are
+    # added per pass (the most violated), and at most prediction_row_passes passes per LP
+    # (an LP still violating rows after them is certified as it stands and solved again
+    # after the walk).
+    prediction_rows_kept: int = 10
+    prediction_rows_added: int = 20
+    prediction_row_passes: int = 8
     # The LP optima of this many predicted coordinates, far apart in direction (both ends),
     # become candidate extremes for the inner intervals (accuracy/extremes.py): each costs a
     # bisection of certify_point passes and a place among the points each row picks from.

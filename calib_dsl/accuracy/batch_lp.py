@@ -23,10 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from calib_dsl.accuracy.working_rows import WorkingRows
 from calib_dsl.lp.certify import box_maxes_up, certified_maxes
-from calib_dsl.lp.highs import infeasible, load, optimal
+from calib_dsl.lp.highs import infeasible, optimal
 from calib_dsl.relax.relaxation import LinearRelaxation
-from calib_dsl.settings import LPSettings, Settings
+from calib_dsl.settings import Settings
 
 _BLOCK = 2_000_000  # objectives x rows per certified_maxes call (the dense Y's size)
 
@@ -56,8 +57,7 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
     tasks = [(sign, seg) for sign in (1.0, -1.0) for seg in np.array_split(order, parts)
              if len(seg)]
     with ThreadPoolExecutor(max(1, min(settings.lp.workers, len(tasks)))) as pool:
-        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings.lp,
-                                                     settings.prediction_lp_runs), tasks))
+        results = list(pool.map(lambda t: _walk(rel, C, t[0], t[1], settings), tasks))
     wanted = set(spread(near, settings.prediction_candidates))
     points: list[np.ndarray] = []
     for (sign, seg), (ys, solved, found, ended) in zip(tasks, results, strict=True):
@@ -74,44 +74,71 @@ def batch_bounds(rel: LinearRelaxation, objectives: np.ndarray, settings: Settin
 
 
 def _walk(rel: LinearRelaxation, C: np.ndarray, sign: float, seg: np.ndarray,
-          lp: LPSettings, runs: int) -> tuple[np.ndarray, np.ndarray,
-                                              list[tuple[int, np.ndarray]], np.ndarray]:
+          settings: Settings) -> tuple[np.ndarray, np.ndarray,
+                                       list[tuple[int, np.ndarray]], np.ndarray]:
     """The LPs of max sign * c.p for the objectives `seg` (rows of C) in that order, on
-    one HiGHS model, each from the last one's basis (at most `runs` runs of lp's limits
-    each: the first, from no basis, can need more pivots than one allows): their
-    multipliers (one row per LP that gave some), which of seg those are, and the LPs'
-    primal-feasible optima (with their objective's row of C), and per objective of seg
-    whether its LP ended optimal."""
-    h = load(rel, None, lp.iterations, lp.scaling)
+    one HiGHS model of the rows the path needs (accuracy/working_rows.py), each from the
+    last one's basis (at most settings.prediction_lp_runs runs of the LP's limits each: the
+    first, from no basis, can need more pivots than one allows): their multipliers (one row
+    per LP that gave some, over all rows), which of seg those are, and the LPs' optima
+    feasible for every row (with their objective's row of C), and per objective of seg
+    whether its LP ended optimal over every row."""
+    lp = settings.lp
+    work = WorkingRows(rel, lp, settings.prediction_rows_kept, settings.prediction_rows_added)
     # a new cost leaves the last optimum primal feasible: the primal simplex goes on from it
-    h.setOptionValue("simplex_strategy", lp.tall_simplex)
+    work.h.setOptionValue("simplex_strategy", lp.tall_simplex)
     m = rel.A.shape[0]
     ys: dict[int, np.ndarray] = {}
     points: list[tuple[int, np.ndarray]] = []
     ended = np.zeros(len(seg), dtype=bool)
-    limits = (lp.seconds, runs, lp.iterations)
+    limits = (lp.seconds, settings.prediction_lp_runs, lp.iterations,
+              settings.prediction_row_passes)
     for k in range(len(seg)):
-        _solve(h, C, sign, (k, int(seg[k])), limits, ys, points, ended)
+        _solve(work, C, sign, (k, int(seg[k])), limits, ys, points, ended)
     # an LP stopped by its limits (the path's first starts from no basis) is solved once
     # more after the walk, from the last LP's basis, usually near an optimum
     for j in np.flatnonzero(~ended):
-        _solve(h, C, sign, (int(j), int(seg[j])), limits, ys, points, ended)
+        _solve(work, C, sign, (int(j), int(seg[j])), limits, ys, points, ended)
     at = sorted(ys)
     return (np.array([ys[k] for k in at]).reshape(len(at), m), np.array(at, dtype=np.int64),
             points, ended)
 
 
-def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
-           limits: tuple[float, int, int], ys: dict[int, np.ndarray],
+def _solve(work: WorkingRows, C: np.ndarray, sign: float, which: tuple[int, int],
+           limits: tuple[float, int, int, int], ys: dict[int, np.ndarray],
            points: list[tuple[int, np.ndarray]], ended: np.ndarray) -> None:
     """One LP of _walk: objective `which` = (its place k in the walk, its row i of C), at
-    most limits[1] runs of limits[0] seconds and limits[2] pivots; its multipliers into
-    ys[k] (a stopped solve's only where there are none yet), its feasible optimum into
-    points, ended[k]."""
+    most limits[1] runs of limits[0] seconds and limits[2] pivots in each of at most
+    limits[3] passes of the row generation (each adds rows the optimum violates); its
+    multipliers into ys[k] (a stopped solve's only where there are none yet), its optimum
+    (feasible for every row) into points, ended[k]; ended[k] only once it violates none."""
     k, i = which
-    seconds, runs, pivots = limits
+    h = work.h
     n = C.shape[1]
     h.changeColsCost(n, np.arange(n, dtype=np.int32), (-sign * C[i]).astype(float))
+    done = False
+    for _ in range(limits[3]):
+        _run(h, limits)
+        if not optimal(h):
+            break
+        more = work.missing(np.asarray(h.getSolution().col_value))
+        if not len(more):
+            done = True
+            break
+        work.add(more)
+    sol = h.getSolution()
+    if sol.dual_valid and (done or k not in ys):  # (a stopped solve's still certify a bound)
+        ys[k] = work.multipliers()
+    if done and sol.value_valid and h.getInfo().primal_solution_status == 2:
+        points.append((i, np.asarray(sol.col_value)))
+    ended[k] = ended[k] or done
+    work.settle()
+
+
+def _run(h: Any, limits: tuple[float, int, int, int]) -> None:
+    """At most limits[1] runs of limits[0] seconds and limits[2] pivots, until optimal or
+    infeasible."""
+    seconds, runs, pivots, _ = limits
     raised = False
     for _ in range(runs):  # a run stopped by its time limit goes on from there
         h.setOptionValue("time_limit", h.getRunTime() + seconds)
@@ -128,13 +155,6 @@ def _solve(h: Any, C: np.ndarray, sign: float, which: tuple[int, int],
             h.setOptionValue("simplex_iteration_limit", pivots * runs)
     if raised:
         h.setOptionValue("simplex_iteration_limit", pivots)
-    done = optimal(h)
-    sol = h.getSolution()
-    if sol.dual_valid and (done or k not in ys):  # (a stopped solve's still certify a bound)
-        ys[k] = -np.asarray(sol.row_dual)
-    if sol.value_valid and h.getInfo().primal_solution_status == 2:
-        points.append((i, np.asarray(sol.col_value)))
-    ended[k] = ended[k] or done
 
 
 def _pivot_limited(h: Any) -> bool:

@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.accuracy import batch_lp
+from calib_dsl.accuracy import batch_lp, working_rows
 from calib_dsl.accuracy.batch_lp import batch_bounds, path
 from calib_dsl.lp.bounds import lp_bounds
 from calib_dsl.lp.certify import box_max_up
@@ -115,10 +115,55 @@ def test_an_lp_its_pivot_limit_stopped_is_run_once_more_with_every_runs_pivots(s
     c = rng.normal(size=(1, rel.main))
     few = DEFAULT.tuned(lp__iterations=50, lp__seconds=600.0, prediction_lp_runs=12)
     runs: list[int] = []
-    real = batch_lp.load
-    with mock.patch.object(batch_lp, "load", lambda *a: _Counted(real(*a), runs)):
+    real = working_rows.load
+    with mock.patch.object(working_rows, "load", lambda *a: _Counted(real(*a), runs)):
         lo, hi, _, settled = batch_bounds(rel, c, few)
     assert settled.all() and len(runs) == 4
     want_lo, want_hi = lp_bounds(rel, c, DEFAULT.tuned(lp__seconds=600.0).lp)
     scale = max(1.0, float(np.abs(want_hi - want_lo).max()))
     np.testing.assert_allclose([lo[0], hi[0]], [want_lo[0], want_hi[0]], atol=1e-6 * scale)
+
+
+def _working_set_settings(keep: int, added: int):
+    # a row leaves the model after `keep` LPs it was inactive at: small values make the path
+    # run on few rows and re-add many; passes enough for any LP to end over every row (the
+    # pivot limit alone stops an LP: no time backstop)
+    return DEFAULT.tuned(lp__seconds=600.0, prediction_rows_kept=keep,
+                         prediction_rows_added=added, prediction_row_passes=400,
+                         prediction_path_window=40)
+
+
+@settings(max_examples=4, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(0, 3), st.integers(3, 12))
+def test_the_working_rows_bounds_are_the_all_rows_lps(seed, keep, added):
+    # objectives in a few directions far apart: after each jump the optimum leaves the
+    # rows the model kept, violates others, and only the check against every row brings
+    # the bound down to the whole LP's (a working set's own optimum is a relaxation's)
+    rel = relaxation()
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=(4, rel.main))
+    C = base[rng.integers(0, 4, 24)] + 0.1 * rng.normal(size=(24, rel.main))
+    lo, hi, _, settled = batch_bounds(rel, C, _working_set_settings(keep, added))
+    want_lo, want_hi = lp_bounds(rel, C, DEFAULT.tuned(lp__seconds=600.0).lp)
+    scale = np.maximum(1.0, np.abs(want_hi - want_lo)).max()
+    assert settled.all()
+    np.testing.assert_allclose(lo, want_lo, atol=1e-6 * scale)
+    np.testing.assert_allclose(hi, want_hi, atol=1e-6 * scale)
+
+
+def test_the_working_rows_leave_out_rows_the_optima_do_not_need():
+    # the point of the working set: after a few LPs the model holds far fewer rows than
+    # the relaxation (HiGHS's cost per run grows with them)
+    rel = relaxation()
+    rng = np.random.default_rng(7)
+    C = rng.normal(size=(1, rel.main)) + 0.02 * rng.normal(size=(30, rel.main))
+    sizes: list[int] = []
+    real = batch_lp._run
+
+    def counted(h, limits):
+        sizes.append(h.getNumRow())
+        return real(h, limits)
+
+    with mock.patch.object(batch_lp, "_run", counted):
+        batch_bounds(rel, C, _working_set_settings(2, 8))
+    assert sizes[0] == rel.A.shape[0] and min(sizes[-10:]) < rel.A.shape[0] // 2
