@@ -1,15 +1,17 @@
 """Which relaxation of the calibration the predictions' LPs run over.
 
 The second-order relaxation (relax/quadratic.py) keeps the model's curvature as
-coefficients, but charges each row the joint readings' errors in its remainder, one row at a
-time. The first-order one (relax/linearize.py) pays the curvature over the box in its rows'
-slack, but keeps each configuration's reading errors as columns its rows share. On a wide
-box the curvature is most of a row's width and the second order is the tighter; on a narrow
-one (many rows, small errors) the readings' charge widens every row by a share of its data
-error, and the extremes of a thin solution set move by several times that share. What each
-loses is its remainder share (relax/linearize.py): per row, the part of its width that no
-column or data interval carries, as a share of the whole (90th percentile over rows); the
-predictions take the relaxation whose share is the smaller.
+coefficients and charges each row its third-order remainder and the joint readings' errors
+through its Taylor arithmetic. The first-order one (relax/linearize.py), its readings folded
+into each row (one slab a row over the unknowns alone: the cheapest LP), pays the curvature
+over the box and the readings' linear effect. On a wide box the curvature is most of a row's
+width and the second order is the tighter; on a narrow one (many rows, small errors) the
+second order's charge for the readings is the larger, and the extremes of a thin solution set
+move by several times what each row is widened. What a prediction LP feels is how thick each
+row's slab is in the unknowns' space: half the row's width over the norm of its unknowns'
+coefficients (per unit of each unknown). The predictions take the relaxation whose median
+slab is the thinner (the second order's product columns, left out of the measure, only
+narrow it further: the measure favours it no less than it should).
 """
 
 from __future__ import annotations
@@ -27,31 +29,31 @@ Chosen = tuple[LinearRelaxation, np.ndarray | None]  # the relaxation, its centr
 
 def prediction_relaxation(prog: Program, lo: np.ndarray, hi: np.ndarray,
                           settings: Settings) -> Chosen | None:
-    """The calibration's relaxation over the solve's box [lo, hi] (the program's slots) with
-    the smaller remainder share, and the second order's centre where it is that one; None
-    where neither can be built."""
+    """The calibration's relaxation over the solve's box [lo, hi] (the program's slots)
+    whose rows are the thinner (module doc), and the second order's centre where it is that
+    one; None where neither can be built."""
     fine = relax_quadratic(prog, lo, hi, prune=0.0, mccormick=settings.prediction_mccormick)
-    first = relax(prog, lo, hi, max_cell_columns=settings.rounds.max_cell_columns)
+    first = relax(prog, lo, hi, cell_variables=False)
     if fine is None:
         return None if first is None else (first, None)
-    if first is None or not _shares_readings(first):
-        return fine[0], fine[1].center
-    rows = fine[1].rows
-    second = _share(rows.models.r, 0.5 * (rows.hi - rows.lo))
-    return (first, None) if first.remainder_share < second else (fine[0], fine[1].center)
+    if first is not None and thickness(first) < thickness(fine[0]):
+        return first, None
+    return fine[0], fine[1].center
 
 
-def _share(remainder: np.ndarray, data: np.ndarray) -> float:
-    """relax/linearize.py's remainder share of rows with these remainders and data
-    half-widths (1 where no row has both finite)."""
+def thickness(rel: LinearRelaxation) -> float:
+    """The median over the relaxation's two-sided rows of half the row's width over the
+    norm of its coefficients on the unknowns (its first `main` columns, per unit of each
+    unknown: `scale` where the columns are scaled); inf where no row has both."""
+    A = rel.A
+    m = len(rel.b)
+    row = np.repeat(np.arange(m), np.diff(A.indptr))
+    main = A.indices < rel.main
+    scale = np.ones(rel.main) if rel.scale is None else rel.scale[:rel.main]
+    coef = A.data[main] / scale[A.indices[main]]
+    norm = np.sqrt(np.bincount(row[main], coef * coef, minlength=m))
+    b_lo = np.full(m, -np.inf) if rel.b_lo is None else rel.b_lo
     with np.errstate(invalid="ignore", divide="ignore"):
-        r = remainder / (remainder + data)
-    r = r[np.isfinite(r)]
-    return float(np.percentile(r, 90)) if len(r) else 1.0
-
-
-def _shares_readings(rel: LinearRelaxation) -> bool:
-    """Whether the first-order relaxation kept the readings' errors as columns: over
-    max_cell_columns it folds them into each row's slack after its share was measured, and
-    then charges them row by row as the second order does."""
-    return rel.cells is not None and len(rel.cells) > 0
+        half = 0.5 * (rel.b - b_lo) / norm
+    half = half[np.isfinite(half)]
+    return float(np.median(half)) if len(half) else np.inf
