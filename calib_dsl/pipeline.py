@@ -19,6 +19,7 @@ from calib_dsl import sections
 from calib_dsl.accuracy.extremes import certified_extremes
 from calib_dsl.accuracy.points import centre_witness
 from calib_dsl.accuracy.predict import Calibrated, Certified, Prediction, Source, held_at, predict
+from calib_dsl.accuracy.relaxations import prediction_relaxation
 from calib_dsl.analysis.min_error import MinError
 from calib_dsl.analysis.min_error import min_error as find_min_error
 from calib_dsl.analysis.residuals import Ranges, residual_ranges
@@ -40,8 +41,6 @@ from calib_dsl.outliers.solve import solve_outliers
 from calib_dsl.problem import Problem, load_model
 from calib_dsl.progress import Progress, labelled
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.linearize import relax
-from calib_dsl.relax.quadratic import relax_quadratic
 from calib_dsl.report.as_json import result_json
 from calib_dsl.report.extras import Extras
 from calib_dsl.report.min_error import conflict_json, render_conflict
@@ -131,16 +130,10 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
     ind = independents(prog)
     box = {prog.slots.names[k]: (float(sol.lo[k]), float(sol.hi[k])) for k in ind}
     points, certify = certified_points(prog, sol, settings)
-    # the data's second-order relaxation where it can be built (tighter where the remainder
-    # of the first order is large, as on real data), else the first-order one
-    fine = relax_quadratic(prog, sol.lo, sol.hi, prune=0.0,
-                           mccormick=settings.prediction_mccormick)
-    if fine is not None:
-        cal = Calibrated(box, settings, fine[0], fine[1].center, points, certify)
-    else:
-        cal = Calibrated(box, settings, relax(prog, sol.lo, sol.hi,
-                                              max_cell_columns=settings.rounds.max_cell_columns),
-                         points=points, certify=certify)
+    # the calibration's relaxation that loses the least (accuracy/relaxations.py)
+    chosen = prediction_relaxation(prog, sol.lo, sol.hi, settings)
+    rel, center = chosen if chosen is not None else (None, None)
+    cal = Calibrated(box, settings, rel, center, points, certify)
     return sol, predict(held, cal)
 
 
