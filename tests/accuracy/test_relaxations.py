@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib_dsl.accuracy.predict import Calibrated, Source, predict
+from calib_dsl.accuracy.predict import Calibrated, Source, held_at, predict
 from calib_dsl.accuracy.relaxations import prediction_relaxation, thickness
 from calib_dsl.analysis.certify_point import check_point
 from calib_dsl.analysis.existence import prove_point
@@ -115,7 +115,7 @@ def test_the_first_order_predicts_narrower_where_it_is_taken(tmp_path, seed):
                     problem.with_table)
     widths = {}
     for name, rel in (("first", chosen), ("second", _second(problem, sol))):
-        p = predict(source, held, Calibrated(box, DEFAULT, rel[0], rel[1]))
+        p = predict(held_at(source, held), Calibrated(box, DEFAULT, rel[0], rel[1]))
         assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
         widths[name] = np.median(p.hi - p.lo)
     assert widths["first"] < widths["second"]
