@@ -10,9 +10,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.arith import test_projections as projections
+from tests.compile import test_rows as rows_once
 from tests.lp import test_lpbound as lpbound
+from tests.plan import test_plan as planning
 from tests.propagate import test_soundness_propagation as props
 from tests.relax import test_linearize as linearize
+from tests.strategy import test_verdict_redundant as redundant
+from tests.studies import test_campaign as campaigns
 
 SLOW = [HealthCheck.too_slow]
 
@@ -235,4 +239,46 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
 def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
     linearize.test_signed_sums_enclose_every_sum_of_members.hypothesis.inner_test(
         data, rows, cols, signs
+    )
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[*SLOW, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(3, 9),
+       formulation=st.sampled_from(["matrix", "rotation"]))
+def test_a_loop_compiled_once_is_the_unrolled_program(tmp_path_factory, seed, joints, rows,
+                                                      formulation):
+    rows_once.test_a_loop_compiled_once_is_the_unrolled_program.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation
+    )
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(robot=st.sampled_from(["arm4_dh.cal", "arm5_mdh.cal"]),
+       poses=st.sampled_from(["random", "grid", "repeated"]),
+       rows=st.integers(8, 24), seed=st.integers(0, 10**6))
+def test_consistent_campaigns_of_other_robots_are_never_refuted(tmp_path_factory, robot, poses,
+                                                                rows, seed):
+    redundant.test_consistent_campaigns_of_other_robots_are_never_refuted.hypothesis.inner_test(
+        tmp_path_factory, robot, poses, rows, seed
+    )
+
+
+@settings(max_examples=4, deadline=None)
+@given(amplitude=st.floats(0.2, 1.5), noise=st.sampled_from([0.0, 0.05]),
+       shape=st.sampled_from(campaigns.POSES), seed=st.integers(0, 1000),
+       margin=st.floats(1.0, 1.3))
+def test_the_truth_lies_inside_a_solve_of_systematic_data(tmp_path_factory, amplitude, noise,
+                                                          shape, seed, margin):
+    campaigns.test_the_truth_lies_inside_a_solve_of_systematic_data.hypothesis.inner_test(
+        tmp_path_factory, amplitude, noise, shape, seed, margin
+    )
+
+
+@given(st.integers(0, 10_000), st.integers(3, 8))
+@settings(max_examples=8, deadline=None, suppress_health_check=list(HealthCheck))
+def test_the_truth_lies_inside_every_simulated_solve(tmp_path_factory, seed, count):
+    planning.test_the_truth_lies_inside_every_simulated_solve.hypothesis.inner_test(
+        tmp_path_factory, seed, count
     )

@@ -189,7 +189,8 @@ def test_user_errors_are_one_line_and_exit_2(tmp_path, args, says):
 
 @pytest.mark.slow
 @given(st.integers(0, 10_000), st.integers(3, 8))
-@settings(max_examples=8, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=2, deadline=None,  # 8 in bench/checks/test_soundness_full.py
+          suppress_health_check=list(HealthCheck))
 def test_the_truth_lies_inside_every_simulated_solve(tmp_path_factory, seed, count):
     tmp = tmp_path_factory.mktemp("truth")
     configs = pool(candidates(tmp, rows=40, seed=seed))
