@@ -9,8 +9,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.accuracy import test_batch_lp as batch_lp
+from tests.accuracy import test_corrections as corrections
+from tests.accuracy import test_second_order as second_order
+from tests.accuracy.test_second_order import spy  # noqa: F401, F811  (a fixture)
 from tests.arith import test_projections as projections
 from tests.compile import test_rows as rows_once
+from tests.inner import test_inner_bounds as inner
 from tests.lp import test_lpbound as lpbound
 from tests.plan import test_plan as planning
 from tests.propagate import test_soundness_propagation as props
@@ -281,4 +286,47 @@ def test_the_truth_lies_inside_a_solve_of_systematic_data(tmp_path_factory, ampl
 def test_the_truth_lies_inside_every_simulated_solve(tmp_path_factory, seed, count):
     planning.test_the_truth_lies_inside_every_simulated_solve.hypothesis.inner_test(
         tmp_path_factory, seed, count
+    )
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(12, 60))
+def test_bounds_hold_the_relaxations_points(seed, n):
+    batch_lp.test_bounds_hold_the_relaxations_points.hypothesis.inner_test(seed, n)
+
+
+@settings(max_examples=4, deadline=None)
+@given(st.integers(0, 2 ** 31))
+def test_the_path_bounds_are_lp_bounds(seed):
+    batch_lp.test_the_path_bounds_are_lp_bounds.hypothesis.inner_test(seed)
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.floats(8.0, 30.0), st.floats(-0.6, 0.6), st.floats(-1.0, 1.0),
+       st.integers(0, 2**31))
+def test_predictions_on_an_arc_keep_the_truth_and_name_certified_points(
+        tmp_path, radius, a, noise, seed):
+    corrections.test_predictions_on_an_arc_keep_the_truth_and_name_certified_points.hypothesis.\
+        inner_test(tmp_path, radius, a, noise, seed)
+
+
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**linearize.robot_draws(st.integers(6, 14)), refine=st.sampled_from([1e-4, 1e-2]),
+       at_once=st.sampled_from([3, 10, 2000]))
+def test_ends_sought_again_are_certified_on_random_robots(tmp_path_factory, seed, joints, rows,
+                                                          formulation, refine, at_once):
+    inner.test_ends_sought_again_are_certified_on_random_robots.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation, refine, at_once
+    )
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.floats(0.85, 1.15), st.floats(0.35, 0.65), st.floats(-0.2, 0.2),
+       st.integers(0, 2 ** 31))
+def test_every_consistent_vectors_prediction_lies_in_its_box(tmp_path, spy, l1, l2, o, seed):  # noqa: F811
+    second_order.test_every_consistent_vectors_prediction_lies_in_its_box.hypothesis.inner_test(
+        tmp_path, spy, l1, l2, o, seed
     )
