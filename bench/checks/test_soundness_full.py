@@ -16,10 +16,12 @@ from tests.accuracy.test_second_order import spy  # noqa: F401, F811  (a fixture
 from tests.arith import test_projections as projections
 from tests.compile import test_rows as rows_once
 from tests.inner import test_inner_bounds as inner
+from tests.inner import test_shave as shave
 from tests.lp import test_lpbound as lpbound
 from tests.plan import test_plan as planning
 from tests.propagate import test_soundness_propagation as props
 from tests.relax import test_linearize as linearize
+from tests.relax import test_taylor as taylor
 from tests.strategy import test_verdict_redundant as redundant
 from tests.studies import test_campaign as campaigns
 
@@ -329,4 +331,30 @@ def test_ends_sought_again_are_certified_on_random_robots(tmp_path_factory, seed
 def test_every_consistent_vectors_prediction_lies_in_its_box(tmp_path, spy, l1, l2, o, seed):  # noqa: F811
     second_order.test_every_consistent_vectors_prediction_lies_in_its_box.hypothesis.inner_test(
         tmp_path, spy, l1, l2, o, seed
+    )
+
+
+@settings(max_examples=1000, deadline=None)
+@given(data=st.data(), n=st.integers(1, 5))
+def test_narrowed_product_columns_hold_every_product(data, n) -> None:
+    taylor.test_narrowed_product_columns_hold_every_product.hypothesis.inner_test(data, n)
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), points=st.integers(4, 7),
+       noise=st.floats(0.005, 0.045), e=st.sampled_from([0.05, 0.08]))
+def test_shaving_keeps_every_point_that_satisfies_the_rows(tmp_path_factory, seed, points,
+                                                           noise, e):
+    shave.test_shaving_keeps_every_point_that_satisfies_the_rows.hypothesis.inner_test(
+        tmp_path_factory, seed, points, noise, e
+    )
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**linearize.robot_draws(st.integers(6, 14)))
+def test_shaved_random_robots_hold_the_truth(tmp_path_factory, seed, joints, rows, formulation):
+    shave.test_shaved_random_robots_hold_the_truth.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation
     )
