@@ -21,12 +21,17 @@ from typing import Any
 
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings, OutlierSettings
 
+# The cores the solver's LP threads, chunk threads and piece processes share: CALIBC_CORES
+# when set (the test suite sets 1 in each pytest-xdist worker, as the workers fill the
+# cores), else this machine's. Results do not depend on it.
+CORES = int(os.environ.get("CALIBC_CORES") or 0) or os.cpu_count() or 1
+
 
 @dataclass(frozen=True)
 class LPSettings:
     """HiGHS and the certified bounds over its LPs (lp/)."""
 
-    workers: int = min(2, os.cpu_count() or 1)  # HiGHS models solved in parallel threads
+    workers: int = min(2, CORES)  # HiGHS models solved in parallel threads
     # Per objective in a first-order round: a degenerate LP near the fixed point can crawl.
     # The pivot limit stops it the same way on every machine (results do not depend on
     # load); the time limit is a backstop.
@@ -279,7 +284,7 @@ class Settings:
     split_tried: int = 3
     # Pieces are refined in child processes, one per core the LPs use (1: in the solving
     # process), each with cores / processes LP threads (two threads each overcommit).
-    piece_processes: int = min(2, os.cpu_count() or 1)
+    piece_processes: int = min(2, CORES)
 
     # -- LPs (lp/) -----------------------------------------------------------------------------
     lp: LPSettings = LPSettings()

@@ -12,9 +12,15 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from calib_dsl.compile.group import compile_model
-from calib_dsl.elaborate.elaborator import elaborate
-from calib_dsl.ir.program import Program
+# Each pytest-xdist worker takes a core: the solver's own threads and piece processes (two
+# each on two cores) would only contend with the other worker's (results do not depend on
+# them). Set before calib_dsl is imported (settings.CORES); `calibc` subprocesses inherit it.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("CALIBC_CORES", "1")
+
+from calib_dsl.compile.group import compile_model  # noqa: E402
+from calib_dsl.elaborate.elaborator import elaborate  # noqa: E402
+from calib_dsl.ir.program import Program  # noqa: E402
 
 # `make test` (and so CI) draws the same pseudo-random cases on every run and machine, so a run
 # that passed here passes there; `make test-random` (HYPOTHESIS_PROFILE=random) draws fresh ones.

@@ -91,18 +91,6 @@ def test_a_few_public_rows(calibc):
     assert -3600 < data["parameters"]["base_y"]["prior"]["lsq"] < -3500
 
 
-@pytest.mark.slow
-@needs_ur10
-def test_the_six_dof_model_on_a_few_public_rows(calibc):
-    """models/ur10_tracker6d.cal on every 250th row (6 rows; every 50th runs in
-    bench/checks/): consistent, the estimate inside, an inner bound certified, the target
-    turned -90 degrees about z."""
-    data = solved_with_lsq_inside(calibc, ROOT / "models" / "ur10_tracker6d.cal",
-                                  rows="1..1495:250")
-    assert data["parameters"]["alpha3"]["inner"] is not None
-    assert abs(data["parameters"]["tool_rz"]["least_squares"] + np.pi / 2) < 0.005
-
-
 def _noisy_simulation_model(tmp_path: Path, noise: float) -> Path:
     """models/ur10_simulated.cal with uniform noise of `noise` mm (its includes absolute)."""
     models = ROOT / "models"
@@ -115,11 +103,12 @@ def _noisy_simulation_model(tmp_path: Path, noise: float) -> Path:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("seed", range(2))
 def test_fine_second_order_rounds_hold_the_truth(tmp_path, seed):
     """Few rows whose noise fills the error bound (1 mm against priors of 5 mm): first-order
     rounds stall with a large remainder, the fine second-order rounds contract, and the
-    truth stays inside (the same priors as the real data's)."""
+    truth stays inside (the same priors as the real data's). Seeds 0-1 here, 2-4 in
+    bench/checks/test_ur10_public.py."""
     from calib_dsl.elaborate.elaborator import Inputs
     from calib_dsl.pipeline import load
     from calib_dsl.relax.layout import independents

@@ -9,10 +9,21 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.accuracy import test_batch_lp as batch_lp
+from tests.accuracy import test_corrections as corrections
+from tests.accuracy import test_second_order as second_order
+from tests.accuracy.test_second_order import spy  # noqa: F401, F811  (a fixture)
 from tests.arith import test_projections as projections
+from tests.compile import test_rows as rows_once
+from tests.inner import test_inner_bounds as inner
+from tests.inner import test_shave as shave
 from tests.lp import test_lpbound as lpbound
+from tests.plan import test_plan as planning
 from tests.propagate import test_soundness_propagation as props
 from tests.relax import test_linearize as linearize
+from tests.relax import test_taylor as taylor
+from tests.strategy import test_verdict_redundant as redundant
+from tests.studies import test_campaign as campaigns
 
 SLOW = [HealthCheck.too_slow]
 
@@ -235,4 +246,115 @@ def test_chain_rule_products_enclose_every_product_of_members(data, rows, cols, 
 def test_signed_sums_enclose_every_sum_of_members(data, rows, cols, signs):
     linearize.test_signed_sums_enclose_every_sum_of_members.hypothesis.inner_test(
         data, rows, cols, signs
+    )
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[*SLOW, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(3, 9),
+       formulation=st.sampled_from(["matrix", "rotation"]))
+def test_a_loop_compiled_once_is_the_unrolled_program(tmp_path_factory, seed, joints, rows,
+                                                      formulation):
+    rows_once.test_a_loop_compiled_once_is_the_unrolled_program.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation
+    )
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(robot=st.sampled_from(["arm4_dh.cal", "arm5_mdh.cal"]),
+       poses=st.sampled_from(["random", "grid", "repeated"]),
+       rows=st.integers(8, 24), seed=st.integers(0, 10**6))
+def test_consistent_campaigns_of_other_robots_are_never_refuted(tmp_path_factory, robot, poses,
+                                                                rows, seed):
+    redundant.test_consistent_campaigns_of_other_robots_are_never_refuted.hypothesis.inner_test(
+        tmp_path_factory, robot, poses, rows, seed
+    )
+
+
+@settings(max_examples=4, deadline=None)
+@given(amplitude=st.floats(0.2, 1.5), noise=st.sampled_from([0.0, 0.05]),
+       shape=st.sampled_from(campaigns.POSES), seed=st.integers(0, 1000),
+       margin=st.floats(1.0, 1.3))
+def test_the_truth_lies_inside_a_solve_of_systematic_data(tmp_path_factory, amplitude, noise,
+                                                          shape, seed, margin):
+    campaigns.test_the_truth_lies_inside_a_solve_of_systematic_data.hypothesis.inner_test(
+        tmp_path_factory, amplitude, noise, shape, seed, margin
+    )
+
+
+@given(st.integers(0, 10_000), st.integers(3, 8))
+@settings(max_examples=8, deadline=None, suppress_health_check=list(HealthCheck))
+def test_the_truth_lies_inside_every_simulated_solve(tmp_path_factory, seed, count):
+    planning.test_the_truth_lies_inside_every_simulated_solve.hypothesis.inner_test(
+        tmp_path_factory, seed, count
+    )
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(12, 60))
+def test_bounds_hold_the_relaxations_points(seed, n):
+    batch_lp.test_bounds_hold_the_relaxations_points.hypothesis.inner_test(seed, n)
+
+
+@settings(max_examples=4, deadline=None)
+@given(st.integers(0, 2 ** 31))
+def test_the_path_bounds_are_lp_bounds(seed):
+    batch_lp.test_the_path_bounds_are_lp_bounds.hypothesis.inner_test(seed)
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.floats(8.0, 30.0), st.floats(-0.6, 0.6), st.floats(-1.0, 1.0),
+       st.integers(0, 2**31))
+def test_predictions_on_an_arc_keep_the_truth_and_name_certified_points(
+        tmp_path, radius, a, noise, seed):
+    corrections.test_predictions_on_an_arc_keep_the_truth_and_name_certified_points.hypothesis.\
+        inner_test(tmp_path, radius, a, noise, seed)
+
+
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**linearize.robot_draws(st.integers(6, 14)), refine=st.sampled_from([1e-4, 1e-2]),
+       at_once=st.sampled_from([3, 10, 2000]))
+def test_ends_sought_again_are_certified_on_random_robots(tmp_path_factory, seed, joints, rows,
+                                                          formulation, refine, at_once):
+    inner.test_ends_sought_again_are_certified_on_random_robots.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation, refine, at_once
+    )
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.floats(0.85, 1.15), st.floats(0.35, 0.65), st.floats(-0.2, 0.2),
+       st.integers(0, 2 ** 31))
+def test_every_consistent_vectors_prediction_lies_in_its_box(tmp_path, spy, l1, l2, o, seed):  # noqa: F811
+    second_order.test_every_consistent_vectors_prediction_lies_in_its_box.hypothesis.inner_test(
+        tmp_path, spy, l1, l2, o, seed
+    )
+
+
+@settings(max_examples=1000, deadline=None)
+@given(data=st.data(), n=st.integers(1, 5))
+def test_narrowed_product_columns_hold_every_product(data, n) -> None:
+    taylor.test_narrowed_product_columns_hold_every_product.hypothesis.inner_test(data, n)
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), points=st.integers(4, 7),
+       noise=st.floats(0.005, 0.045), e=st.sampled_from([0.05, 0.08]))
+def test_shaving_keeps_every_point_that_satisfies_the_rows(tmp_path_factory, seed, points,
+                                                           noise, e):
+    shave.test_shaving_keeps_every_point_that_satisfies_the_rows.hypothesis.inner_test(
+        tmp_path_factory, seed, points, noise, e
+    )
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(**linearize.robot_draws(st.integers(6, 14)))
+def test_shaved_random_robots_hold_the_truth(tmp_path_factory, seed, joints, rows, formulation):
+    shave.test_shaved_random_robots_hold_the_truth.hypothesis.inner_test(
+        tmp_path_factory, seed, joints, rows, formulation
     )

@@ -1,7 +1,9 @@
 """The UR10 tracker models on the public data set at scale (every 15th, 5th, 3rd row, all but
-two rows) and a simulated campaign of 2100 rows: too heavy for `make test`, whose
-tests/test_ur10.py runs the same paths on a few public rows and small simulated tables.
-Skipped where the data set is absent."""
+two rows; the 6-DOF model on every 250th and 50th), a simulated campaign of 2100 rows and
+three more draws of 12 rows for the fine second-order rounds: too heavy for `make test`,
+whose tests/test_ur10.py runs the same paths on a few public rows (test_a_few_public_rows)
+and small simulated tables (two draws of the second-order rounds). The public rows are
+skipped where the data set is absent."""
 
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from tests.test_ur10 import (
     solved_with_lsq_inside,
     truth,
 )
+from tests.test_ur10 import test_fine_second_order_rounds_hold_the_truth as fine_rounds
 
 
 @needs_ur10
@@ -135,3 +138,19 @@ def test_thousands_of_rows_get_the_second_order_rounds(tmp_path):
     assert res.work.fine_rounds > 0
     assert any("second order" in label and "working rows" in label for label in labels)
     assert any("row check on all 2100 rows" in label for label in labels), labels
+
+
+@needs_ur10
+def test_the_six_dof_model_on_a_few_public_rows(calibc):
+    """models/ur10_tracker6d.cal on every 250th row (6 rows; every 50th above): consistent,
+    the estimate inside, an inner bound certified, the target
+    turned -90 degrees about z."""
+    data = solved_with_lsq_inside(calibc, ROOT / "models" / "ur10_tracker6d.cal",
+                                  rows="1..1495:250")
+    assert data["parameters"]["alpha3"]["inner"] is not None
+    assert abs(data["parameters"]["tool_rz"]["least_squares"] + np.pi / 2) < 0.005
+
+
+@pytest.mark.parametrize("seed", range(2, 5))
+def test_fine_second_order_rounds_hold_the_truth_on_more_draws(tmp_path, seed):
+    fine_rounds(tmp_path, seed)

@@ -35,7 +35,7 @@ def relaxation():
     return _CACHE["rel"]
 
 
-@settings(max_examples=10, deadline=None)
+@settings(max_examples=3, deadline=None)  # 10 in bench/checks/test_soundness_full.py
 @given(st.integers(0, 2 ** 31), st.integers(12, 60))
 def test_bounds_hold_the_relaxations_points(seed, n):
     rel = relaxation()
@@ -56,7 +56,7 @@ def test_bounds_hold_the_relaxations_points(seed, n):
         assert -a <= box_max_up(-full, -full, rel.lo, rel.hi)
 
 
-@settings(max_examples=4, deadline=None)
+@settings(max_examples=1, deadline=None)  # 4 in bench/checks/test_soundness_full.py
 @given(st.integers(0, 2 ** 31))
 def test_the_path_bounds_are_lp_bounds(seed):
     rel = relaxation()

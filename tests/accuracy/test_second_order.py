@@ -63,7 +63,7 @@ def spy(monkeypatch):
     return seen
 
 
-@settings(max_examples=8, deadline=None,
+@settings(max_examples=3, deadline=None,  # 8 in bench/checks/test_soundness_full.py
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.floats(0.85, 1.15), st.floats(0.35, 0.65), st.floats(-0.2, 0.2),
        st.integers(0, 2 ** 31))

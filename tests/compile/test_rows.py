@@ -70,8 +70,9 @@ def declared_box(prog, sol) -> dict[str, tuple[float, float]]:
 
 
 @pytest.mark.slow
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                  HealthCheck.function_scoped_fixture])
+# 12 examples in bench/checks/test_soundness_full.py
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                 HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), joints=st.integers(1, 3), rows=st.integers(3, 9),
        formulation=st.sampled_from(["matrix", "rotation"]))
 def test_a_loop_compiled_once_is_the_unrolled_program(tmp_path_factory, seed, joints, rows,

@@ -529,7 +529,7 @@ def test_the_inner_bounds_of_test_a_do_not_import_scipy_optimize():
     assert out.stdout.strip().splitlines()[-1] == "False"
 
 
-@settings(max_examples=6, deadline=None,
+@settings(max_examples=2, deadline=None,  # 6 in bench/checks/test_soundness_full.py
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(**robot_draws(st.integers(6, 14)), refine=st.sampled_from([1e-4, 1e-2]),
        at_once=st.sampled_from([3, 10, 2000]))

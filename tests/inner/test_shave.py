@@ -75,7 +75,7 @@ def _solutions(cxy: np.ndarray, cells: np.ndarray, e: float) -> np.ndarray:
 
 
 @pytest.mark.slow
-@settings(max_examples=15, deadline=None,
+@settings(max_examples=4, deadline=None,  # 15 in bench/checks/test_soundness_full.py
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 10_000), points=st.integers(4, 7),
        noise=st.floats(0.005, 0.045), e=st.sampled_from([0.05, 0.08]))
@@ -118,7 +118,7 @@ def test_shaving_narrows_the_circle_to_its_inner_bounds(tmp_path):
 
 
 @pytest.mark.slow
-@settings(max_examples=8, deadline=None,
+@settings(max_examples=2, deadline=None,  # 8 in bench/checks/test_soundness_full.py
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(**robot_draws(st.integers(6, 14)))
 def test_shaved_random_robots_hold_the_truth(tmp_path_factory, seed, joints, rows, formulation):

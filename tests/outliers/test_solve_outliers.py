@@ -18,11 +18,9 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from calib_dsl.cli import main
-from calib_dsl.elaborate.elaborator import Inputs
-from calib_dsl.elaborate.rows import Selection
 from calib_dsl.outliers import solve as outliers
 from calib_dsl.outliers.solve import groups
-from calib_dsl.pipeline import SolveRequest, load, solve, solve_report
+from calib_dsl.pipeline import SolveRequest, load, solve_report
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.settings import OutlierSettings
 from calib_dsl.strategy.contractor import Work
@@ -127,36 +125,6 @@ def _satisfiable_with(x: np.ndarray, v: np.ndarray, k: int, row: int) -> bool:
         if _hull(x[keep], v[keep], 0) is not None:
             return True
     return False
-
-
-UR10 = ROOT / "models" / "ur10_tracker.cal"
-
-
-@pytest.mark.slow
-def test_a_ur10_row_moved_by_a_centimetre_is_proven_an_outlier(tmp_path):
-    """Realistic priors, where the outlier LPs alone narrow little: the row is proven an
-    outlier of every vector that fails at most one row (two disjoint halves of the other rows
-    are each inconsistent with it), so the result is the tight solve of the others."""
-    lines = (ROOT / "models" / "data" / "ur10_sim.csv").read_text().splitlines()
-    row = 37
-    cells = lines[row].split(";")
-    cells[7] = repr(float(cells[7].replace(",", ".")) + 10.0).replace(".", ",")  # y + 1 cm
-    lines[row] = ";".join(cells)
-    (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
-    bad = Inputs(data={"": tmp_path / "bad.csv"})
-    run = solve_report(SolveRequest(UR10, inputs=bad, outliers=1, identify=False))
-    ref_prog = load(UR10, inputs=Inputs(data={"": tmp_path / "bad.csv"},
-                                        rows={"": Selection((), (row,))}))
-    ref = solve(ref_prog)
-    assert run.res.status == "contracted"
-    assert run.outliers is not None and [r.row for r in run.outliers.certain] == [row]
-    assert run.outliers.proven == 1 and run.outliers.possible == []
-    names = run.prog.slots.names
-    for name in (ref_prog.slots.names[i] for i in ref_prog.slots.declared):
-        i, j = names.index(name), ref_prog.slots.names.index(name)
-        true = run.prog.true_values.get(name)
-        assert true is None or run.res.lo[i] <= true <= run.res.hi[i]
-        assert run.res.hi[i] - run.res.lo[i] <= 1.0001 * (ref.hi[j] - ref.lo[j])
 
 
 def test_the_command_line_writes_the_outliers(tmp_path):

@@ -205,26 +205,6 @@ def exact_test_a(tmp: Path, columns: str, e: float) -> Path:
     return model
 
 
-UR10_DATA = [p / "shared" / "data" / "ur10" / "measurements_joint_configurations.csv"
-             for p in (ROOT.parent, ROOT.parent.parent)]
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not any(p.exists() for p in UR10_DATA),
-                    reason="the public UR10 data set is not at ../shared/data/ur10 "
-                           "(docs/real-data.md says where to get it)")
-def test_the_ur10_tracker6d_verdict_is_not_silent(tmp_path, rows="1..1495:250"):
-    """On every 250th public row (6 rows; every 15th runs in bench/checks/): the verdict is
-    said, and an undecided one names the proof effort it spent."""
-    data = next(p for p in UR10_DATA if p.exists())
-    code, out, text, err = verdict_of(ROOT / "models" / "ur10_tracker6d.cal", "--data",
-                                      f"m={data}", "--rows", rows,
-                                      out=tmp_path / "r.json")
-    assert_said(code, out, text, err)
-    if out["verdict"] != "consistent":
-        assert out["decision"]["budget"] is not None and out["decision"]["tried"]
-
-
 def test_the_next_command_names_the_const_of_an_error_bound(tmp_path):
     """Undecided without rows far beyond their bound: the next command brackets the const
     whose value is the columns' error bound (given with -D, as the user gave it)."""
