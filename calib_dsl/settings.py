@@ -16,15 +16,29 @@ front end and the elaborator, not here.
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings, OutlierSettings
 
+
 # The cores the solver's LP threads, chunk threads and piece processes share: CALIBC_CORES
 # when set (the test suite sets 1 in each pytest-xdist worker, as the workers fill the
 # cores), else this machine's. Results do not depend on it.
-CORES = int(os.environ.get("CALIBC_CORES") or 0) or os.cpu_count() or 1
+def _cores() -> int:
+    text = os.environ.get("CALIBC_CORES", "").strip()
+    if not text:
+        return os.cpu_count() or 1
+    if not text.isdigit() or int(text) < 1:
+        # read once at import, before any command runs: a user error all the same
+        print(f"error: CALIBC_CORES must be a whole number of cores, 1 or more (not {text!r})",
+              file=sys.stderr)
+        raise SystemExit(2)
+    return int(text)
+
+
+CORES = _cores()
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,7 @@ flat names callers knew before the groups still set them (`Settings.tuned`)."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import fields
 
 import pytest
@@ -60,3 +61,16 @@ def test_a_group_given_whole_keeps_its_fields_beside_a_field_of_it():
     changed = {first: getattr(lp, first)}
     s = DEFAULT.tuned(lp=lp, **{f"lp__{first}": changed[first]})
     assert s.lp.workers == DEFAULT.lp.workers + 3
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-1", "1.5"])
+def test_a_bad_cores_count_is_one_user_error(value):
+    import subprocess
+    import sys
+
+    env = {**os.environ, "CALIBC_CORES": value}
+    run = subprocess.run([sys.executable, "-c", "import calib_dsl.settings"], env=env,
+                         capture_output=True, text=True)
+    assert run.returncode == 2
+    assert run.stderr.strip() == (f"error: CALIBC_CORES must be a whole number of cores, "
+                                  f"1 or more (not {value!r})")
