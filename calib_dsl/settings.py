@@ -230,6 +230,11 @@ class Settings:
     # gradient or a model in every unknown during a pass, so memory follows the chunk, not
     # the rows.
     chunk_slots: int = 150_000
+    # glibc's malloc arenas at most, set when the chunked passes' threads start: each thread
+    # otherwise keeps freed memory in an arena of its own (up to 8 per core), which the
+    # process's peak then holds (docs/decisions/41: a lower 12,000-row peak); 0 leaves
+    # glibc's default
+    malloc_arenas: int = 2
 
 
     # -- second-order models (relax/taylor.py, relax/quadratic.py) ---------------------------

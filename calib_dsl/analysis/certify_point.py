@@ -89,17 +89,23 @@ CHUNK_CELLS = 250_000
 
 
 def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None = None,
-                 owners: bool = False,
-                 box: tuple[np.ndarray, np.ndarray] | None = None) -> list[PointCheck]:
+                 owners: bool = False, box: tuple[np.ndarray, np.ndarray] | None = None,
+                 rows: np.ndarray | None = None) -> list[PointCheck]:
     """check_point for each row of `points` (with the same row of `readings`): one pass over
     the program's primitives for as many as CHECK_CELLS allows (a check's cost is mostly the
     pass over the primitives, not the points in it). A program of a loop compiled once
     larger than CHUNK_CELLS is checked a chunk of its rows at a time, every point in one
     pass over a chunk. `box`: the slots' domains and measured intervals (the program's own
-    if None: a chunk's program is given its rows')."""
+    if None: a chunk's program is given its rows'). `rows`: the loop rows to check (not
+    empty; increasing), each check then of theirs and the shared part's rows only, in the
+    order a check of every row gives them (its `holds` says nothing of the others)."""
     if not len(points):
         return []
     k = len(points)
+    if rows is not None:
+        chunks = chunked(prog, max(1, CHUNK_CELLS // k), rows)
+        assert chunks is not None
+        return _verdicts(prog, _chunked(prog, chunks, points, readings, owners, box))
     if len(prog.slots.lo) * k > CHUNK_CELLS:
         chunks = chunked(prog, max(1, CHUNK_CELLS // k))
         if chunks is not None:
@@ -131,7 +137,7 @@ class _Rows:
     parts: list[int]
 
 
-def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
+def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray | None,
              readings: np.ndarray | None, owners: bool,
              box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
     """The rows of the whole program, evaluated a chunk of its rows at a time and put in
@@ -164,13 +170,30 @@ def _chunked(prog: Program, chunks: list[Chunk], points: np.ndarray,
                  [])
 
 
-def _evaluate(prog: Program, points: np.ndarray, readings: np.ndarray | None, owners: bool,
-              box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
-    """One pass over the program's primitives at every point (a column each)."""
+def box_rows(prog: Program, lo: np.ndarray, hi: np.ndarray) -> PointCheck:
+    """Every checked row of check_points, in its order, its computed side enclosed over the
+    box [lo, hi] of the independents (within their domains) and every reading over its
+    interval: a row `ok` here holds at every point of the box, whatever the readings."""
+    slo, shi = prog.slots.lo.copy(), prog.slots.hi.copy()
     ind = independents(prog)
-    lay = definitions(prog)
-    k = len(points)
+    slo[ind], shi[ind] = lo, hi  # (a reading's float interval holds its exact one)
+    chunks = chunked(prog, CHUNK_CELLS) if len(slo) > CHUNK_CELLS else None
+    r = _chunked(prog, chunks, None, None, False, (slo, shi)) if chunks else \
+        _evaluate(prog, None, None, False, (slo, shi))
+    return _verdicts(prog, r)[0]
+
+
+def _evaluate(prog: Program, points: np.ndarray | None, readings: np.ndarray | None,
+              owners: bool, box: tuple[np.ndarray, np.ndarray] | None) -> _Rows:
+    """One pass over the program's primitives at every point (a column each); over the
+    whole box (the independents and readings over their intervals: one column) if `points`
+    is None."""
     base_lo, base_hi = box if box is not None else (prog.slots.lo, prog.slots.hi)
+    if points is None:
+        return _pass(prog, np.stack([base_lo, base_hi], axis=1), 1, False, (base_lo, base_hi),
+                     np.ones(1, dtype=bool))
+    ind = independents(prog)
+    k = len(points)
     lo, hi = base_lo, base_hi
     if np.any(points < lo[ind]) or np.any(points > hi[ind]):
         raise ValueError("the point lies outside the search domains")
@@ -197,8 +220,23 @@ def _evaluate(prog: Program, points: np.ndarray, readings: np.ndarray | None, ow
         np.repeat(np.stack([lo, hi], axis=1)[:, :, None], k, axis=2)
     lo, hi = both[:, 0], both[:, 1]
     lo[ind], hi[ind] = col(points.T), col(points.T)
-    lo[lay.temp], hi[lay.temp] = -np.inf, np.inf
     lo[at[some]] = hi[at[some]] = col(values[:, some].T)
+    return _pass(prog, both, k, owners, (base_lo, base_hi), in_domain)
+
+
+def _pass(prog: Program, both: np.ndarray, k: int, owners: bool,
+          base: tuple[np.ndarray, np.ndarray], in_domain: np.ndarray) -> _Rows:
+    """The pass itself: `both` each slot's two ends (a column per point), the unknowns and
+    readings set; `base` the slots' own bounds."""
+    lay = definitions(prog)
+    at = reading_slots(prog)
+    base_lo, base_hi = base
+
+    def col(v: np.ndarray) -> np.ndarray:
+        return v.reshape(-1, k) if k > 1 else v.reshape(-1)
+
+    lo, hi = both[:, 0], both[:, 1]
+    lo[lay.temp], hi[lay.temp] = -np.inf, np.inf
     caps = lay.temp & (np.isfinite(base_lo) | np.isfinite(base_hi))
     own = np.full(len(lo), NONE, dtype=np.int64)  # the configuration whose readings it uses
     if owners and len(at) and prog.slots.cell_row is not None:

@@ -22,11 +22,12 @@ from functools import cached_property
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import PointCheck, check_point, check_points, exact_inside
+from calib_dsl.analysis.certify_point import PointCheck, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.readings import Readings
 from calib_dsl.inner.lp import LinearModel, Solver
+from calib_dsl.inner.screen import checks
 from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
@@ -96,7 +97,7 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     some = dlo <= dhi
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
-    found = _Points(len(ind))
+    found = _Points(len(ind), box)
     _search(prog, box, found, starts, (settings.lp, settings.inner))
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
@@ -106,7 +107,8 @@ class _Points:
     """The certified points seen so far, and per unknown the range they span; `centre`, the
     point that failed candidates are pulled back towards (None until one is certified)."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, box: tuple[np.ndarray, np.ndarray]) -> None:
+        self.box = box  # (every candidate lies in it: inner/screen.py checks its rows)
         self.lo, self.hi = np.full(n, np.nan), np.full(n, np.nan)
         self.lo_at, self.hi_at = np.full(n, -1), np.full(n, -1)
         self.all: list[Witness] = []
@@ -129,7 +131,8 @@ class _Points:
         """The centre's check: each row's room to its bounds there."""
         assert self.centre is not None
         if self._centre_check is None:
-            self._centre_check = check_point(prog, self.centre.point, self.centre.readings)
+            self._centre_check = checks(prog, self.box, self.centre.point[None],
+                                        self.centre.readings[None])[0]
         return self._centre_check
 
 
@@ -281,10 +284,10 @@ def _certified(prog: Program, at: dict[int, tuple[np.ndarray, np.ndarray]],
     order = sorted(at)
     if not order:
         return {}
-    checks = check_points(prog, np.array([at[i][0] for i in order]),
-                          np.array([at[i][1] for i in order]))
+    done_checks = checks(prog, found.box, np.array([at[i][0] for i in order]),
+                         np.array([at[i][1] for i in order]))
     failed = {}
-    for i, check in zip(order, checks, strict=True):
+    for i, check in zip(order, done_checks, strict=True):
         point, readings = at[i]
         if not (check.holds or prove_point(prog, point, readings, check)):
             failed[i] = check
@@ -392,7 +395,7 @@ def _end(prog: Program, lp: LinearModel, solver: Solver, j: int, sign: float,
         if k == 0 and failed is not None:
             check = failed  # (checked, and not proven, with its wave)
         else:
-            check = check_point(prog, point, readings)
+            check = checks(prog, lp.box, point[None], readings[None])[0]
             if check.holds or prove_point(prog, point, readings, check):
                 return Witness(point, readings), promised
         excess, computed = lp.excess(check)

@@ -10,6 +10,8 @@ not with their slots.
 
 from __future__ import annotations
 
+import ctypes
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -30,6 +32,7 @@ CHUNK_SLOTS = Settings.chunk_slots  # (a module attribute: tests make chunks sma
 # the threads a chunked pass shares its chunks among: as many as the LPs' (the cores); two
 # chunks' arrays at once, each sized to stay in the cache
 CHUNK_THREADS = LPSettings.workers
+MALLOC_ARENAS = Settings.malloc_arenas
 
 
 class Evaluated:
@@ -159,8 +162,23 @@ _lock = threading.Lock()
 def _pool(workers: int) -> ThreadPoolExecutor:
     with _lock:  # (callers in several threads: the inner bounds' own)
         if workers not in _pools:
+            if not _pools:
+                _cap_arenas(MALLOC_ARENAS)
             _pools[workers] = ThreadPoolExecutor(workers, thread_name_prefix="chunks")
         return _pools[workers]
+
+
+def _cap_arenas(arenas: int) -> bool:
+    """glibc's malloc arenas capped at `arenas` (mallopt M_ARENA_MAX) before the threads
+    start (False where this is no glibc, or `arenas` is 0): freed memory is then shared
+    among threads instead of held per thread. Only the memory's placement changes."""
+    if arenas <= 0 or not sys.platform.startswith("linux"):
+        return False
+    try:
+        m_arena_max = -8  # (glibc's malloc.h)
+        return bool(ctypes.CDLL("libc.so.6").mallopt(m_arena_max, arenas))
+    except (OSError, AttributeError):
+        return False
 
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,

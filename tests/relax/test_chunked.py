@@ -203,3 +203,19 @@ def test_chunks_shared_among_threads_give_one_threads_rows_in_its_order(tmp_path
     assert np.array_equal(one.targets(), many.targets())
     assert np.array_equal(one.data_rows(), many.data_rows())
     assert np.array_equal(one.e, many.e)
+
+
+def test_malloc_arenas_are_capped_on_glibc_only_when_asked():
+    import sys
+
+    from calib_dsl.relax.chunked import _cap_arenas
+
+    assert not _cap_arenas(0)  # (0: glibc's default kept)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            glibc = hasattr(ctypes.CDLL("libc.so.6"), "mallopt")
+        except OSError:
+            glibc = False
+        assert _cap_arenas(8) == glibc  # (glibc accepts the cap: mallopt returns 1)
