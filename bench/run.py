@@ -131,21 +131,38 @@ for k in 1..N-1 {{
 
 # -- the parent ------------------------------------------------------------------------------
 
+# A process forked from this one starts from this one's peak resident set (Linux keeps the
+# high-water mark across exec), so a command's own peak is read by a small interpreter that
+# forks and execs it and writes its usage (exit code, CPU seconds, peak KB) to a file.
+_SPAWN = """import json, os, sys
+pid = os.fork()
+if pid == 0:
+    os.execvp(sys.argv[2], sys.argv[2:])
+_, status, u = os.wait4(pid, 0)
+code = os.waitstatus_to_exitcode(status)
+with open(sys.argv[1], "w") as out:
+    json.dump([code, u.ru_utime + u.ru_stime, u.ru_maxrss], out)
+sys.exit(code)
+"""
+
+
 def run_process(cmd: list[str]) -> dict[str, float]:
     """Run cmd to completion: wall time, CPU time (user + system) and peak RSS (MB) of the
-    process itself (os.wait4 gives the child's own resource usage)."""
+    command's own process (measured from a small spawner, not from this process's fork)."""
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as f:
+        usage_file = Path(f.name)
     start = time.perf_counter()
     with open(os.devnull, "wb") as null:
-        proc = subprocess.Popen(cmd, stdout=null, stderr=subprocess.PIPE, cwd=ROOT)
-        assert proc.stderr is not None
-        err = proc.stderr.read()
-        _, status, usage = os.wait4(proc.pid, 0)
-        proc.returncode = os.waitstatus_to_exitcode(status)
+        proc = subprocess.run([sys.executable, "-c", _SPAWN, str(usage_file), *cmd],
+                              stdout=null, stderr=subprocess.PIPE, cwd=ROOT)
     wall = time.perf_counter() - start
-    if proc.returncode not in (0, 1, 4):  # 1: inconsistent, 4: undecided, results too
-        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): {err.decode()[-2000:]}")
-    return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime,
-            "rss": usage.ru_maxrss / 1024.0}
+    try:
+        code, cpu, peak = json.loads(usage_file.read_text())
+    finally:
+        usage_file.unlink(missing_ok=True)
+    if code not in (0, 1, 4):  # 1: inconsistent, 4: undecided, results too
+        raise RuntimeError(f"{' '.join(cmd)} failed ({code}): {proc.stderr.decode()[-2000:]}")
+    return {"wall": wall, "cpu": cpu, "rss": peak / 1024.0}
 
 
 def calibc_command() -> list[str]:
