@@ -303,6 +303,13 @@ def test_the_path_bounds_are_lp_bounds(seed):
     batch_lp.test_the_path_bounds_are_lp_bounds.hypothesis.inner_test(seed)
 
 
+@settings(max_examples=4, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(0, 3), st.integers(3, 12))
+def test_the_working_rows_bounds_are_the_all_rows_lps(seed, keep, added):
+    batch_lp.test_the_working_rows_bounds_are_the_all_rows_lps.hypothesis.inner_test(
+        seed, keep, added)
+
+
 @settings(max_examples=8, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.floats(8.0, 30.0), st.floats(-0.6, 0.6), st.floats(-1.0, 1.0),
