@@ -22,11 +22,19 @@ $(VENV)/.installed: pyproject.toml
 # public UR10 file at scale, campaigns of thousands of rows, whole solves of Test A and B,
 # the suite's soundness properties at their full example counts), which assert and fail
 # loudly.
+# test-fast runs each hypothesis property on a quarter of its examples, at least one
+# (--examples-share, tests/conftest.py); test runs every example. The test targets keep
+# Python's bytecode caches where the environment turns them off: else each run's workers
+# and `calibc` subprocesses compile calib_dsl and rewrite every test module's asserts anew
+# (3.4 CPU-s of a worker's 6 s collection).
+FAST_SHARE ?= 0.25
+test test-fast test-slow test-random: export PYTHONDONTWRITEBYTECODE =
+
 test: install
 	$(BIN)/pytest
 
 test-fast: install
-	$(BIN)/pytest -m "not slow"
+	$(BIN)/pytest -m "not slow" --examples-share $(FAST_SHARE)
 
 test-slow: install
 	$(BIN)/pytest -m slow

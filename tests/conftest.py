@@ -3,6 +3,7 @@ model into a temporary directory, compile it, find the installed `calibc` comman
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import sys
@@ -27,6 +28,29 @@ from calib_dsl.ir.program import Program  # noqa: E402
 settings.register_profile("fixed", derandomize=True, print_blob=True)
 settings.register_profile("random", print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fixed"))
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--examples-share", type=float, default=1.0, metavar="S",
+        help="run each property on this share of its examples (at least one): `make "
+             "test-fast` runs a quarter, `make test` every example")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The editing loop's share of every property's examples: its cost is the examples,
+    not the test's count. Each function is scaled once (parametrized items share it)."""
+    share = config.getoption("examples_share")
+    if share >= 1:
+        return
+    for item in items:
+        test = getattr(getattr(item, "obj", None), "__func__", getattr(item, "obj", None))
+        if not getattr(test, "is_hypothesis_test", False) or getattr(test, "_calibc_share", 0):
+            continue
+        full = test._hypothesis_internal_use_settings
+        test._hypothesis_internal_use_settings = settings(
+            full, max_examples=max(1, math.ceil(full.max_examples * share)))
+        test._calibc_share = share
 
 
 @pytest.fixture
