@@ -106,6 +106,7 @@ def dh_rows(text: str) -> dict[str, dict[str, tuple[float, str]]]:
     return rows
 
 
+@pytest.mark.slow
 def test_dh_table_kinematics_equal_the_models_at_the_midpoints(rx90):
     path, data, _ = rx90
     res = run("export", path, "--format", "dh-table")
@@ -161,6 +162,7 @@ def urdf_forward(root: ET.Element, q: np.ndarray, until: str = "flange_joint") -
     return m
 
 
+@pytest.mark.slow
 def test_urdf_is_well_formed_with_one_joint_per_axis(rx90):
     path, data, _ = rx90
     res = run("export", path, "--format", "urdf")
@@ -182,6 +184,7 @@ def test_urdf_is_well_formed_with_one_joint_per_axis(rx90):
     np.testing.assert_allclose(placed, chain(rx90_frames(q, mids)), atol=1e-13)
 
 
+@pytest.mark.slow
 def test_json_export_states_units_and_covers_each_result(rx90):
     path, data, _ = rx90
     res = run("export", path, "--format", "json")
@@ -299,6 +302,7 @@ def test_standard_dh_with_a_reversed_and_a_prismatic_joint(tmp_path):
     np.testing.assert_allclose(urdf_forward(root, q), expected, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_no_float_noise_and_fixed_entries_marked_nominal(rx90, tmp_path):
     """Every value is a short decimal (no 0.30000000000000004), every entry the model fixes
     is marked nominal, and --point lsq needs a least-squares estimate in the result."""
@@ -320,6 +324,7 @@ def test_no_float_noise_and_fixed_entries_marked_nominal(rx90, tmp_path):
     assert res.exit_code == 0 and res.output == urdf  # (the same point, the same file)
 
 
+@pytest.mark.slow
 def test_the_certified_centre_is_a_point_of_the_inner_intervals(rx90):
     """--point centre writes the certified centre the JSON states: a vector proven to
     satisfy every constraint, inside every certified inner interval."""

@@ -64,8 +64,14 @@ def solve_json(tmp: Path, model: Path | str, *options: object, codes: tuple[int,
 
 
 # -- small campaigns of the new robots ------------------------------------------------------
-@pytest.mark.parametrize("robot", ["arm4_dh.cal", "arm5_mdh.cal"])
-@pytest.mark.parametrize("poses", ["random", "grid", "repeated"])
+# the editing loop (unmarked) runs each robot and each kind of poses once
+FAST_PAIRS = {("arm4_dh.cal", "random"), ("arm5_mdh.cal", "grid"), ("arm4_dh.cal", "repeated")}
+
+
+@pytest.mark.parametrize(("robot", "poses"), [
+    (robot, poses) if (robot, poses) in FAST_PAIRS else pytest.param(robot, poses,
+                                                                     marks=pytest.mark.slow)
+    for robot in ("arm4_dh.cal", "arm5_mdh.cal") for poses in ("random", "grid", "repeated")])
 def test_a_new_robot_is_calibrated_with_its_truth_inside(tmp_path, robot, poses):
     model = campaign(tmp_path, robot, "--configs", 30, "--seed", 11, "--poses", poses)
     _, result = solve_json(tmp_path, model, "--no-identify")

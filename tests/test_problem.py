@@ -106,7 +106,8 @@ def same_program(a, b) -> None:
     assert a.rows is None or np.array_equal(a.rows.rows, b.rows.rows)
 
 
-@pytest.mark.parametrize("path", [ARM, RX90, ROOT / "models" / "rx90_full.cal"])
+@pytest.mark.parametrize("path", [ARM, RX90, pytest.param(ROOT / "models" / "rx90_full.cal",
+                                                         marks=pytest.mark.slow)])
 def test_rows_left_out_are_derived_as_elaborating_anew_gives(monkeypatch, path):
     """Rows left out (as --exclude does), or named (as the outlier proofs do), of the first
     rows, the last, every other: the derived program is the elaborated one, array for array,
@@ -148,7 +149,8 @@ def test_what_the_model_does_not_allow_is_elaborated_anew(tmp_path):
     assert derived.program.rows is None and len(derived.model.tables[0].numbers) == 2
 
 
-@pytest.mark.parametrize("path", [ARM, ROOT / "models" / "ur10_tracker.cal"])
+@pytest.mark.parametrize("path", [ARM, pytest.param(ROOT / "models" / "ur10_tracker.cal",
+                                                  marks=pytest.mark.slow)])
 def test_an_error_bound_set_is_derived_as_elaborating_anew_gives(monkeypatch, path):
     """A const read only as columns' error bound (`x, y : +- e`), set to other values (as
     --min-error's trials do): the cells' bounds change, and the program is the elaborated

@@ -10,6 +10,7 @@ from pathlib import Path
 from unittest import mock
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -133,6 +134,7 @@ def _working_set_settings(keep: int, added: int):
                          prediction_path_window=40)
 
 
+@pytest.mark.slow
 @settings(max_examples=1, deadline=None)  # 4 in bench/checks/test_soundness_full.py
 @given(st.integers(0, 2 ** 31), st.integers(0, 3), st.integers(3, 12))
 def test_the_working_rows_bounds_are_the_all_rows_lps(seed, keep, added):

@@ -75,6 +75,7 @@ def lsq_of(run) -> np.ndarray:
     return estimate(run.prog, start=mid).values
 
 
+@pytest.mark.slow
 def test_statistics_are_numpy_s(ur10):
     acc = ur10.extra.accuracy
     found = strict_loads(dumps(accuracy_json(acc, "mm")))
@@ -96,6 +97,7 @@ def test_statistics_are_numpy_s(ur10):
     assert "in mm" in text and "guaranteed" in text
 
 
+@pytest.mark.slow
 def test_calibration_does_not_worsen_the_statistics(ur10):
     acc = ur10.extra.accuracy
     assert {"nominal", "least_squares", "certified"} == set(acc.points)
@@ -106,6 +108,7 @@ def test_calibration_does_not_worsen_the_statistics(ur10):
             assert after[k] <= before[k], (label, k)
 
 
+@pytest.mark.slow
 def test_the_bound_holds_every_consistent_vector(ur10):
     """At the true values (the simulation's), the least-squares point and every certified
     point of the inner bounds (each proven consistent): every residual is within the bound."""
@@ -160,6 +163,7 @@ def test_the_box_bound_holds_every_vector_of_the_box(arm, a, b):
         assert np.hypot(*r) <= acc.box_bound[i]
 
 
+@pytest.mark.slow
 def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
     prog, res = ur10.prog, ur10.res
     ind = independents(prog)
@@ -174,6 +178,7 @@ def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
     assert np.all(acc.bound <= ur10.extra.accuracy.bound)  # one axis fewer
 
 
+@pytest.mark.slow
 def test_the_statement_is_each_part_computed_afresh(ur10):
     """The statement reuses the polish's evaluations at the certified centre and the
     least-squares point: every array equals the one computed on its own, bit for bit."""

@@ -73,6 +73,7 @@ def test_positions_declared_in_metres_name_their_columns(tmp_path: Path) -> None
     assert "1000 (mm and m)" in found["units"][0]
 
 
+@pytest.mark.slow
 def test_joints_declared_in_degrees_name_their_columns(tmp_path: Path) -> None:
     deg = ", ".join(f"q{i} in deg" for i in range(1, 7))
     found = _units_case(tmp_path, TABLE.replace("q1, q2, q3, q4, q5, q6 : +- 0",
@@ -81,6 +82,7 @@ def test_joints_declared_in_degrees_name_their_columns(tmp_path: Path) -> None:
                for u in found["units"])
 
 
+@pytest.mark.slow
 def test_a_bound_in_metres_is_named(tmp_path: Path) -> None:
     found = _units_case(tmp_path, TABLE, ["-D", "e=0.00005"])
     assert any("the error bound, about 1000 (mm and m)" in u for u in found["units"])

@@ -6,6 +6,7 @@ join; and a UR10 campaign of thousands of rows gets the second-order rounds."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -87,6 +88,7 @@ def test_a_resumed_pass_skips_only_the_ends_no_joined_row_cuts_off():
     assert working._settled(ends, ends) == frozenset()
 
 
+@pytest.mark.slow
 def test_a_pass_cut_short_goes_on_where_the_check_joins_no_row(tmp_path, monkeypatch):
     """A pass that a check follows ends after one fine round (fine_rounds_per_check); where
     the check then joins no row, the rounds go on on the same rows until their phases end
