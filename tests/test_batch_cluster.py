@@ -17,8 +17,13 @@ from pathlib import Path
 import pytest
 from batch_project import STATUS, direct, intervals, write_project
 
-distributed = pytest.importorskip(
-    "distributed", reason="the cluster test needs Dask (pip install -e .[dev])")
+
+@pytest.fixture(scope="module")
+def distributed():
+    """Imported by the cluster tests, not at collection (Dask's import is heavy)."""
+    return pytest.importorskip(
+        "distributed", reason="the cluster test needs Dask (pip install -e .[dev])")
+
 
 START_GUARD = 120  # s: a cluster not up by then is broken, not slow (no result depends on it)
 
@@ -31,7 +36,7 @@ def dask_command() -> str:
 
 
 @pytest.fixture
-def cluster(tmp_path):
+def cluster(tmp_path, distributed):
     """(scheduler address, the two workers' addresses); every process killed at the end."""
     dask = dask_command()
     logs = tmp_path / "dask-logs"
@@ -100,7 +105,7 @@ def test_batch_on_a_dask_cluster(cluster, calibc, tmp_path):
 
 
 @pytest.mark.slow
-def test_a_jobs_split_pieces_are_tasks_of_the_cluster(cluster):
+def test_a_jobs_split_pieces_are_tasks_of_the_cluster(cluster, distributed):
     """From a task on one worker (one thread: the job seceded while it waits, or the pieces
     would wait for it), the pieces run on the cluster; the workers' events count them."""
     from calib_dsl.strategy.cluster import EVENT

@@ -23,7 +23,12 @@ from tests.cli_run import run
 
 ROOT = Path(__file__).resolve().parents[2]
 TOL_MM = 1e-9
-yourdfpy = pytest.importorskip("yourdfpy", reason="yourdfpy reads the URDF back "
+
+
+@pytest.fixture(scope="module")
+def yourdfpy():
+    """Imported by the test that reads a URDF back, not at collection (it pulls trimesh)."""
+    return pytest.importorskip("yourdfpy", reason="yourdfpy reads the URDF back "
                                "(pip install -e '.[dev]')")
 
 
@@ -92,7 +97,7 @@ def joints(seed: int) -> np.ndarray:
     return np.random.default_rng(seed).uniform(-math.pi, math.pi, (12, 6))
 
 
-def test_urdf_read_by_yourdfpy(exported, tmp_path):
+def test_urdf_read_by_yourdfpy(exported, tmp_path, yourdfpy):
     robot, values, path = exported
     res = run("export", path, "--format", "urdf", "-o", tmp_path / "r.urdf")
     assert res.exit_code == 0, res.output
