@@ -16,9 +16,9 @@ $(VENV)/.installed: pyproject.toml
 # test: every test in tests/ on every core (pytest-xdist, `-n auto` in pyproject.toml), the
 # same pseudo-random property cases on every run (reproducible, as CI runs it), within four
 # minutes on two cores; test-fast: those not marked slow (the slow marker: a whole-CLI run,
-# real data or a browser), the loop to run while editing, within a minute; test-slow: only
-# the slow ones; test-all: another name for test; test-random: fresh cases each run, to look
-# for failures the fixed ones miss. bench-checks: the checks too heavy for the suite (the
+# a shipped robot solved whole, real data or a browser), the loop to run while editing,
+# within a minute; test-slow: only the slow ones; test-all: another name for test;
+# test-random: fresh cases each run, to look for failures the fixed ones miss. bench-checks: the checks too heavy for the suite (the
 # public UR10 file at scale, campaigns of thousands of rows, whole solves of Test A and B,
 # the suite's soundness properties at their full example counts), which assert and fail
 # loudly.
