@@ -403,6 +403,10 @@ class Settings:
     # inner_at): a pass costs its rows times the points they picked, so fewer rows a pass
     # evaluate fewer points each, at the cost of more passes over the primitives.
     prediction_hull_rows: int = 32
+    # The predictions' inner ends evaluated with the predicted configuration's readings moved
+    # within their errors towards each end (accuracy/held_readings.py): the outer boxes hold
+    # every such value, so an inner end at the readings' middles alone understates them.
+    prediction_move_readings: bool = True
 
     def tuned(self, **changes: Any) -> Settings:
         """These settings with some fields changed, each named by its own name whether it is

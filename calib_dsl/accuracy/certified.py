@@ -9,7 +9,9 @@ pass). Over a set of points, the interval [min b, max a] lies inside the hull of
 values, and each of its ends is within rounding of one of them; where it is empty (every
 point predicts about the same) there is no inner interval (nan). `inner_hull` takes every
 point on every row; `inner_at` takes each row's own two points (the ones an approximate
-model puts at that row's extremes, `picks`), evaluated a block of rows at a time.
+model puts at that row's extremes, `picks`), evaluated a block of rows at a time, each with
+the predicted configuration's readings where `moves` puts them (within their errors, towards
+the end it is for: accuracy/held_readings.py), a value the prediction truly takes too.
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import check_points
+from calib_dsl.accuracy.held_readings import Moves
+from calib_dsl.analysis.certify_point import check_points, reading_slots
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
 
@@ -43,14 +46,21 @@ def inner_hull(prog: Program, points: Sequence[np.ndarray]
 
 
 def inner_at(prog: Program, points: np.ndarray, slots: np.ndarray, picks: np.ndarray,
-             block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             block: int, moves: Moves | None = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """inner_hull's interval for each target slot of `slots`, over only the points its row
-    of `picks` names (indices into `points`), and which point gave each end ((slots, 2):
-    the lower's, the upper's; -1 where there is no interval). A loop's rows are evaluated
-    `block` rows at a time, each pass at the points some slot of those rows picked (every
-    point on every row would cost points x rows)."""
+    of `picks` names (indices into `points`), which point gave each end ((slots, 2): the
+    lower's, the upper's; -1 where there is no interval) and at which readings (a row of
+    `moves.configs`, -1: their middles). With `moves`, each pick is evaluated at the
+    readings `moves.of` names for it (accuracy/held_readings.py), else at their middles.
+    A loop's rows are evaluated `block` rows at a time, each pass at the (point, readings)
+    pairs some slot of those rows picked (every point on every row would cost points x
+    rows)."""
     low, high = np.full(len(slots), np.inf), np.full(len(slots), -np.inf)
     ends = np.full((len(slots), 2), -1, dtype=np.int64)
+    read = np.full((len(slots), 2), -1, dtype=np.int64)
+    configs = 1 if moves is None else len(moves.configs)
+    of = np.zeros_like(picks) if moves is None else moves.of
     lay = prog.rows
     groups: list[tuple[np.ndarray, np.ndarray | None]]
     if lay is None or np.any(slots < lay.shared):  # (no loop compiled once: in one pass)
@@ -63,37 +73,47 @@ def inner_at(prog: Program, points: np.ndarray, slots: np.ndarray, picks: np.nda
     for mine, rows_ in groups:
         if not len(mine):
             continue
-        used, which = np.unique(picks[mine], return_inverse=True)
+        # (a pair's key: its point and its readings)
+        used, which = np.unique(picks[mine] * configs + of[mine], return_inverse=True)
         which = which.reshape(len(mine), -1)
-        enclosures = _evaluated(prog, points[used], slots[mine], rows_, block)
+        point, config = used // configs, used % configs
+        enclosures = _evaluated(prog, points[point], slots[mine], rows_, block,
+                                None if moves is None else moves.configs[config])
         for m in range(which.shape[1]):
             a_end, b_end = enclosures[0][which[:, m], np.arange(len(mine))], \
                 enclosures[1][which[:, m], np.arange(len(mine))]
             lower, higher = b_end < low[mine], a_end > high[mine]
             low[mine] = np.where(lower, b_end, low[mine])
             high[mine] = np.where(higher, a_end, high[mine])
-            ends[mine, 0] = np.where(lower, used[which[:, m]], ends[mine, 0])
-            ends[mine, 1] = np.where(higher, used[which[:, m]], ends[mine, 1])
+            for side, moved in ((0, lower), (1, higher)):
+                ends[mine, side] = np.where(moved, point[which[:, m]], ends[mine, side])
+                read[mine, side] = np.where(moved, config[which[:, m]], read[mine, side])
     empty = ~(low <= high)
-    low[empty], high[empty], ends[empty] = np.nan, np.nan, -1
-    return low, high, ends
+    low[empty], high[empty], ends[empty], read[empty] = np.nan, np.nan, -1, -1
+    if moves is None:
+        read[:] = -1
+    return low, high, ends, read
 
 
 def _evaluated(prog: Program, points: np.ndarray, slots: np.ndarray, rows: np.ndarray | None,
-               block: int) -> tuple[np.ndarray, np.ndarray]:
+               block: int, readings: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """The computed side's enclosure [lo, hi] of each target slot of `slots` at each point
-    ((points, slots) each; nan for a slot no pass evaluated), the readings at their
-    middles: over the program of the loop's rows `rows` (None: the whole program)."""
+    ((points, slots) each; nan for a slot no pass evaluated), the readings at `readings`
+    (one a point, the whole program's reading_slots order; None: their middles): over
+    the program of the loop's rows `rows` (None: the whole program)."""
     out = np.full((2, len(points), len(slots)), np.nan)
     if rows is None:
-        checks = check_points(prog, points)
+        checks = check_points(prog, points, readings)
         found, keep = checks[0].slots, np.arange(len(checks[0].slots))
     else:
         assert prog.rows is not None
         chunks = chunked(prog, prog.rows.shared + block * prog.rows.width, rows)
         assert chunks is not None and len(chunks) == 1
         ch = chunks[0]
-        checks = check_points(ch.prog, points,
+        mine = None if readings is None else readings[:, np.searchsorted(
+            reading_slots(prog), ch.slots(reading_slots(ch.prog)))]
+        checks = check_points(ch.prog, points, mine,
                               box=(ch.box(prog.slots.lo), ch.box(prog.slots.hi)))
         keep = np.flatnonzero(ch.kept(checks[0].slots))
         found = ch.slots(checks[0].slots[keep])

@@ -63,7 +63,9 @@ def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre:
     lm = LinearModel(prog, box, centre.point, free, lp=settings.lp, inner=settings.inner)
     if not lm.finite:
         return None
-    picked = directions[spread(directions, settings.prediction_linear_lps)]
+    # spread apart per unit of each unknown's box, as the LPs see them (the raw gradients
+    # mix units: lengths' components swamp angles', and the spread missed their directions)
+    picked = directions[spread(directions[:, free] * lm.scale, settings.prediction_linear_lps)]
     objectives = np.zeros((len(picked), lm.n + lm.width))
     objectives[:, :lm.n] = picked[:, free] * lm.scale
     # (each sign walks the directions in a path, each LP from its neighbour's optimum)

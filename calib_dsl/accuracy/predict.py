@@ -30,6 +30,7 @@ import numpy as np
 
 from calib_dsl.accuracy.batch_lp import batch_bounds
 from calib_dsl.accuracy.certified import inner_at, picks
+from calib_dsl.accuracy.held_readings import held_values, reading_moves
 from calib_dsl.accuracy.second_order import Bounds, second_order
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
@@ -68,6 +69,10 @@ class Prediction:
     inner_readings: np.ndarray | None = None  # the calibration's readings each was proven at
     # (rows, columns, 2): which of inner_points each inner end is the prediction of (-1: none)
     inner_from: np.ndarray | None = None
+    # (rows, columns, 2, readings): the configuration's readings (`held_columns`) each inner
+    # end was evaluated at, within their errors (accuracy/held_readings.py)
+    inner_held: np.ndarray | None = None
+    held_columns: tuple[str, ...] = ()
 
     def covered(self) -> np.ndarray:
         """Per row: every measured value within its box widened by its bound (a column the
@@ -310,17 +315,27 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
                              len(sort) - 1)]
         assert np.array_equal(box_only.targets[at], found.targets)  # (the same rows' cells)
         chosen[at] = picks(found.value, P)
-    ilo, ihi, ends = inner_at(prog, P, box_only.targets, chosen,
-                              cal.settings.prediction_hull_rows)
+    # each end at the configuration's readings moved within their errors towards it
+    assert box_only.readings is not None
+    moves = reading_moves(prog, box_only.targets, *box_only.readings) \
+        if cal.settings.prediction_move_readings else None
+    ilo, ihi, ends, read = inner_at(prog, P, box_only.targets, chosen,
+                                    cal.settings.prediction_hull_rows, moves)
     inner = _arrange(prog, t, box_only.targets, (ilo, ihi), original, measured_side, present,
                      file)
     some = np.isfinite(inner.lo) & np.isfinite(inner.hi)  # (a cell no point predicted)
-    witness = _witnesses(prog, box_only.targets, measured_side, inner, (ilo, ihi), ends)
+    # (each end's point and readings as one code: a cell's two named from the same row)
+    n_read = 1 + (0 if moves is None else len(moves.configs))
+    code = _witnesses(prog, box_only.targets, measured_side, inner, (ilo, ihi),
+                      np.where(ends >= 0, ends * n_read + read + 1, -1))
+    witness = np.where(code >= 0, code // n_read, -1)
+    held = held_values(prog, t, moves, np.where(code >= 0, code % n_read - 1, -1))
     return replace(outer, inner_lo=np.where(some, inner.lo, np.nan),
                    inner_hi=np.where(some, inner.hi, np.nan), inner_points=P,
                    inner_from=np.where(some[..., None], witness, -1),
                    names=tuple(s.names[k] for k in ind),
-                   inner_readings=np.array([r for _, r in known]))
+                   inner_readings=np.array([r for _, r in known]),
+                   inner_held=held[1], held_columns=held[0])
 
 
 def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,
@@ -336,6 +351,8 @@ def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: n
     dlo, dhi = (np.concatenate([r[0][i] for r in rows]) for i in (0, 1))
     hlo, hhi = (np.concatenate([r[1][i] for r in rows]) for i in (0, 1))
     qmax = np.concatenate([np.maximum(np.abs(r[2][0]), np.abs(r[2][1])) for r in rows])
+    slope = np.concatenate([0.5 * r[2][0] + 0.5 * r[2][1] for r in rows])
+    owner = np.concatenate([r[3] for r in rows])
     h, hrad = mid_rad(hlo, hhi)
     w = np.maximum(center - lo[ind], hi[ind] - center) * (1 + 4 * RHS_REL)
     with np.errstate(invalid="ignore"):
@@ -355,7 +372,8 @@ def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: n
     def value(points: np.ndarray) -> np.ndarray:  # (floats, without the remainder)
         return mid[:, None] + h[use] @ (points - center).T
 
-    return Bounds(plo, phi, targets[use], h[use], optima[:, order], value, charge=rad[use])
+    return Bounds(plo, phi, targets[use], h[use], optima[:, order], value, charge=rad[use],
+                  readings=(slope[use], owner[use]))
 
 
 def _arrange(prog: Program, t: Table, targets: np.ndarray, ends: tuple[np.ndarray, np.ndarray],

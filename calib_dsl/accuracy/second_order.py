@@ -49,6 +49,10 @@ class Bounds:
     # per row: both its LPs ended optimal and its model is finite (None: all); a row not
     # settled is bounded again by the first-order form (accuracy/predict.py)
     settled: np.ndarray | None = None
+    # per row: the middles of its derivatives in its configuration's readings (rows, table
+    # columns) and that configuration (cell_row id, negative: none or several); where the
+    # inner ends' readings are moved to (accuracy/held_readings.py)
+    readings: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.ndarray,

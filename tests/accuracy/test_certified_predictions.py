@@ -21,10 +21,35 @@ from calib_dsl.relax.layout import independents
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 E = 0.02  # the measurements' error bound of the test's model
+READING = 1e-6  # planar_arm.cal's joint readings' error bound
 
 
 def tip(l1, l2, q1, q2):
     return (l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2))
+
+
+def assert_inner_ends(p, qh: np.ndarray, tol: float) -> None:
+    """Each inner end of the planar arm's prediction `p` (held readings `qh`, +- `tol`):
+    the hand-written kinematics at the certified point and the readings it names, within
+    rounding; those readings within `tol` of the file's; every end between the predictions
+    at all the certified points with the readings anywhere within `tol` (by a bound on the
+    kinematics' slope in the readings: at most the arm's reach, 2, times the move)."""
+    some = ~np.isnan(p.inner_lo)
+    rows, cols = np.nonzero(some)
+    assert p.held_columns == ("q1", "q2") and p.inner_held is not None
+    moved = p.inner_held[rows, cols] - qh[rows][:, None, :]  # (cells, 2 ends, 2 readings)
+    assert np.all(np.abs(moved) <= tol)
+    k1, k2 = p.names.index("l1"), p.names.index("l2")
+    for end, got in ((0, p.inner_lo), (1, p.inner_hi)):
+        w = p.inner_points[p.inner_from[rows, cols, end]]
+        q = p.inner_held[rows, cols, end]
+        x, y = tip(w[:, k1], w[:, k2], q[:, 0], q[:, 1])
+        np.testing.assert_allclose(got[some], np.where(cols == 0, x, y), rtol=0, atol=1e-12)
+    at = np.array([tip(w[k1], w[k2], qh[:, 0], qh[:, 1]) for w in p.inner_points])
+    at = at.transpose(0, 2, 1)  # (points, rows, columns)
+    reach = 2 * 2 * tol + 1e-12  # (two readings, each moving the tip by at most 2 tol)
+    assert np.all(at.min(axis=0)[some] - reach <= p.inner_lo[some])
+    assert np.all(p.inner_hi[some] <= at.max(axis=0)[some] + reach)
 
 
 def table(path: Path, q: np.ndarray, xy: tuple[np.ndarray, np.ndarray]) -> Path:
@@ -56,19 +81,8 @@ def test_true_positions_lie_in_the_boxes_and_inner_ends_are_certified(tmp_path, 
     some = ~np.isnan(p.inner_lo)
     assert some.any()
     assert np.all(p.lo[some] <= p.inner_lo[some]) and np.all(p.inner_hi[some] <= p.hi[some])
-    # each end: the hand-written kinematics at the certified point it names, within
-    # rounding; and within the hull of the predictions at all the certified points
-    k1, k2 = p.names.index("l1"), p.names.index("l2")
-    at = np.array([tip(w[k1], w[k2], qh[:, 0], qh[:, 1]) for w in p.inner_points])
-    at = at.transpose(0, 2, 1)  # (points, rows, columns)
     assert p.inner_from is not None and np.all((p.inner_from >= 0) == some[..., None])
-    rows, cols = np.nonzero(some)
-    for end, got in ((0, p.inner_lo), (1, p.inner_hi)):
-        witness = at[p.inner_from[rows, cols, end], rows, cols]
-        np.testing.assert_allclose(got[some], witness, rtol=0, atol=1e-12)
-    lows, highs = at.min(axis=0), at.max(axis=0)
-    assert np.all(lows[some] - 1e-12 <= p.inner_lo[some])
-    assert np.all(p.inner_hi[some] <= highs[some] + 1e-12)
+    assert_inner_ends(p, qh, READING)
     prog = load(tmp_path / "planar_arm.cal", inputs=inputs)
     order = [p.names.index(prog.slots.names[k]) for k in independents(prog)]
     assert p.inner_readings is not None

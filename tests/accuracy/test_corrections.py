@@ -110,11 +110,15 @@ def test_predictions_on_an_arc_keep_the_truth_and_name_certified_points(
     assert some.any()
     order = [p.names.index(n) for n in names]
     points = p.inner_points[:, order]
-    pred = distances(points, anchors)  # (points, rows)
     rows = np.flatnonzero(some)
+    # (at the anchor's readings it names, within their +- 1e-9 of the file's)
+    assert p.held_columns == ("x", "y") and p.inner_held is not None
+    assert np.all(np.abs(p.inner_held[rows, 0] - anchors[rows][:, None]) <= 1e-9)
     for end, got in ((0, p.inner_lo), (1, p.inner_hi)):
-        named = p.inner_from[rows, 0, end]
-        np.testing.assert_allclose(got[rows, 0], pred[named, rows], rtol=0, atol=1e-12)
+        named = points[p.inner_from[rows, 0, end]]
+        moved = p.inner_held[rows, 0, end]
+        pred = np.hypot(named[:, 0] - moved[:, 0], named[:, 1] - moved[:, 1])
+        np.testing.assert_allclose(got[rows, 0], pred, rtol=0, atol=1e-12)
     assert np.all(p.lo[some, 0] <= p.inner_lo[some, 0])
     assert np.all(p.inner_hi[some, 0] <= p.hi[some, 0])
     for w, r in zip(points, p.inner_readings, strict=True):

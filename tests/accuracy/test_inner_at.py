@@ -44,13 +44,13 @@ def test_picked_points_rows_at_a_time_match_every_point_in_one_pass(tmp_path, se
     whole_lo, whole_hi, targets = inner_hull(prog, list(points))
     # every point picked by every row: the same intervals as inner_hull's
     every = np.tile(np.arange(npoints), (len(targets), 1))
-    got_lo, got_hi, ends = inner_at(prog, points, targets, every, block)
+    got_lo, got_hi, ends, _ = inner_at(prog, points, targets, every, block)
     # (a block's program rounds its own way: both enclosures hold, an ulp or so apart)
     np.testing.assert_allclose(got_lo, whole_lo, rtol=1e-14, atol=1e-14)
     np.testing.assert_allclose(got_hi, whole_hi, rtol=1e-14, atol=1e-14)
     # some points picked per row: each end is that row's enclosure at the point it names
     some = rng.integers(0, npoints, (len(targets), 2))
-    got_lo, got_hi, ends = inner_at(prog, points, targets, some, block)
+    got_lo, got_hi, ends, _ = inner_at(prog, points, targets, some, block)
     checks = check_points(prog, points)
     where = {int(t): i for i, t in enumerate(checks[0].slots)}
     pos = np.array([where[int(t)] for t in targets])

@@ -25,7 +25,7 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import FAMILY
 from calib_dsl.settings import DEFAULT
-from tests.accuracy.test_certified_predictions import table, tip
+from tests.accuracy.test_certified_predictions import READING, assert_inner_ends, table, tip
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "models" / "examples"
 NARROW = 2e-6  # beside the readings' +- 1e-6 rad over arms of about 1.5
@@ -84,13 +84,7 @@ def test_narrow_errors_predict_over_the_first_order_soundly(tmp_path, l1, l2, se
     assert np.all(p.lo <= truth) and np.all(truth <= p.hi)
     some = ~np.isnan(p.inner_lo)
     assert some.any() and p.inner_from is not None and p.inner_points is not None
-    k1, k2 = p.names.index("l1"), p.names.index("l2")
-    at = np.array([tip(w[k1], w[k2], *held_q(held)) for w in p.inner_points])
-    at = at.transpose(0, 2, 1)  # (points, rows, columns)
-    rows, cols = np.nonzero(some)
-    for end, got in ((0, p.inner_lo), (1, p.inner_hi)):
-        np.testing.assert_allclose(got[some], at[p.inner_from[rows, cols, end], rows, cols],
-                                   rtol=0, atol=1e-12)
+    assert_inner_ends(p, np.stack(held_q(held), axis=1), READING)
     prog = problem.program
     order = [p.names.index(prog.slots.names[k]) for k in independents(prog)]
     assert p.inner_readings is not None
