@@ -22,6 +22,7 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Table
 
 MAX_POSES = 1_000_000  # a grid larger than this is a mistake in its steps, not a request
+MAX_VALUE = 1e300  # a joint value beyond this is a typo (and would overflow a float)
 
 
 def parse_grid(spec: str) -> dict[str, list[float]]:
@@ -32,10 +33,14 @@ def parse_grid(spec: str) -> dict[str, list[float]]:
         name, sep, rng = part.partition("=")
         if not sep or not name.strip():
             raise CalError(f"--grid: '{part}' is not NAME=a:b:step")
+        if name.strip() in out:
+            raise CalError(f"--grid: {name.strip()} is given twice")
         try:
             ends = [Fraction(v.strip()) for v in rng.split(":")]
         except ValueError:
             raise CalError(f"--grid: '{part}': a, b and step must be numbers") from None
+        if any(abs(v) > MAX_VALUE for v in ends):  # (a float would be inf, a pose nonsense)
+            raise CalError(f"--grid: '{part}': a value beyond {MAX_VALUE:g}")
         if len(ends) == 1:
             out[name.strip()] = [float(ends[0])]
             continue

@@ -70,7 +70,8 @@ def test_the_workspace_figure(mapped):
 def test_grid_specs():
     assert parse_grid("q1=0:1:0.25, q2=3") == {"q1": [0, 0.25, 0.5, 0.75, 1.0], "q2": [3.0]}
     assert len(parse_grid("a=0:1:0.1")["a"]) == 11  # exact decimal steps: 1 is included
-    for bad in ("q1", "q1=1:0:0.1", "q1=0:1:0", "q1=0:x:1", "", "q1=0:1:1e-7"):
+    for bad in ("q1", "q1=1:0:0.1", "q1=0:1:0", "q1=0:x:1", "", "q1=0:1:1e-7", "q1=1e400",
+                "q1=0:1e400:1e395", "q1=nan", "q1=-inf:0:1", "q1=0,q1=1"):
         with pytest.raises(CalError):
             parse_grid(bad)
 
