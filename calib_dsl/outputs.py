@@ -245,7 +245,7 @@ def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strate
     import tempfile
     from dataclasses import replace
 
-    from calib_dsl.accuracy.grid import grid_file, parse_grid
+    from calib_dsl.accuracy.grid import check_size, grid_file, parse_grid
     from calib_dsl.pipeline import predict_at
     from calib_dsl.problem import Problem
     from calib_dsl.settings import DEFAULT
@@ -256,6 +256,8 @@ def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strate
     if not problem.model.tables:
         raise CalError("the model has no table: there is nothing to predict")
     t = problem.model.tables[0]
+    layout = problem.program.rows
+    check_size(values, layout.width if layout is not None else len(problem.program.slots.names))
     with tempfile.TemporaryDirectory(prefix="calibc-grid-") as tmp:
         path = grid_file(values, t, Path(tmp) / "grid.csv")
         _, found = predict_at(problem, path, strategy=strategy, progress=progress,

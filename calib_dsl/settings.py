@@ -30,7 +30,7 @@ def _cores() -> int:
     text = os.environ.get("CALIBC_CORES", "").strip()
     if not text:
         return os.cpu_count() or 1
-    if not text.isdigit() or int(text) < 1:
+    if not (text.isascii() and text.isdigit()) or int(text) < 1:  # ("²" is a digit to str)
         # read once at import, before any command runs: a user error all the same
         print(f"error: CALIBC_CORES must be a whole number of cores, 1 or more (not {text!r})",
               file=sys.stderr)

@@ -215,6 +215,9 @@ NOT_TUNING = {
     "calib_dsl.inner.starts.CELL_KEY": "a key's radix: more columns than any table has",
     # guards on the input and what a report shows: no result depends on them
     "calib_dsl.accuracy.grid.MAX_POSES": "a grid this large is a mistake in its steps",
+    "calib_dsl.accuracy.grid.MAX_VALUE": "a joint value this large is a typo (a float's inf)",
+    "calib_dsl.accuracy.grid.MAX_CELLS": "poses x unknowns per row: a grid that fits in memory",
+    "calib_dsl.studies.simulate.MAX_NODES": "rows x nodes per row: a campaign that fits in memory",
     "calib_dsl.plan.command.SWEEP_STEP": "what `--n A..B` means without a step (the CLI's)",
     "calib_dsl.outliers.rows.SHOWN": "rows the text report lists (the JSON has every one)",
     "calib_dsl.accuracy.batch_lp._BLOCK": "a memory block: the bounds are the same for any",

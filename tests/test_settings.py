@@ -63,7 +63,7 @@ def test_a_group_given_whole_keeps_its_fields_beside_a_field_of_it():
     assert s.lp.workers == DEFAULT.lp.workers + 3
 
 
-@pytest.mark.parametrize("value", ["abc", "0", "-1", "1.5"])
+@pytest.mark.parametrize("value", ["abc", "0", "-1", "1.5", "²"])
 def test_a_bad_cores_count_is_one_user_error(value):
     import subprocess
     import sys

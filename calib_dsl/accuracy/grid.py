@@ -22,6 +22,12 @@ from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Table
 
 MAX_POSES = 1_000_000  # a grid larger than this is a mistake in its steps, not a request
+MAX_VALUE = 1e300  # a joint value beyond this is a typo (and would overflow a float)
+# A prediction holds, per pose, the compiled row's values and their derivatives: its memory
+# grows as poses x the program's unknowns per row (at most about 0.5 kB each). A grid past
+# this many would take about 2 GB, where larger steps map the same workspace: a guard on
+# the request, not on a result
+MAX_CELLS = 4_000_000
 
 
 def parse_grid(spec: str) -> dict[str, list[float]]:
@@ -32,10 +38,14 @@ def parse_grid(spec: str) -> dict[str, list[float]]:
         name, sep, rng = part.partition("=")
         if not sep or not name.strip():
             raise CalError(f"--grid: '{part}' is not NAME=a:b:step")
+        if name.strip() in out:
+            raise CalError(f"--grid: {name.strip()} is given twice")
         try:
             ends = [Fraction(v.strip()) for v in rng.split(":")]
         except ValueError:
             raise CalError(f"--grid: '{part}': a, b and step must be numbers") from None
+        if any(abs(v) > MAX_VALUE for v in ends):  # (a float would be inf, a pose nonsense)
+            raise CalError(f"--grid: '{part}': a value beyond {MAX_VALUE:g}")
         if len(ends) == 1:
             out[name.strip()] = [float(ends[0])]
             continue
@@ -52,6 +62,16 @@ def parse_grid(spec: str) -> dict[str, list[float]]:
     if total > MAX_POSES:
         raise CalError(f"--grid: {total} poses (at most {MAX_POSES}): take larger steps")
     return out
+
+
+def check_size(values: dict[str, list[float]], per_pose: int) -> None:
+    """A user error where the grid's poses times `per_pose` (the calibration program's
+    unknowns per row) exceed MAX_CELLS, saying how many poses the model allows."""
+    poses = int(np.prod([len(v) for v in values.values()]))
+    if poses * max(per_pose, 1) > MAX_CELLS:
+        most = MAX_CELLS // max(per_pose, 1)
+        raise CalError(f"--grid: {poses} poses of {per_pose} unknowns each would not fit in "
+                       f"memory (at most {most} poses for this model): take larger steps")
 
 
 def grid_file(values: dict[str, list[float]], t: Table, path: Path) -> Path:

@@ -103,6 +103,7 @@ def asked(data: dict[str, Any], request: Request) -> Asked:
     kind = EXPORTS.get(request.fmt)
     if kind is None:
         raise CalError(f"unknown export format '{request.fmt}' (one of {', '.join(EXPORTS)})")
+    box = _box(data["parameters"])  # (checked for every format: each writes the box)
     if not kind.reads_robots:
         return Asked(data, request, kind)
     if request.convention is not None and request.convention not in CONVENTIONS:
@@ -110,12 +111,22 @@ def asked(data: dict[str, Any], request: Request) -> Asked:
     source = request.model or data.get("model")
     if not source:
         raise CalError("the result does not name its model: give it with --model")
+    return Asked(data, request, kind, str(source), box, export_point(data, request.point))
+
+
+def _box(parameters: dict[str, Any]) -> dict[str, tuple[float, float]]:
+    """Each parameter's result as numbers, checked to be an interval (a NaN end or ends in
+    the wrong order are a damaged file: no export of it would be guaranteed)."""
     try:
         box = {name: (number(p["result"][0]), number(p["result"][1]))
-               for name, p in data["parameters"].items()}
+               for name, p in parameters.items()}
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise CalError(f"the result's parameters are malformed ({err!r})") from None
-    return Asked(data, request, kind, str(source), box, export_point(data, request.point))
+    for name, (lo, hi) in box.items():
+        if not lo <= hi:  # (False for a NaN end too)
+            raise CalError(f"the result's parameters are malformed ({name}: [{lo}, {hi}] "
+                           "is not an interval)")
+    return box
 
 
 def export(job: Asked, tables: list[RobotTable], units: dict[str, str]) -> str:

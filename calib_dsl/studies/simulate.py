@@ -37,6 +37,10 @@ from calib_dsl.studies.evaluate import Array, Evaluator
 # otherwise the data would be inconsistent and calibration would answer "infeasible".
 CHECK_RTOL = 1e-9
 CHECK_ATOL = 1e-9
+# The model is elaborated with a node per cell and operation of every row, each about half a
+# kB: a campaign past this many nodes would take more than about 2 GB (a guard on the
+# request: several files with their own seeds make a larger campaign)
+MAX_NODES = 5_000_000
 
 
 def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "matrix",
@@ -54,8 +58,10 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
         if progress is not None:
             progress(stage, None, time.perf_counter() - start)
 
+    inputs = Inputs(consts=dict(consts or {}))
+    _check_size(model_path, rows, formulation, inputs)
     model = elaborate(str(model_path), formulation=formulation, simulate_rows=rows,
-                      inputs=Inputs(consts=dict(consts or {})))
+                      inputs=inputs)
     if not model.tables:
         raise CalError("the model has no `table` to simulate")
     if out_csv is not None and len(model.tables) != 1:
@@ -68,6 +74,18 @@ def simulate(model_path: str | Path, rows: int, seed: int, formulation: str = "m
         write_csv(Path(out_csv) if out_csv is not None else Path(table.path), table,
                   tables[table.name])
     done("written")
+
+
+def _check_size(model_path: str | Path, rows: int, formulation: str, inputs: Inputs) -> None:
+    """A user error where `rows` configurations would elaborate into more than MAX_NODES
+    nodes (the nodes a row adds: the model elaborated for one row and for two)."""
+    one, two = (len(elaborate(str(model_path), formulation=formulation, simulate_rows=k,
+                              inputs=inputs).dag.nodes) for k in (1, 2))
+    per_row = max(two - one, 1)
+    if rows * per_row > MAX_NODES:
+        raise CalError(f"simulate: {rows:,} configurations of {per_row} nodes each would not "
+                       f"fit in memory (at most {MAX_NODES // per_row:,} for this model): "
+                       "simulate several files with their own --seed")
 
 
 def simulate_model(model: Model, seed: int, campaign: Campaign = PLAIN,

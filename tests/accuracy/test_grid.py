@@ -12,7 +12,7 @@ import pytest
 from cli_run import run
 from planar_arm import simulated_arm, tip
 
-from calib_dsl.accuracy.grid import parse_grid
+from calib_dsl.accuracy.grid import MAX_CELLS, check_size, parse_grid
 from calib_dsl.frontend.diagnostics import CalError
 
 
@@ -70,9 +70,17 @@ def test_the_workspace_figure(mapped):
 def test_grid_specs():
     assert parse_grid("q1=0:1:0.25, q2=3") == {"q1": [0, 0.25, 0.5, 0.75, 1.0], "q2": [3.0]}
     assert len(parse_grid("a=0:1:0.1")["a"]) == 11  # exact decimal steps: 1 is included
-    for bad in ("q1", "q1=1:0:0.1", "q1=0:1:0", "q1=0:x:1", "", "q1=0:1:1e-7"):
+    for bad in ("q1", "q1=1:0:0.1", "q1=0:1:0", "q1=0:x:1", "", "q1=0:1:1e-7", "q1=1e400",
+                "q1=0:1e400:1e395", "q1=nan", "q1=-inf:0:1", "q1=0,q1=1"):
         with pytest.raises(CalError):
             parse_grid(bad)
+
+
+def test_grid_size_measured_in_poses_times_unknowns_per_row():
+    values = parse_grid("a=1:100:1,b=1:100:1")  # 10,000 poses
+    check_size(values, MAX_CELLS // 10_000)
+    with pytest.raises(CalError, match=f"at most {MAX_CELLS // 401} poses"):
+        check_size(values, 401)
 
 
 def test_grid_mistakes_are_user_errors(mapped):
@@ -81,5 +89,7 @@ def test_grid_mistakes_are_user_errors(mapped):
     assert res.exit_code == 2 and "give q2 too" in res.output
     res = run("predict", "planar_arm.cal", "--grid", "q1=0,q2=0,w=1", cwd=tmp)
     assert res.exit_code == 2 and "no column w" in res.output
+    res = run("predict", "planar_arm.cal", "--grid", "q1=-3:3:0.01,q2=-3:3:0.01", cwd=tmp)
+    assert res.exit_code == 2 and "361201 poses" in res.output and "larger steps" in res.output
     res = run("predict", "planar_arm.cal", cwd=tmp)
     assert res.exit_code == 2 and "--at FILE is required" in res.output
