@@ -48,9 +48,12 @@ class Chunk:
 
     @property
     def span(self) -> slice | None:
-        """The rows as a slice when they are contiguous (a view, not a copy, reads them)."""
+        """The rows as a slice when they are contiguous (a view, not a copy, reads them). (A
+        short chunk's copies of its last row can make up for a gap in the count: each step
+        is checked.)"""
         a, b = int(self.rows[0]), int(self.rows[-1]) + 1
-        return slice(a, b) if b - a == len(self.rows) else None
+        contiguous = b - a == len(self.rows) and bool(np.all(np.diff(self.rows) == 1))
+        return slice(a, b) if contiguous else None
 
     def box(self, x: np.ndarray) -> np.ndarray:
         """The whole program's per-slot array x, read for this chunk's slots."""

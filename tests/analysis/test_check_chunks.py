@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import calib_dsl.analysis.certify_point as cp
-from calib_dsl.compile.chunks import chunked
+from calib_dsl.compile.chunks import Chunk, chunked
 from calib_dsl.relax.layout import independents
 from tests.relax.test_linearize import random_robot
 
@@ -75,3 +75,11 @@ def test_chunked_checks_equal_the_whole_programs(tmp_path_factory, seed, joints,
                 assert np.allclose(x[np.isfinite(x)], y[np.isfinite(y)], rtol=1e-12, atol=1e-12)
             else:
                 assert np.array_equal(x, y)
+
+
+def test_a_padded_chunk_with_a_gap_is_not_read_as_a_slice():
+    """Rows 0-8 and 10-23, padded with a copy of 23: as many entries as rows 0-23, but not
+    those rows (a slice would read row 9's slots for row 10's)."""
+    rows = np.concatenate([np.arange(9), np.arange(10, 24), [23]])
+    assert Chunk(None, rows, None, True, 23).span is None
+    assert Chunk(None, np.arange(3, 27), None, True, 24).span == slice(3, 27)
