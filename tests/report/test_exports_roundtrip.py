@@ -39,9 +39,10 @@ def result_of(model: Path, tmp: Path) -> Path:
     params = {}
     for name, v in m.dag.variables.items():
         lo, hi = (v.prior[0] - v.prior[1], v.prior[0] + v.prior[1]) if v.prior else (v.lo, v.hi)
-        params[name] = {"kind": v.kind, "domain": [lo, hi], "result": [lo + 0.3 * (hi - lo),
-                                                                       hi - 0.1 * (hi - lo)],
-                        "true": None}
+        # (an unbounded domain, a reading's, stays the result: inf - inf would be NaN)
+        inside = ([lo + 0.3 * (hi - lo), hi - 0.1 * (hi - lo)]
+                  if math.isfinite(hi - lo) else [lo, hi])
+        params[name] = {"kind": v.kind, "domain": [lo, hi], "result": inside, "true": None}
     path = tmp / "r.json"
     path.write_text(json.dumps({"model": str(model), "status": "contracted",
                                 "parameters": params}))
