@@ -183,14 +183,17 @@ def _cap_arenas(arenas: int) -> bool:
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
                point: bool = False, mixed: bool = False, owners: bool = False,
-               rows: np.ndarray | None = None) -> Evaluated:
+               rows: np.ndarray | None = None, gradients: bool = True) -> Evaluated:
     """An Evaluation of the program over [lo, hi] (see relax/evaluation.py), its unknowns
     the program's independents (`center` their values), in chunks of CHUNK_SLOTS slots
     where the program is large and its rows were compiled once. With `owners`,
     `data_rows()` then gives each constraint row's data row (relax/ownership.py). `rows`:
     only these rows of the loop compiled once (indices; a program without one: all rows),
-    with the shared part's constraints."""
+    with the shared part's constraints. Without `gradients`, the rows' values only (G with
+    no columns: a slot's values never depend on its gradients, so they are the same bits)."""
     ind = independents(prog)
+    if not gradients:
+        ind, center = ind[:0], center[:0]
     chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return Whole(prog, ind, Evaluation(prog, lo, hi, ind, center, point=point,
