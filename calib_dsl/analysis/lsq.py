@@ -65,7 +65,8 @@ def linearized(prog: Program, p: np.ndarray, owners: bool = True,
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = evaluation(prog, lo, hi, p, point=True, owners=owners, rows=rows, gradients=jacobian)
+    ev = evaluation(prog, lo, hi, p if jacobian else p[:0], point=True, owners=owners,
+                    rows=rows)
     with np.errstate(invalid="ignore", over="ignore"):  # (a point where the model is not
         done = ev.run()                                 # defined: nan rows, said by callers)
     if not done:  # every constraint was a merge of slots: nothing left to evaluate

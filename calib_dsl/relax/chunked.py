@@ -183,17 +183,18 @@ def _cap_arenas(arenas: int) -> bool:
 
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
                point: bool = False, mixed: bool = False, owners: bool = False,
-               rows: np.ndarray | None = None, gradients: bool = True) -> Evaluated:
+               rows: np.ndarray | None = None) -> Evaluated:
     """An Evaluation of the program over [lo, hi] (see relax/evaluation.py), its unknowns
     the program's independents (`center` their values), in chunks of CHUNK_SLOTS slots
     where the program is large and its rows were compiled once. With `owners`,
     `data_rows()` then gives each constraint row's data row (relax/ownership.py). `rows`:
     only these rows of the loop compiled once (indices; a program without one: all rows),
-    with the shared part's constraints. Without `gradients`, the rows' values only (G with
-    no columns: a slot's values never depend on its gradients, so they are the same bits)."""
+    with the shared part's constraints. An empty `center` (of a program with unknowns, in
+    point mode, whose box fixes them): the rows' values only, without gradients (G with no
+    columns; a value never depends on a gradient, so it is the same bits)."""
     ind = independents(prog)
-    if not gradients:
-        ind, center = ind[:0], center[:0]
+    if not len(center):
+        ind = ind[:0]
     chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return Whole(prog, ind, Evaluation(prog, lo, hi, ind, center, point=point,
