@@ -58,15 +58,21 @@ def point_residuals(prog: Program, at: Layout, p: np.ndarray,
     their middles: (configurations, columns), nan where a column is not measured or no row
     compares it (a merge of slots: `x == m.v[k]` makes x the cell) or the model is not
     defined at p. `lin`: the rows at p (linearized(prog, p, owners=False)) if made already."""
-    lin = linearized(prog, p, owners=False) if lin is None else lin
-    first: dict[int, int] = {}
-    for i, t in enumerate(lin.slots.tolist()):
-        first.setdefault(t, i)
-    pick = np.vectorize(lambda k: first.get(int(k), -1), otypes=[np.int64])(at.side)
+    lin = linearized(prog, p, owners=False, jacobian=False) if lin is None else lin
+    pick = _first_rows(lin.slots, at.side)
     out = np.full(at.side.shape, np.nan)
     has = pick >= 0
     out[has] = -lin.d[pick[has]]
     return out
+
+
+def _first_rows(targets: np.ndarray, side: np.ndarray) -> np.ndarray:
+    """Per entry of `side` (a slot, or -1), the first row whose target it is (-1: none)."""
+    slots, first = np.unique(targets, return_index=True)  # (each slot's first occurrence)
+    if not len(slots):
+        return np.full(side.shape, -1, dtype=np.int64)
+    at = np.minimum(np.searchsorted(slots, side), len(slots) - 1)
+    return np.where((slots[at] == side) & (side >= 0), first[at], -1).astype(np.int64)
 
 
 def distances(residuals: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:
@@ -92,13 +98,10 @@ def bound_table(ranges: Ranges, at: Layout, consistent: bool = True) -> np.ndarr
         with np.errstate(over="ignore"):
             allowed = np.nextafter(ranges.bound + ranges.slack, np.inf)
         worst = np.minimum(worst, allowed)
-    out = np.full(at.side.shape, np.nan)
-    for i, (t, r) in enumerate(at.configurations):
-        for j, c in enumerate(at.columns):
-            if at.side[i, j] >= 0:
-                k = index.get((t, r, c))
-                out[i, j] = np.inf if k is None else worst[k]
-    return out
+    k = np.array([[index.get((t, r, c), -1) for c in at.columns]
+                  for t, r in at.configurations], dtype=np.int64).reshape(at.side.shape)
+    found = np.where(k >= 0, worst[np.maximum(k, 0)] if len(worst) else np.inf, np.inf)
+    return np.where(at.side >= 0, found, np.nan)
 
 
 def distance_bounds(worst: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:

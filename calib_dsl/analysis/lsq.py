@@ -58,18 +58,21 @@ class Linearized:
 
 
 def linearized(prog: Program, p: np.ndarray, owners: bool = True,
-               rows: np.ndarray | None = None) -> Linearized:
+               rows: np.ndarray | None = None, jacobian: bool = True) -> Linearized:
     """Every constraint row at p (of the loop's rows `rows` only, if given); `data_row`
-    is -1 throughout without `owners`."""
+    is -1 throughout without `owners`; without `jacobian`, `jac` has no columns (the
+    residuals alone cost about half)."""
     ind = independents(prog)
     lo, hi = prog.slots.lo.copy(), prog.slots.hi.copy()
     lo[ind], hi[ind] = p, p
-    ev = evaluation(prog, lo, hi, p, point=True, owners=owners, rows=rows)
+    ev = evaluation(prog, lo, hi, p if jacobian else p[:0], point=True, owners=owners,
+                    rows=rows)
     with np.errstate(invalid="ignore", over="ignore"):  # (a point where the model is not
         done = ev.run()                                 # defined: nan rows, said by callers)
     if not done:  # every constraint was a merge of slots: nothing left to evaluate
         none = np.zeros(0)
-        return Linearized(none, none, np.zeros((0, len(ind))), np.zeros(0, np.int64),
+        return Linearized(none, none, np.zeros((0, len(ind) if jacobian else 0)),
+                          np.zeros(0, np.int64),
                           np.zeros((0, 0)), np.zeros(0, np.int64), none, none,
                           np.zeros(0, np.int64))
 
@@ -151,13 +154,20 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    # the rows at the last point evaluated and at the fit's current point (the last whose
+    # Jacobian scipy asked for): a rejected trial step then leaves the current point's rows,
+    # and a fit that ends there (as after a rejected step) is not evaluated there again
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    current = [b""]
 
-    def both(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def both(p: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
         key = p.tobytes()
         if key not in cache:
-            cache.clear()
+            for old in [k for k in cache if k != current[0]]:
+                del cache[old]
             cache[key] = residuals(prog, p, rows)
+        if jacobian:
+            current[0] = key
         return cache[key]
 
     # Trust-region reflective keeps the estimate inside the search domain; the problem is
@@ -181,7 +191,7 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
     if np.any(free):
         with np.errstate(all="ignore"):  # a trial step may overflow: scipy steps back
             sol = least_squares(lambda q: both(full(q))[0], start[free],
-                                jac=lambda q: both(full(q))[1][:, free],
+                                jac=lambda q: both(full(q), True)[1][:, free],
                                 bounds=(bounds[0][free], bounds[1][free]), method="trf",
                                 x_scale="jac", max_nfev=max_evaluations)
         x, success = full(sol.x), bool(sol.success)

@@ -189,8 +189,12 @@ def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray
     where the program is large and its rows were compiled once. With `owners`,
     `data_rows()` then gives each constraint row's data row (relax/ownership.py). `rows`:
     only these rows of the loop compiled once (indices; a program without one: all rows),
-    with the shared part's constraints."""
+    with the shared part's constraints. An empty `center` (of a program with unknowns, in
+    point mode, whose box fixes them): the rows' values only, without gradients (G with no
+    columns; a value never depends on a gradient, so it is the same bits)."""
     ind = independents(prog)
+    if not len(center):
+        ind = ind[:0]
     chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return Whole(prog, ind, Evaluation(prog, lo, hi, ind, center, point=point,
