@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -23,11 +24,11 @@ from calib_dsl.analysis.certify_point import PointCheck, check_points
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.highs import current_basis, load, optimal, set_basis
+from calib_dsl.lp.highs import load, optimal
 from calib_dsl.settings import InnerSettings, LPSettings, Settings
 
 Found = tuple[np.ndarray, np.ndarray]  # a certified point and its readings
-Basis = tuple[np.ndarray, np.ndarray]
+Basis = Any  # HiGHS's own basis object (kept_basis)
 # (starts, their readings, candidates, their readings) -> per candidate a certified point
 # on the segment from its start, or None
 PullBack = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], list[Found | None]]
@@ -137,13 +138,27 @@ def _resolved(lm: LinearModel, objectives: np.ndarray, tighten: np.ndarray,
             h.changeColsCost(n, cols, -objectives[i].astype(float))
             basis = bases[i]
             if basis is not None:
-                set_basis(h, *basis)
+                restart(h, basis)
             h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
             h.run()
-            got.append((np.asarray(h.getSolution().col_value), current_basis(h))
+            got.append((np.asarray(h.getSolution().col_value), kept_basis(h))
                        if optimal(h) else (None, None))
         return got
 
     with ThreadPoolExecutor(workers) as pool:
         parts = np.array_split(np.arange(len(objectives)), workers)
         return [x for part in pool.map(run, parts) for x in part]
+
+
+def kept_basis(h: Any) -> Basis | None:
+    """The model's basis as HiGHS's own object, a copy (reading its statuses into arrays
+    makes a Python object a status: more than a small LP's re-solve); None where none."""
+    b = h.getBasis()
+    return b if b.valid else None
+
+
+def restart(h: Any, basis: Basis) -> None:
+    """The next solve from `basis` (kept_basis's), taken as lp/highs.py's set_basis takes
+    one: alien, HiGHS completing it where it must (the same statuses, the same solve)."""
+    basis.alien = True
+    h.setBasis(basis)

@@ -17,14 +17,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from calib_dsl.accuracy.batch_lp import path, spread
-from calib_dsl.accuracy.corrections import Candidates, Found, corrected
+from calib_dsl.accuracy.corrections import Basis, Candidates, Found, corrected, kept_basis
 from calib_dsl.analysis.certify_point import exact_inside
 from calib_dsl.analysis.row_screen import RowScreen, screened_holds
 from calib_dsl.analysis.row_screen import holds as holds_all
 from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.highs import current_basis, load, optimal
+from calib_dsl.lp.highs import load, optimal
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings, Settings
@@ -82,7 +82,7 @@ def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre:
 
 
 def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
-            ) -> list[tuple[int, np.ndarray, tuple[np.ndarray, np.ndarray] | None]]:
+            ) -> list[tuple[int, np.ndarray, Basis | None]]:
     """The optima of max c.x over `rel` for each row c of `objectives` in turn, on one HiGHS
     model, each LP from the last one's basis (a new cost leaves it primal feasible): per
     LP that ended optimal, its row, optimum and basis. Candidates only: nothing here is
@@ -97,7 +97,7 @@ def _optima(rel: LinearRelaxation, objectives: np.ndarray, lp: LPSettings
         h.setOptionValue("time_limit", h.getRunTime() + lp.seconds)
         h.run()
         if optimal(h):
-            found.append((i, np.asarray(h.getSolution().col_value), current_basis(h)))
+            found.append((i, np.asarray(h.getSolution().col_value), kept_basis(h)))
     return found
 
 
