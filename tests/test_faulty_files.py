@@ -258,3 +258,10 @@ def test_a_quoted_at_header_is_read(tmp_path):
     (tmp_path / "at.csv").write_text('"x","y"\n5,11\n')
     res = run("validate", "m.cal", "--at", "at.csv", "-q", cwd=tmp_path)
     assert res.exit_code == 0 and "coverage 1.0000" in res.output, res.output
+
+
+def test_identify_counts_measured_values_not_rows():
+    """(it said '10 rows' of the planar arm's 5-row table, two measured values a row: a user
+    checking that the whole file was read would think it read twice)"""
+    res = run("identify", ROOT / "models" / "examples" / "planar_arm.cal")
+    assert res.exit_code == 0 and "(10 measured values)" in res.output, res.output
