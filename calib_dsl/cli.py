@@ -298,7 +298,6 @@ def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
         click.echo("the data are inconsistent (the solve proved it): nothing to predict",
                    err=True)
         sys.exit(1)
-    outputs.warn_beyond_limits(model, at, formulation, inputs.consts)
     return found
 
 

@@ -273,15 +273,6 @@ def at_selection(at: str, at_rows: str | None, at_skip: str | None) -> Any:
         raise CalError(f"--at-rows/--at-skip: {err}") from None
 
 
-def warn_beyond_limits(model: str, at: str, formulation: str, consts: Any) -> None:
-    """predict/validate --at: a warning per column whose configurations leave the limits of
-    the joint it feeds (predicted there, the boxes are of poses the robot cannot take)."""
-    from calib_dsl.plan.measure import beyond_limits_at
-
-    for warning in beyond_limits_at(model, at, formulation, consts):
-        click.echo(f"calibc: warning: {warning}", err=True)
-
-
 def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strategy: str,
                     progress: Any, settings: Any = None
                     ) -> tuple[Any, list[tuple[float, ...]], list[str]]:

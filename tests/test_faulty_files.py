@@ -297,33 +297,3 @@ def test_identify_counts_measured_values_not_rows():
     checking that the whole file was read would think it read twice)"""
     res = run("identify", ROOT / "models" / "examples" / "planar_arm.cal")
     assert res.exit_code == 0 and "(10 measured values)" in res.output, res.output
-
-
-LIMITED_ARM = """param l1 in [0.8, 1.2] true 1;
-param l2 in [0.3, 0.7] true 0.5;
-robot arm2(q1 in [-pi, pi], q2 in [-pi, pi]) { joint theta = q1; joint d = l1, theta = q2; }
-table m = "planar_arm.csv" { q1, q2 : +- 1e-6 simulate in [-pi, pi]; x, y : +- 1e-4; }
-for k in 1..rows(m) {
-  let p = arm2(m.q1[k], m.q2[k]) at (l2, 0, 0);
-  (p[1], p[2]) == (m.x[k], m.y[k]);
-  p[3] == 0;
-}
-"""
-
-
-@pytest.mark.parametrize("command", ["predict", "validate"])
-def test_configurations_beyond_the_joint_limits_are_named_by_predict(tmp_path, command):
-    """(boxes were predicted, and validated, at poses the robot cannot take: a joint column
-    in degrees read as radians, without a word)"""
-    (tmp_path / "m.cal").write_text(LIMITED_ARM)
-    (tmp_path / "planar_arm.csv").write_bytes((ROOT / "models" / "examples" /
-                                               "planar_arm.csv").read_bytes())
-    lines = (tmp_path / "planar_arm.csv").read_text().splitlines()
-    cells = lines[2].split(",")
-    cells[0] = "40.1"
-    (tmp_path / "at.csv").write_text("\n".join([*lines[:2], ",".join(cells), *lines[3:]]) + "\n")
-    res = run(command, "m.cal", "--at", "at.csv", "-q", cwd=tmp_path)
-    assert res.exit_code == 0, res.output
-    warned = [ln for ln in res.output.splitlines() if ln.startswith("calibc: warning: ")]
-    assert len(warned) == 1 and "q1 of 1 configuration lies outside the joint's limits" \
-        in warned[0] and "at.csv:3 40.1" in warned[0], res.output
