@@ -327,6 +327,8 @@ def predict(model: str, at: str, at_rows: str | None, at_skip: str | None, strat
     hold the predicted measurement for every parameter vector consistent with the data."""
     from calib_dsl.report.prediction import prediction_csv, prediction_json, render_prediction
 
+    if grid is not None and at is not None:
+        raise CalError("predict: give either --grid (poses of a grid) or --at FILE, not both")
     if grid is not None:
         from calib_dsl.report.progress_line import progress_line
 

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+from click.exceptions import NoArgsIsHelpError
 
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.status import Status
@@ -35,6 +36,36 @@ class Calibc(click.Group):
     def main(self, args: Any = None, *rest: Any, **kwargs: Any) -> Any:
         self.argv = list(sys.argv[1:] if args is None else args)
         return super().main(args, *rest, **kwargs)
+
+    # An option's bad value is a user error like any other: one `error: ...` line, exit 2
+    # (click's own report is three lines: usage, a hint and the message). The group's own
+    # options are parsed in make_context, a command's (and its name) in invoke.
+    def make_context(self, *args: Any, **kwargs: Any) -> click.Context:
+        with _one_line():
+            return super().make_context(*args, **kwargs)
+
+    def invoke(self, ctx: click.Context) -> Any:
+        with _one_line():
+            return super().invoke(ctx)
+
+
+class OneLineUsageError(click.UsageError):
+    """click's usage error, shown as one line naming where help is."""
+
+    def show(self, file: Any = None) -> None:
+        where = f" (see '{self.ctx.command_path} --help')" if self.ctx else ""
+        message = " ".join(self.format_message().split())
+        click.echo(f"error: {message}{where}", file=file or sys.stderr)
+
+
+@contextmanager
+def _one_line() -> Iterator[None]:
+    try:
+        yield
+    except (OneLineUsageError, NoArgsIsHelpError):  # (no command given: the help is the answer)
+        raise
+    except click.UsageError as err:
+        raise OneLineUsageError(err.format_message(), err.ctx) from None
 
 
 def solve_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -181,7 +212,14 @@ def plot(result: str, output: str, kind: str) -> None:
     from calib_dsl.plot.figure import save_figure
     from calib_dsl.report.as_json import read_result
 
-    kinds = save_figure(read_result(result), output, kind)
+    data = read_result(result)
+    try:
+        kinds = save_figure(data, output, kind)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+        # (read_result checks the intervals; another field a hand edit or another program
+        # broke is the file's fault, as the report says of it)
+        raise CalError(f"'{result}' is malformed: a field the figures read has an unexpected "
+                       f"value ({err!r}); write it anew (calibc solve --json)") from None
     click.echo(f"drew {', '.join(kinds)} in {output}")
 
 
@@ -256,6 +294,14 @@ def grid_prediction(model: str, spec: str, formulation: str, inputs: Any, strate
     if not problem.model.tables:
         raise CalError("the model has no table: there is nothing to predict")
     t = problem.model.tables[0]
+    # A measured column's values are not where the robot stands: a grid over one repeats
+    # each pose, its predictions alike, as if they were poses of their own.
+    measured = [c.name for c in t.columns if c.name in values and c.sim is None]
+    if measured:
+        inputs_ = (", ".join(c.name for c in t.columns if c.sim is not None)
+                   or "none: an input is a column group with `simulate in [lo, hi]`")
+        raise CalError(f"--grid: {', '.join(measured)}: a measured column, not an input of "
+                       f"the table '{t.name}' (its inputs: {inputs_})")
     layout = problem.program.rows
     check_size(values, layout.width if layout is not None else len(problem.program.slots.names))
     with tempfile.TemporaryDirectory(prefix="calibc-grid-") as tmp:

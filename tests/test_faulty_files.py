@@ -258,3 +258,42 @@ def test_a_quoted_at_header_is_read(tmp_path):
     (tmp_path / "at.csv").write_text('"x","y"\n5,11\n')
     res = run("validate", "m.cal", "--at", "at.csv", "-q", cwd=tmp_path)
     assert res.exit_code == 0 and "coverage 1.0000" in res.output, res.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["solve", "m.cal", "--tol", "-1"], "Invalid value for '--tol'"),
+    (["solve", "m.cal", "--max-sweeps", "0"], "Invalid value for '--max-sweeps'"),
+    (["solve", "m.cal", "--outliers", "-1"], "Invalid value for '--outliers'"),
+    (["solve", "m.cal", "--json", "."], "Invalid value for '--json'"),
+    (["solve"], "Missing argument 'MODEL'"),
+    (["simulate", "m.cal", "--configs", "0", "-o", "s.csv"], "Invalid value for '--configs'"),
+    (["simulate", "m.cal", "--configs", "5", "--seed", "-1", "-o", "s.csv"], "'--seed'"),
+    (["predict", "m.cal", "--at", "d.csv", "--csv", "."], "Invalid value for '--csv'"),
+    (["plan", "m.cal", "--n", "3"], "Missing option '-o'"),
+    (["report", "r.json", "--validation", ".", "-o", "r.html"], "'--validation'"),
+    (["export", "r.json", "--format", "xml"], "Invalid value for '--format'"),
+    (["solve", "m.cal", "--no-such-option"], "No such option"),
+    (["no-such-command"], "No such command"),
+])
+def test_a_bad_option_is_one_error_line(tmp_path, args, message):
+    """click's usage errors are three lines (usage, a hint, 'Error: ...'): one line here,
+    `error: ...` as every other user error, still exit 2."""
+    (tmp_path / "m.cal").write_text(MODEL)
+    (tmp_path / "d.csv").write_text(GOOD)
+    res = run(*args, cwd=tmp_path)
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], lines
+    assert "--help" in lines[0]  # (where the usage is)
+
+
+def test_no_command_still_prints_the_help():
+    res = run()
+    assert "Commands:" in res.output and "error:" not in res.output
+
+
+def test_identify_counts_measured_values_not_rows():
+    """(it said '10 rows' of the planar arm's 5-row table, two measured values a row: a user
+    checking that the whole file was read would think it read twice)"""
+    res = run("identify", ROOT / "models" / "examples" / "planar_arm.cal")
+    assert res.exit_code == 0 and "(10 measured values)" in res.output, res.output

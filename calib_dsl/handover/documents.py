@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.report.as_json import check_intervals
 
 
 @dataclass(frozen=True)
@@ -24,6 +25,7 @@ class Documents:
 def read(result: str, validation: str | None = None, identify: str | None = None,
          min_error: str | None = None) -> Documents:
     found = _read(result, "a solve's result", ("parameters", "verdict"))
+    check_intervals(result, found)
     val = None if validation is None else _read(validation, "a validation", ("coverage",))
     ident = None if identify is None else _read(identify, "an identification", ("rank",))
     bracket = None if min_error is None else _read(min_error, "a --min-error bracket",

@@ -68,10 +68,13 @@ def simulated(asked: Simulation, progress: Any) -> int:
                  progress=progress, campaign=campaign, consts=consts)
         return configs
     from calib_dsl.elaborate.options import named
-    from calib_dsl.plan.measure import simulate_at
+    from calib_dsl.plan.measure import beyond_limits_at, simulate_at
 
     table, path = named(at, "--at")
-    return simulate_at(model, path, seed, output, formulation, campaign, consts, table)
+    n = simulate_at(model, path, seed, output, formulation, campaign, consts, table)
+    for warning in beyond_limits_at(model, path, formulation, consts, table):
+        click.echo(f"calibc: warning: {warning}", err=True)
+    return n
 
 
 def counts(text: str) -> list[int]:

@@ -42,3 +42,30 @@ def simulate_at(model_path: str | Path, at: str | Path, seed: int, out: str | Pa
     model, data = measured_at(model_path, configs, seed, formulation, campaign, consts)
     write_csv(Path(out), table_of(model, configs.table), data)
     return len(configs)
+
+
+def beyond_limits_at(model_path: str | Path, at: str | Path, formulation: str = "matrix",
+                     consts: Mapping[str, str] | None = None, table: str = "") -> list[str]:
+    """A warning per input column of the file `at` whose configurations leave the limits of
+    the joint the column feeds: simulated there, the table measures poses the robot cannot
+    take (a column in degrees read as radians, a typo) and nothing else would say so."""
+    model = elaborate(str(model_path), formulation=formulation, simulate_rows=1,
+                      inputs=Inputs(consts=dict(consts or {})))
+    configs = read_configurations(table_of(model, table), at)
+    out = []
+    for j, name in enumerate(configs.columns):
+        limits = model.joint_limits.get((configs.table, name))
+        if limits is None:
+            continue
+        q = configs.q[:, j]
+        bad = np.flatnonzero((q < limits[0]) | (q > limits[1]))
+        if len(bad):
+            where = "; ".join(f"{configs.path}:{configs.line[k]} {q[k]:.6g}"
+                              if k < len(configs.line) else f"row {k + 1} {q[k]:.6g}"
+                              for k in bad[:5])
+            more = f", ... ({len(bad) - 5} more)" if len(bad) > 5 else ""
+            many = "s" if len(bad) > 1 else ""
+            out.append(f"{name} of {len(bad)} configuration{many} lies outside the joint's "
+                       f"limits [{limits[0]:.6g}, {limits[1]:.6g}] (the robot cannot be "
+                       f"there: check the file and the column's unit): {where}{more}")
+    return out

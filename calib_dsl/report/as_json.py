@@ -105,7 +105,36 @@ def read_result(path: str | Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise CalError(f"'{path}' is not a result JSON (calibc solve or validate --json "
                        "writes one)")
+    check_intervals(path, data)
     return data
+
+
+def check_intervals(path: str | Path, data: dict[str, Any]) -> None:
+    """Each parameter's domain and result as a solve writes them: two numbers (or -oo, +oo),
+    lo <= hi, or no result (an infeasible solve's). A damaged or hand-edited file would
+    otherwise be drawn, reported or exported as a guaranteed enclosure."""
+    params = data.get("parameters")
+    if params is None:  # (a validation's JSON has none)
+        return
+    if not isinstance(params, dict):
+        raise CalError(f"'{path}' is malformed: its 'parameters' is not an object; write it "
+                       "anew (calibc solve --json)")
+    for name, p in params.items():
+        for key in ("domain", "result"):
+            v = p.get(key) if isinstance(p, dict) else ()
+            if v is None:
+                continue
+            if not _interval(v):
+                raise CalError(f"'{path}' is malformed: the {key} of '{name}', {v!r}, is not "
+                               "an interval (lo <= hi); write it anew (calibc solve --json)")
+
+
+def _interval(v: Any) -> bool:
+    try:
+        lo, hi = (math.inf if x == "+oo" else -math.inf if x == "-oo" else float(x) for x in v)
+    except (TypeError, ValueError):
+        return False
+    return bool(lo <= hi)  # (False for a NaN end)
 
 
 def _num(x: float) -> float | str:

@@ -38,7 +38,7 @@ class Absorbed:
 class Advice:
     names: list[str]
     point: str  # where the Jacobian was taken
-    rows: int
+    rows: int  # the Jacobian's rows: one per measured value (a data row has several)
     singular_values: np.ndarray  # in error bounds over the domains, largest first
     rank: int
     condition: float  # of the rank's directions
@@ -145,7 +145,7 @@ def _explain(js: np.ndarray, names: list[str], keep: list[int], unseen: list[int
 
 
 def render(a: Advice) -> str:
-    lines = [f"identifiability at {a.point} ({a.rows} rows): rank {a.rank} of "
+    lines = [f"identifiability at {a.point} ({a.rows} measured values): rank {a.rank} of "
              f"{len(a.names)} parameters, condition number {a.condition:.3g}",
              f"  (a direction is seen when moving the parameters along it across their "
              f"domains moves the measurements by at least {a.seen:g} of their error bounds)"]

@@ -93,3 +93,15 @@ def test_grid_mistakes_are_user_errors(mapped):
     assert res.exit_code == 2 and "361201 poses" in res.output and "larger steps" in res.output
     res = run("predict", "planar_arm.cal", cwd=tmp)
     assert res.exit_code == 2 and "--at FILE is required" in res.output
+
+
+def test_a_grid_over_a_measured_column_or_beside_at_is_a_user_error(mapped):
+    """(a grid over x repeated each pose, one per value of x, and --at beside --grid was
+    ignored: exit 0 either way)"""
+    tmp, _ = mapped
+    res = run("predict", "planar_arm.cal", "--grid", "q1=0:1:0.5,q2=0,x=0:1:0.5", cwd=tmp)
+    assert res.exit_code == 2, res.output
+    assert "x: a measured column" in res.output and "its inputs: q1, q2" in res.output
+    res = run("predict", "planar_arm.cal", "--grid", "q1=0,q2=0", "--at", "planar_arm.csv",
+              cwd=tmp)
+    assert res.exit_code == 2 and "not both" in res.output, res.output

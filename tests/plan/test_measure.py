@@ -94,3 +94,21 @@ def test_user_errors_are_one_line_and_exit_2(tmp_path):
         assert result.exit_code == 2, (extra, result.output)
         lines = result.output.strip().splitlines()
         assert "error:" in lines[0] and "Traceback" not in result.output
+
+
+def test_configurations_beyond_the_joint_limits_are_named(tmp_path):
+    """(a joint column in degrees, read as radians, was simulated at poses the robot cannot
+    take, without a word)"""
+    at = configs_file(tmp_path, rows=4)
+    lines = at.read_text(encoding="utf-8").splitlines()
+    cells = lines[2].split(";")
+    cells[2] = "100,5"  # rad: beyond the UR10's +- 2 pi
+    lines[2] = ";".join(cells)
+    at.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    res = run("simulate", UR10, "--at", at, "-o", tmp_path / "m.csv", "-q")
+    assert res.exit_code == 0, res.output
+    warned = [ln for ln in res.output.splitlines() if ln.startswith("calibc: warning: ")]
+    assert len(warned) == 1 and "q3 of 1 configuration lies outside the joint's limits" \
+        in warned[0] and f"{at}:3 100.5" in warned[0], res.output
+    res = run("simulate", UR10, "--at", configs_file(tmp_path), "-o", tmp_path / "m.csv", "-q")
+    assert "warning" not in res.output, res.output
