@@ -5,7 +5,9 @@ A fast step of a large group (a loop's rows: thousands of entries) may be shared
 threads (`Share`, numpy's array work runs outside the GIL): each thread reads its own entries'
 arguments off the box and computes their new bounds, and only once all are done are they
 written, in one thread, as one step writes them. Every function of a step is element for
-element (arith/: each entry's result depends on its own arguments only), and the shares
+element (arith/: each entry's result depends on its own arguments, and on the arrays' size
+only across `ROUNDING_SIZE`: dn1/up1 round small arrays by nextafter, large ones by two
+operations, so every share of a step is larger than that, as the whole is), and the shares
 start at multiples of `ALIGN` entries, so each element is computed by the same vector loop
 in the same position as in the whole arrays: the box after the step is the same, bit for bit.
 """
@@ -13,12 +15,14 @@ in the same position as in the whole arrays: the box after the step is the same,
 from __future__ import annotations
 
 import inspect
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from calib_dsl.arith.interval import _SMALL as ROUNDING_SIZE
 from calib_dsl.arith.projections import BACKWARD, FAST_BACKWARD, FORWARD, backward, forward
 from calib_dsl.arith.rotation import rot_contract, rot_contract_raw
 from calib_dsl.ir.program import Group, Program, derived
@@ -74,8 +78,11 @@ class Share:
         count = min(self.threads, n // max(self.least, 1))
         if count <= 1:
             return None
-        ends = [0] + [(n * k // count) // ALIGN * ALIGN for k in range(1, count)] + [n]
-        return [slice(a, b) for a, b in zip(ends, ends[1:], strict=False)]
+        ends = sorted({0, n, *((n * k // count) // ALIGN * ALIGN for k in range(1, count))})
+        # (each share above the size where arith/interval rounds outward by another rule)
+        if len(ends) <= 2 or min(b - a for a, b in itertools.pairwise(ends)) <= ROUNDING_SIZE:
+            return None
+        return [slice(a, b) for a, b in itertools.pairwise(ends)]
 
 
 def _shared(share: Share | None, n: int, fn: Callable[[slice], list[tuple]]) -> list[tuple]:
