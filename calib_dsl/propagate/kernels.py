@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.arith.interval import _SMALL as ROUNDING_SIZE
+from calib_dsl.arith.interval import ROUNDING_SIZE
 from calib_dsl.arith.projections import BACKWARD, FAST_BACKWARD, FORWARD, backward, forward
 from calib_dsl.arith.rotation import rot_contract, rot_contract_raw
 from calib_dsl.ir.program import Group, Program, derived
