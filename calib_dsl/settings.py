@@ -223,17 +223,17 @@ class Settings:
     # Between LP rounds: a small box is enough, not a fixed point (the next relaxation
     # contracts far more than the last sweeps would).
     preliminary_tol: float = 1e-2
-
+    # A sweep's step with this many entries per thread (a loop's rows) is shared among the
+    # LPs' workers (propagate/kernels.py): below, a handover costs more than it saves.
+    sweep_share: int = 4096
 
     # A program over this many slots whose loop over table rows was compiled once is
     # relaxed and evaluated a chunk of rows at a time (compile/chunks.py): each slot holds a
-    # gradient or a model in every unknown during a pass, so memory follows the chunk, not
-    # the rows.
+    # gradient or a model in every unknown in a pass, so memory follows the chunk, not rows.
     chunk_slots: int = 150_000
     # glibc's malloc arenas at most, set when the chunked passes' threads start: each thread
     # otherwise keeps freed memory in an arena of its own (up to 8 per core), which the
-    # process's peak then holds (docs/decisions/41: a lower 12,000-row peak); 0 leaves
-    # glibc's default
+    # peak then holds (docs/decisions/41); 0 leaves glibc's default
     malloc_arenas: int = 2
 
 

@@ -61,6 +61,9 @@ def up(x: Arr) -> Arr:
 _EPS = 2.0**-52
 _TINY = 2.0**-1074
 _SMALL = 256  # below this many elements nextafter is cheaper than 5 arithmetic ops
+# (the size across which dn1/up1 round by another rule: propagate/kernels.py shares a step
+# only in arrays above it)
+ROUNDING_SIZE = _SMALL
 
 
 def dn1(x: Arr) -> Arr:

@@ -18,7 +18,7 @@ from calib_dsl.ir.program import Program
 from calib_dsl.ir.rows import tiled_mask
 from calib_dsl.ir.status import UNKNOWNS, Status, Stop
 from calib_dsl.propagate.diagnose import Emptied, diagnose
-from calib_dsl.propagate.kernels import fast_sweep, kernels, sweep
+from calib_dsl.propagate.kernels import Share, fast_sweep, kernels, sweep
 
 
 @dataclass(frozen=True)
@@ -35,23 +35,28 @@ class Result:
 
 
 def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
-              lo: np.ndarray | None = None, hi: np.ndarray | None = None) -> Result:
-    """Contract the program's domains (or the given box) to a fixed point."""
+              lo: np.ndarray | None = None, hi: np.ndarray | None = None,
+              share: Share | None = None, own: bool = False) -> Result:
+    """Contract the program's domains (or the given box) to a fixed point; a large group's
+    steps shared among threads as `share` says (the same box: kernels.py). With `own`, the
+    given arrays are contracted in place (the caller's copies: a large program's box is
+    then held once less at the sweeps' peak), else copies of them."""
     start = time.perf_counter()
-    box = [prog.slots.lo.copy() if lo is None else lo.copy(),
-           prog.slots.hi.copy() if hi is None else hi.copy()]
+    box = [prog.slots.lo.copy() if lo is None else lo if own else lo.copy(),
+           prog.slots.hi.copy() if hi is None else hi if own else hi.copy()]
     watch = _watched(prog)
     if np.any(box[0] > box[1]):
         s = int(np.flatnonzero(box[0] > box[1])[0])
         return _infeasible(box, 0, start, Emptied(prog.slots.names[s], prog.slots.origin[s], None))
     sweeps, stop = 0, Stop.MAX_SWEEPS
     steps = kernels(prog)
-    stamp = np.zeros(len(box[0]), dtype=np.int64)  # the last sweep that moved each slot
+    # the last sweep that moved each slot (in half the bytes where the count allows)
+    stamp = np.zeros(len(box[0]), dtype=np.int32 if max_sweeps < 2**31 - 1 else np.int64)
     while sweeps < max_sweeps:
         before = (box[0][watch].copy(), box[1][watch].copy())
         saved = (box[0].copy(), box[1].copy())
         sweeps += 1
-        fast_sweep(steps, box[0], box[1], stamp, sweeps)
+        fast_sweep(steps, box[0], box[1], stamp, sweeps, share)
         if np.any(box[0] > box[1]):
             # The fast sweep equals the general one until a domain first becomes empty; from
             # there only the general one spreads emptiness exactly: replay the sweep with it.

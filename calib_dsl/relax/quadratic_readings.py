@@ -32,7 +32,7 @@ import numpy as np
 
 from calib_dsl.arith.interval import dn1, up1
 from calib_dsl.compile.chunks import Chunk, chunked
-from calib_dsl.ir.program import Program
+from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.chunked import in_threads, widest
 from calib_dsl.relax.evaluation import Evaluation
 from calib_dsl.relax.layout import independents
@@ -198,16 +198,25 @@ def _readings(prog: Program) -> np.ndarray | None:
     rows = prog.slots.cell_row
     if rows is None:
         return None
-    argument, compared = np.zeros(len(rows), bool), np.zeros(len(rows), bool)
-    for g in prog.groups:
-        argument[g.args[g.args >= 0]] = True
-        compared[g.out[g.out >= 0]] = True
+    # (which slots are arguments and outputs depends on the groups alone: found once per
+    # program, not once per group of rows a relaxed check relaxes; the domains may change)
+    argument, compared = derived(prog, "arguments and outputs", lambda: _roles(prog))
     lo, hi = prog.slots.lo, prog.slots.hi
     measured = (rows >= 0) & np.isfinite(lo) & np.isfinite(hi)
     reading = measured & argument
     if np.any(reading & compared & (hi > lo)):
         return None
     return reading
+
+
+def _roles(prog: Program) -> tuple[np.ndarray, np.ndarray]:
+    """Which slots some primitive reads (an argument), and which some primitive sets."""
+    n = len(prog.slots.lo)
+    argument, compared = np.zeros(n, bool), np.zeros(n, bool)
+    for g in prog.groups:
+        argument[g.args[g.args >= 0]] = True
+        compared[g.out[g.out >= 0]] = True
+    return argument, compared
 
 
 def _own_configuration(prog: Program, ind: np.ndarray, reading: np.ndarray,

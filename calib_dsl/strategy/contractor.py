@@ -24,6 +24,9 @@ from calib_dsl.ir.status import Status, Stop
 from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import Result, propagate
+from calib_dsl.propagate.kernels import Share
+from calib_dsl.relax.chunked import in_threads
+from calib_dsl.settings import Settings
 from calib_dsl.strategy.history import History
 
 
@@ -101,6 +104,14 @@ def from_propagation(res: Result) -> Outcome:
     return Outcome(res.lo, res.hi, res.stop, Work(sweeps=res.sweeps), emptied)
 
 
+def sweep_share(settings: Settings) -> Share:
+    """A sweep's large steps shared among the chunked passes' threads, as many as the LPs'
+    workers (the same box as one thread's: propagate/kernels.py)."""
+    threads = settings.lp.workers
+    return Share(lambda fn, parts: in_threads(fn, parts, threads), threads,
+                 settings.sweep_share)
+
+
 @dataclass(frozen=True)
 class Propagation(Composable):
     """Forward-backward propagation (hc4) to the fixed point, or until a sweep contracts
@@ -110,10 +121,11 @@ class Propagation(Composable):
     tol: float
     max_sweeps: int
     name: str = "propagation"
+    share: Share | None = None  # a large step's entries shared among threads (sweep_share)
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         return from_propagation(propagate(self.prog, tol=self.tol, max_sweeps=self.max_sweeps,
-                                          lo=lo, hi=hi))
+                                          lo=lo, hi=hi, share=self.share))
 
     def with_budget(self, sweeps: int) -> Propagation:
         return replace(self, max_sweeps=sweeps)

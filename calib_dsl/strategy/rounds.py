@@ -51,7 +51,7 @@ from calib_dsl.relax.quadratic_readings import relax_quadratic_readings
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.relax.taylor import Expansion
 from calib_dsl.settings import LPSettings, Settings
-from calib_dsl.strategy.contractor import Composable, FixPoint, Outcome, Work
+from calib_dsl.strategy.contractor import Composable, FixPoint, Outcome, Work, sweep_share
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.phases import FINE_KINDS, Measures, Phase, next_phase
 
@@ -296,7 +296,8 @@ class _Rounds(Composable):
         lo[ind], hi[ind] = new_lo, new_hi
         spec = self.spec
         res = propagate(spec.prog, tol=max(spec.tol, spec.settings.preliminary_tol),
-                        max_sweeps=max(spec.max_sweeps - self.work.sweeps, 0), lo=lo, hi=hi)
+                        max_sweeps=max(spec.max_sweeps - self.work.sweeps, 0), lo=lo, hi=hi,
+                        share=sweep_share(spec.settings), own=True)
         self.lo, self.hi, self.stop = res.lo, res.hi, res.stop
         self.work = self.work + Work(sweeps=res.sweeps)
         if res.status != Status.CONTRACTED:

@@ -24,7 +24,7 @@ from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter, Progress
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
-from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence
+from calib_dsl.strategy.contractor import Contractor, Propagation, Sequence, sweep_share
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.reparametrize import along_combinations, back, pivots
 from calib_dsl.strategy.solution import Solution, solution
@@ -98,11 +98,13 @@ def tight_steps(prog: Program, tol: float, max_sweeps: int, s: Settings,
     certificates of the LPs solved (`watch.certs`)."""
     watch = watch or Watch()
     certs, progress, history = watch.certs, watch.progress, watch.history
-    steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps)]
+    share = sweep_share(s)
+    steps: list[Contractor] = [Propagation(prog, max(tol, s.preliminary_tol), max_sweeps,
+                                           share=share)]
     # (on a working set of the rows, grown by the rows the optima violate: working.py)
     steps.append(WorkingRows(prog, s, certs, tol, max_sweeps, second_order, unsolved=uncut,
                              progress=progress, history=history))
-    steps.append(Propagation(prog, tol, max_sweeps))
+    steps.append(Propagation(prog, tol, max_sweeps, share=share))
     if split:
         steps.append(Split(prog, s, certs, tol, max_sweeps, uncut))
     return Sequence(tuple(steps), max_sweeps=max_sweeps, progress=progress,
