@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calib_dsl.accuracy.ahead import Ahead
 from calib_dsl.accuracy.batch_lp import batch_bounds
 from calib_dsl.accuracy.certified import inner_at, picks
 from calib_dsl.accuracy.held_readings import held_values, reading_moves
@@ -274,34 +273,35 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
     box_only = _first_order(prog, lo, hi, measured_side, replace(cal, data=None))
     parts = [box_only]
     found = None
+    if cal.data is not None and names == list(box):  # (the relaxation's columns: the box's)
+        first = np.full(len(lo), np.inf)
+        assert box_only.charge is not None
+        first[box_only.targets] = box_only.charge
+        found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings, first)
+    # the first-order LP for the rows the second order did not take or did not settle (an
+    # LP stopped by its limits): the intersection of both is kept
+    rest = np.setdiff1d(box_only.targets, [] if found is None else
+                        found.targets[found.settled] if found.settled is not None
+                        else found.targets)
+    if found is not None:
+        parts.append(found)
+    if len(rest) and cal.data is not None:
+        only = np.zeros(len(lo), dtype=bool)
+        only[rest] = True
+        parts.append(_first_order(prog, lo, hi, measured_side & only, cal))
+    # (_arrange keeps the intersection of a cell's enclosures)
+    targets, plo, phi = (np.concatenate([getattr(b, a) for b in parts])
+                         for a in ("targets", "lo", "hi"))
+    outer = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
+    solved = parts[1:] if len(parts) > 1 else parts
+    gradient = np.concatenate([b.gradient for b in solved])
+    found_optima = np.concatenate([b.optima for b in solved])
     order = np.array([list(box).index(n) for n in names])
-    # (the certified-point search's first part beside the LPs: accuracy/ahead.py)
-    with Ahead(cal.certify, order, len(box), cal.settings.lp.workers) as ahead:
-        if cal.data is not None and names == list(box):  # (the relaxation's columns)
-            first = np.full(len(lo), np.inf)
-            assert box_only.charge is not None
-            first[box_only.targets] = box_only.charge
-            found = second_order(prog, lo, hi, measured_side, cal.data, cal.settings, first,
-                                 ahead.start)
-        # the first-order LP for the rows the second order did not take or did not settle
-        # (an LP stopped by its limits): the intersection of both is kept
-        rest = np.setdiff1d(box_only.targets, [] if found is None else
-                            found.targets[found.settled] if found.settled is not None
-                            else found.targets)
-        if found is not None:
-            parts.append(found)
-        if len(rest) and cal.data is not None:
-            only = np.zeros(len(lo), dtype=bool)
-            only[rest] = True
-            parts.append(_first_order(prog, lo, hi, measured_side & only, cal, ahead.start))
-        # (_arrange keeps the intersection of a cell's enclosures)
-        targets, plo, phi = (np.concatenate([getattr(b, a) for b in parts])
-                             for a in ("targets", "lo", "hi"))
-        outer = _arrange(prog, t, targets, (plo, phi), original, measured_side, present, file)
-        solved = parts[1:] if len(parts) > 1 else parts
-        directions = ahead.directions(np.concatenate([b.gradient for b in solved]))
-        optima = ahead.directions(np.concatenate([b.optima for b in solved]))
-        known = [*cal.points, *ahead.points(directions, optima)]
+    directions = np.zeros((len(gradient), len(box)))
+    directions[:, order] = gradient
+    optima = np.zeros((len(found_optima), len(box)))
+    optima[:, order] = found_optima
+    known = [*cal.points, *(cal.certify(directions, optima) if cal.certify else [])]
     if not known:
         return outer
     P = np.array([p[order] for p, _ in known])
@@ -339,10 +339,9 @@ def _enclose(prog: Program, t: Table, cal: Calibrated, present: set[str],
 
 
 def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: np.ndarray,
-                 cal: Calibrated, early: Callable[[np.ndarray], None] | None = None) -> Bounds:
+                 cal: Calibrated) -> Bounds:
     """The rows' enclosures in the mixed mean-value form: f in D + h (p - p^) + [-r, r],
-    h.p bounded over the data's relaxation (or the box); `lo`, `hi`, `early` as for
-    second_order."""
+    h.p bounded over the data's relaxation (or the box); `lo`, `hi` as for second_order."""
     s = prog.slots
     ind = independents(prog)
     center = 0.5 * (lo[ind] + hi[ind])
@@ -359,8 +358,6 @@ def _first_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured_side: n
     with np.errstate(invalid="ignore"):
         rad = hrad @ w + (qmax @ ev.e if qmax.shape[1] else 0.0)
     use = np.flatnonzero(measured_side[targets])
-    if early is not None:
-        early(h[use])
     # h.p over the box, or over the data's relaxation (certified LP bounds)
     lin_lo, lin_hi, optima = _linear_range(h[use], lo[ind], hi[ind], cal,
                                            [s.names[k] for k in ind])

@@ -56,16 +56,15 @@ class Bounds:
 
 
 def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.ndarray,
-                 rel: LinearRelaxation, settings: Settings, first: np.ndarray | None = None,
-                 early: Callable[[np.ndarray], None] | None = None) -> Bounds | None:
+                 rel: LinearRelaxation, settings: Settings,
+                 first: np.ndarray | None = None) -> Bounds | None:
     """The prediction rows' bounds over the relaxation `rel` (a second-order one over the
     same box: its columns the same t). `lo`, `hi`: the program's slots, its independents at
     the calibration's box, the measured sides 0 (`measured`: which slots those are). None
     where the program has no second-order models or `rel` is not over the same t.
     `first` (by target slot): the first-order form's remainder over the box; only the rows
     whose remainder and products' largest range this form charges less are bounded here
-    (on a narrow box the products' columns can cost more than the first order's remainder).
-    `early`: called with the rows' gradients (as Bounds.gradient) before their LPs run."""
+    (on a narrow box the products' columns can cost more than the first order's remainder)."""
     if rel.family != FAMILY or rel.col_keys is None or rel.center is None \
             or rel.scale is None:
         return None
@@ -87,8 +86,6 @@ def second_order(prog: Program, lo: np.ndarray, hi: np.ndarray, measured: np.nda
     # the products without a column, at |t_i t_j| <= 1; sums of non-negative floats rounded up
     slack = (m.r + np.abs(m.c2[:, others]).sum(axis=1)) * (1 + 2.0**-40) + 1e-300
     objectives = np.hstack([m.c1, m.c2[:, kept]])
-    if early is not None:
-        early(m.c1 / ex.half)
     # (the gradients set a prediction's direction: the products' terms are small beside them)
     low, high, optima, settled = batch_bounds(rel, objectives, settings, m.c1)
     err = RHS_REL * (np.abs(m.c0) + np.abs(low) + np.abs(high) + slack) + 1e-300
