@@ -74,7 +74,7 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
     # (kept as ir/program.derived keeps its tables, but built outside its lock: the build
     # runs threads that may build other tables, and would wait for the lock forever; two
     # threads asking at once build it twice, the same screen)
-    key = f"row screen {lo.tobytes().hex()}{hi.tobytes().hex()}"
+    key = _key(lo, hi)
     cached = prog.derived_cache.get(key)
     if cached is not None and cached[0] is prog.groups:
         made = cached[1]
@@ -82,6 +82,16 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
         made = _row_screen(prog, lo, hi)
         prog.derived_cache[key] = (prog.groups, made)
     return None if made is None else replace(made, most_open=most_open)
+
+
+def forget(prog: Program, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Drop the screen kept for the box [lo, hi] (its models hold some 200 bytes per unknown
+    and row: a large program's should not outlive the search that made it)."""
+    prog.derived_cache.pop(_key(lo, hi), None)
+
+
+def _key(lo: np.ndarray, hi: np.ndarray) -> str:
+    return f"row screen {lo.tobytes().hex()}{hi.tobytes().hex()}"
 
 
 def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | None:

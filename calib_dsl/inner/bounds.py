@@ -26,6 +26,7 @@ from calib_dsl.analysis.certify_point import PointCheck, check_points, exact_ins
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.analysis.row_screen import forget
 from calib_dsl.inner.lp import LinearModel, Solver
 from calib_dsl.inner.screen import checks
 from calib_dsl.inner.starts import Starts
@@ -98,7 +99,10 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind), box)
-    _search(prog, box, found, starts, (settings.lp, settings.inner))
+    try:
+        _search(prog, box, found, starts, (settings.lp, settings.inner))
+    finally:
+        forget(prog, *box)  # (the checks' screen: inner/screen.py)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 

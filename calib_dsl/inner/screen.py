@@ -2,7 +2,7 @@
 
 Every candidate point of the inner bounds lies in one box (the result, within the domains).
 The rows' second-order models over that box (analysis/row_screen.py, the predictions'
-screen: made once per program and box) prove most rows inside their targets at a point with
+screen: made once per program and box, dropped when the inner bounds end) prove most rows inside their targets at a point with
 a few float products, their roundings bounded; a point check then evaluates only the loop
 rows (configurations) with a row some point of the pass leaves open, and the shared part's.
 The rows left out are filled back in, in the order a check of every row gives: held (`ok`),
