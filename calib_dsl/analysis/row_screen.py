@@ -17,11 +17,17 @@ rows comparing two computed values, existence.py's proof is tried, as for a whol
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import check_points, exact_inside, reading_slots
+from calib_dsl.analysis.certify_point import (
+    PointCheck,
+    box_rows,
+    check_points,
+    exact_inside,
+    reading_slots,
+)
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
@@ -51,6 +57,10 @@ class RowScreen:
     size: np.ndarray
     # above this share of the points' loop rows left open, a pass is the whole check
     most_open: float = 1.0
+    # every checked row enclosed over the box, each reading over its interval (box_rows),
+    # and its loop row (-1: the shared part): what screened_checks fills a proven row with
+    whole: PointCheck | None = None
+    whole_config: np.ndarray | None = None
 
 
 def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float = 1.0
@@ -59,7 +69,32 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
     domains); None where the program has no loop compiled once or no second-order models.
     `most_open`: the share of the points' loop rows left open above which a pass evaluates
     the whole program at every point decided by no model (in chunks of many points and
-    rows: cheaper a row than one-row chunks at a few points each)."""
+    rows: cheaper a row than one-row chunks at a few points each). Made once per program
+    and box (the inner bounds and the predictions' extremes search the same box)."""
+    # (kept as ir/program.derived keeps its tables, but built outside its lock: the build
+    # runs threads that may build other tables, and would wait for the lock forever; two
+    # threads asking at once build it twice, the same screen)
+    key = _key(lo, hi)
+    cached = prog.derived_cache.get(key)
+    if cached is not None and cached[0] is prog.groups:
+        made = cached[1]
+    else:
+        made = _row_screen(prog, lo, hi)
+        prog.derived_cache[key] = (prog.groups, made)
+    return None if made is None else replace(made, most_open=most_open)
+
+
+def forget(prog: Program, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Drop the screen kept for the box [lo, hi] (its models hold some 200 bytes per unknown
+    and row: a large program's should not outlive the search that made it)."""
+    prog.derived_cache.pop(_key(lo, hi), None)
+
+
+def _key(lo: np.ndarray, hi: np.ndarray) -> str:
+    return f"row screen {lo.tobytes().hex()}{hi.tobytes().hex()}"
+
+
+def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | None:
     lay = prog.rows
     ind = independents(prog)
     if lay is None or not len(ind):
@@ -74,9 +109,10 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
     def config_of(slots: np.ndarray) -> np.ndarray:
         return np.where(slots >= lay.shared, (slots - lay.shared) // max(lay.width, 1), -1)
 
-    # every checked row (a point check's rows do not depend on the point): those no model
-    # bounds (capped temporaries, two computed sides) are always evaluated
-    whole = check_points(prog, (0.5 * lo + 0.5 * hi)[None])[0]
+    # every checked row (a point check's rows do not depend on the point, nor the box's
+    # pass's): those no model bounds (capped temporaries, two computed sides) are always
+    # evaluated
+    whole = box_rows(prog, lo, hi)
     assert whole.computed is not None
     modelled = np.isin(whole.slots, ex.rows.slots) & ~whole.computed
     always = np.zeros(configs + 1, dtype=bool)
@@ -84,7 +120,58 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
     m = ex.rows.models
     coef = np.ascontiguousarray(np.hstack([m.c1, m.c2]).T)
     return RowScreen(prog, ex, lo.copy(), hi.copy(), exact_inside(ex.rows.lo, ex.rows.hi),
-                     config_of(ex.rows.slots), always, coef, np.abs(coef), most_open)
+                     config_of(ex.rows.slots), always, coef, np.abs(coef), 1.0, whole,
+                     config_of(whole.slots))
+
+
+def screened_checks(screen: RowScreen, points: np.ndarray, readings: np.ndarray
+                    ) -> list[PointCheck]:
+    """check_points(prog, points, readings) where every point lies in the screen's box,
+    evaluating only the loop rows (configurations) some point's models leave open (their
+    union: one pass of chunks of many rows, every point in each) and the shared part's. A
+    row the models prove at every point is filled in as held (`ok`, no excess), its
+    computed side the box's enclosure (which holds the point's): its verdict is proven, and
+    the callers read the values of the rows that failed only (inner/bounds._pull_back,
+    LinearModel.excess), which were evaluated at the point as by a check of every row."""
+    prog, lay, w = screen.prog, screen.prog.rows, screen.whole
+    inside = np.all((points >= screen.lo) & (points <= screen.hi))
+    if lay is None or w is None or screen.whole_config is None or not inside:
+        return check_points(prog, points, readings)
+    # (the union, a block of points at a time: once it holds every loop row, the pass is
+    # the whole check, and the other points' models are not worth their products)
+    union = np.zeros(len(lay.rows), dtype=bool)
+    for a in range(0, len(points), _BLOCK):
+        union |= _needs(screen, points[a:a + _BLOCK])[0][:, :-1].any(axis=0)
+        if union.all():
+            return check_points(prog, points, readings)
+    rows = np.flatnonzero(union)
+    if not len(rows):
+        rows = np.zeros(1, dtype=np.int64)  # (a check takes some loop row with the shared)
+    part = check_points(prog, points, readings, rows=rows)
+    mask = (screen.whole_config < 0) | np.isin(screen.whole_config, rows)
+    if not np.array_equal(part[0].slots, w.slots[mask]):
+        raise AssertionError("a check of some rows gave other rows than the box's pass")
+    return [_filled(w, mask, c) for c in part]
+
+
+def _filled(w: PointCheck, m: np.ndarray, c: PointCheck) -> PointCheck:
+    """The check of every row: `c`'s rows (those of the mask `m`), the others held (their
+    values from the box's pass `w`)."""
+    assert c.ok is not None and c.computed is not None and c.side is not None
+    assert w.side is not None and w.computed is not None
+
+    def put(base: np.ndarray, part: np.ndarray) -> np.ndarray:
+        out = base.copy()
+        out[m] = part
+        return out
+
+    n = len(w.slots)
+    ok = put(np.ones(n, dtype=bool), c.ok)
+    return PointCheck(bool(np.all(ok)) and c.in_domain, w.slots, put(w.lo, c.lo),
+                      put(w.hi, c.hi), put(np.zeros(n), c.excess), ok,
+                      put(w.computed, c.computed),
+                      (put(w.side[0], c.side[0]), put(w.side[1], c.side[1])), None,
+                      c.in_domain)
 
 
 def screened_holds(screen: RowScreen, points: np.ndarray, readings: np.ndarray

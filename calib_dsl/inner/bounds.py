@@ -22,10 +22,11 @@ from functools import cached_property
 
 import numpy as np
 
-from calib_dsl.analysis.certify_point import PointCheck, exact_inside
+from calib_dsl.analysis.certify_point import PointCheck, check_points, exact_inside
 from calib_dsl.analysis.chebyshev import chebyshev
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.analysis.readings import Readings
+from calib_dsl.analysis.row_screen import forget
 from calib_dsl.inner.lp import LinearModel, Solver
 from calib_dsl.inner.screen import checks
 from calib_dsl.inner.starts import Starts
@@ -98,7 +99,10 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind), box)
-    _search(prog, box, found, starts, (settings.lp, settings.inner))
+    try:
+        _search(prog, box, found, starts, (settings.lp, settings.inner))
+    finally:
+        forget(prog, *box)  # (the checks' screen: inner/screen.py)
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 
@@ -108,7 +112,7 @@ class _Points:
     point that failed candidates are pulled back towards (None until one is certified)."""
 
     def __init__(self, n: int, box: tuple[np.ndarray, np.ndarray]) -> None:
-        self.box = box  # (every candidate lies in it: inner/screen.py checks its rows)
+        self.box = box  # (every candidate lies in it: inner/screen.py screens its rows)
         self.lo, self.hi = np.full(n, np.nan), np.full(n, np.nan)
         self.lo_at, self.hi_at = np.full(n, -1), np.full(n, -1)
         self.all: list[Witness] = []
@@ -123,16 +127,18 @@ class _Points:
         self.lo[lower], self.lo_at[lower] = w.point[lower], k
         self.hi[higher], self.hi_at[higher] = w.point[higher], k
 
-    def add_centre(self, w: Witness, check: PointCheck | None = None) -> None:
-        self.centre, self._centre_check = w, check
+    def add_centre(self, w: Witness) -> None:
+        self.centre, self._centre_check = w, None
         self.add(w)
 
     def centre_check(self, prog: Program) -> PointCheck:
-        """The centre's check: each row's room to its bounds there."""
+        """The centre's check of every row (not screened: a row its models prove there may
+        fail at another point, and its room at the centre is then read): each row's room
+        to its bounds there."""
         assert self.centre is not None
         if self._centre_check is None:
-            self._centre_check = checks(prog, self.box, self.centre.point[None],
-                                        self.centre.readings[None])[0]
+            self._centre_check = check_points(prog, self.centre.point[None],
+                                              self.centre.readings[None])[0]
         return self._centre_check
 
 
@@ -292,7 +298,7 @@ def _certified(prog: Program, at: dict[int, tuple[np.ndarray, np.ndarray]],
         if not (check.holds or prove_point(prog, point, readings, check)):
             failed[i] = check
         elif i < 0:
-            found.add_centre(Witness(point, readings), check)
+            found.add_centre(Witness(point, readings))
         else:
             done[i] = Witness(point, readings)
     failed.pop(-1, None)

@@ -1,16 +1,23 @@
-"""The inner bounds' point checks of the rows that can fail in their box only (inner/screen.py)
-give what a check of every row gives: the same verdicts, failing rows and excesses, and for
-a row left out (held over the whole box) an enclosure holding the point's."""
+"""The inner bounds' point checks of the rows some point's second-order models leave open only
+(inner/screen.py, analysis/row_screen.screened_checks) give what a check of every row gives:
+the same verdicts, failing rows and excesses, and for a row left out (proven at every point)
+an enclosure holding the point's. A screen that admits a row that does not hold fails the
+property (test_a_screen_admitting_a_failing_row_is_caught)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import calib_dsl.analysis.certify_point as cp
+import calib_dsl.analysis.row_screen as rs
 from calib_dsl.inner import screen as sc
 from calib_dsl.relax.layout import independents
+from tests.analysis.test_row_screen import _line, _middles
 from tests.relax.test_linearize import random_robot
 
 
@@ -45,19 +52,46 @@ def test_screened_checks_equal_every_rows(tmp_path_factory, seed, joints, rows, 
     values = _readings(prog, rng, points)
     got = sc.checks(prog, (lo, hi), pts, values)
     whole = cp.check_points(prog, pts, values)
-    scr = sc.screen(prog, lo, hi)
+    _same(rs.row_screen(prog, lo, hi), pts, got, whole)
+
+
+def _same(scr, pts, got, whole) -> None:
+    """The screened checks `got` give the whole checks' verdicts, failing rows and
+    excesses; a row left out held in the whole check, its enclosure holding the point's."""
     for g, w in zip(got, whole, strict=True):
         assert g.holds == w.holds and g.in_domain == w.in_domain
         assert np.array_equal(g.slots, w.slots) and np.array_equal(g.ok, w.ok)
         assert np.array_equal(g.computed, w.computed)
         assert np.allclose(g.excess, w.excess, rtol=1e-12, atol=1e-12)
-        if scr is None:
-            continue
-        # a row left out holds at the point in a check of every row (the screen's guard),
-        # and its enclosure over the box holds the point's
-        out = ~scr.mask
+    if scr is None or not np.all((pts >= scr.lo) & (pts <= scr.hi)):
+        return
+    # a row no point's models leave open was not evaluated: it held in the whole check,
+    # and its enclosure (the box's) holds the point's
+    need = rs._needs(scr, pts)[0][:, :-1].any(axis=0)
+    out = (scr.whole_config >= 0) & ~need[np.maximum(scr.whole_config, 0)]
+    for g, w in zip(got, whole, strict=True):
         assert np.all(w.ok[out]) and np.all(w.excess[out] == 0.0)
         assert np.all(g.lo[out] <= w.lo[out]) and np.all(w.hi[out] <= g.hi[out])
+
+
+def test_a_screen_admitting_a_failing_row_is_caught(tmp_path):
+    # row 2 (y = 1.05 +- 0.01) fails at a = 1, b = 0. The true screen leaves it open and
+    # it is evaluated; a screen whose targets were widened admits it, and the comparison
+    # with the whole check (the property above) must fail
+    prog = _line(tmp_path, "1,1\n1,1\n1,1.05\n1,1\n")
+    lo, hi = np.array([0.9, -0.1]), np.array([1.1, 0.1])
+    pts, values = np.array([[1.0, 0.0]]), _middles(prog, 1)
+    whole = cp.check_points(prog, pts, values)
+    assert not whole[0].holds
+    scr = rs.row_screen(prog, lo, hi)
+    assert scr is not None
+    _same(scr, pts, rs.screened_checks(scr, pts, values), whole)
+    n = len(scr.inside[0])
+    loose = replace(scr, inside=(np.full(n, -np.inf), np.full(n, np.inf)))
+    got = rs.screened_checks(loose, pts, values)
+    assert got[0].holds  # (admitted without evaluating row 2)
+    with pytest.raises(AssertionError):
+        _same(loose, pts, got, whole)
 
 
 def test_a_point_outside_the_box_is_checked_on_every_row(tmp_path):
@@ -80,6 +114,7 @@ def test_a_narrow_box_leaves_rows_out(tmp_path):
     prog = sim.prog
     ind = independents(prog)
     half = 1e-9 * (prog.slots.hi[ind] - prog.slots.lo[ind])
-    scr = sc.screen(prog, sim.p_true - half, sim.p_true + half)
-    assert scr is not None and len(scr.rows) < len(prog.rows.rows)
-    assert not scr.mask.all()
+    scr = rs.row_screen(prog, sim.p_true - half, sim.p_true + half)
+    assert scr is not None
+    need = rs._needs(scr, sim.p_true[None])[0][:, :-1]
+    assert not need.all()
