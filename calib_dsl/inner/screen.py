@@ -1,10 +1,11 @@
 """The inner bounds' point checks on the rows that can fail at their points only.
 
-Every candidate point of the inner bounds lies in one box (the result, within the domains).
-The rows' second-order models over that box (analysis/row_screen.py, the predictions'
-screen: made once per program and box, dropped when the inner bounds end) prove most rows inside their targets at a point with
-a few float products, their roundings bounded; a point check then evaluates only the loop
-rows (configurations) with a row some point of the pass leaves open, and the shared part's.
+Every candidate point of the inner bounds lies in one box (the result, within the domains). The
+rows' second-order models over that box (analysis/row_screen.py, the predictions' screen: made
+once per program and box, dropped when the inner bounds end) prove most rows inside their
+targets at a point with a few float products, their roundings bounded; a point check then
+evaluates only the loop rows (configurations) with a row some point of the pass leaves open,
+and the shared part's.
 The rows left out are filled back in, in the order a check of every row gives: held (`ok`),
 no excess, their computed side the box's enclosure (which holds the point's). The callers
 compare two checks row by row on the rows that failed only (inner/bounds._pull_back, whose
