@@ -235,6 +235,7 @@ AT_FAULTY = {
     "NaN": (b"x\nnan\n", "2:1", "'nan' is not a finite number"),
     "a duplicated header": (b"x,x\n5,5\n", "1:2", "column 'x' appears twice"),
     "text": (b"x\n\n\nfive\n", "4:1", "'five' is not a number"),
+    "not UTF-8": (b"x\n5\n6\xff\n", "3:2", "'at.csv' is not UTF-8 text"),
 }
 
 

@@ -5,10 +5,9 @@ The model reads the configurations as its table (columns it does not find, the
 measurements a prediction is for, read as 0: they are not used): derived from the
 calibration's elaborated model where it allows (problem.py's `with_table`), else elaborated
 once more with the file. Its parameters take the solve's enclosure and its measured sides
-are set to 0. Where the calibration's
-relaxation is a second-order one, each predicted coordinate's second-order Taylor model over
-the same box is one more objective over it (accuracy/second_order.py): only the third-order
-remainder is left to the box. Otherwise each constraint row `f(p, q) == x` gives f over the
+are set to 0. Where the calibration's relaxation is a second-order one, each predicted
+coordinate's second-order Taylor model over the same box is one more objective over it
+(accuracy/second_order.py): only the third-order remainder is left to the box. Otherwise each constraint row `f(p, q) == x` gives f over the
 box in the mixed mean-value form of the relaxations (relax/evaluation.py): f in D + h (p -
 p^) + [-r, r], with h the gradients' midpoints and r their radii times the box's half-widths
 plus the joint readings' errors, and certified LP bounds of h.p over the calibration's
@@ -36,8 +35,8 @@ from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.elaborate.rows import EVERY_ROW, Selection
 from calib_dsl.elaborate.tables import CsvData, Dialect, read_csv
-from calib_dsl.frontend.diagnostics import CalError
-from calib_dsl.frontend.files import MAX_TABLE_BYTES, TooLarge, read_capped
+from calib_dsl.frontend.diagnostics import CalError, Loc
+from calib_dsl.frontend.files import MAX_TABLE_BYTES, NotUtf8, TooLarge, read_capped
 from calib_dsl.ir.model import Model, Table
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.certify import box_maxes_up
@@ -204,8 +203,12 @@ def _present(at: Path, t: Table) -> tuple[list[str], set[str]]:
         raise CalError(f"'{at}' not found") from None
     except IsADirectoryError:
         raise CalError(f"'{at}' is a directory: give a CSV file") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise CalError(f"cannot read '{at}': {err}") from None
+    except NotUtf8 as err:
+        byte = f"{err.reason}: byte {err.object[err.start]:#04x}"
+        raise CalError(f"'{at}' is not UTF-8 text ({byte}; save it as UTF-8)",
+                       Loc(str(at), err.line, err.col)) from None
+    except OSError as err:
+        raise CalError(f"cannot read '{at}': {err.strerror}") from None
     if not lines:
         raise CalError(f"'{at}' is empty: it has no header")
     header = [h.strip() for h in next(csv.reader([lines[0]], delimiter=t.separator))]
