@@ -1,20 +1,19 @@
 """Guaranteed prediction: for configurations the calibration did not use, a box proven to
 contain the model's predicted measurement for every parameter vector consistent with the data.
 
-The model reads the configurations as its table (columns it does not find, the
-measurements a prediction is for, read as 0: they are not used): derived from the
-calibration's elaborated model where it allows (problem.py's `with_table`), else elaborated
-once more with the file. Its parameters take the solve's enclosure and its measured sides
-are set to 0. Where the calibration's relaxation is a second-order one, each predicted
-coordinate's second-order Taylor model over the same box is one more objective over it
-(accuracy/second_order.py): only the third-order remainder is left to the box. Otherwise each constraint row `f(p, q) == x` gives f over the
-box in the mixed mean-value form of the relaxations (relax/evaluation.py): f in D + h (p -
-p^) + [-r, r], with h the gradients' midpoints and r their radii times the box's half-widths
-plus the joint readings' errors, and certified LP bounds of h.p over the calibration's
-relaxation (accuracy/batch_lp.py: one LP per coordinate) bound f for every consistent
-vector. Either way the parameters' correlations count, where the box alone would add every
-parameter's uncertainty. All of it rounded outward. Validation compares held-out
-measurements with these boxes widened by each column's error bound.
+The model reads the configurations as its table (columns it does not find, the measurements a
+prediction is for, read as 0: they are not used): derived from the calibration's elaborated model
+where it allows (problem.py's `with_table`), else elaborated once more with the file. Its
+parameters take the solve's enclosure and its measured sides are set to 0. Where the calibration's
+relaxation is a second-order one, each predicted coordinate's second-order Taylor model over the
+same box is one more objective over it (accuracy/second_order.py): only the third-order remainder
+is left to the box. Otherwise each constraint row `f(p, q) == x` gives f over the box in the mixed
+mean-value form of the relaxations (relax/evaluation.py): f in D + h (p - p^) + [-r, r], with h the
+gradients' midpoints and r their radii times the box's half-widths plus the joint readings' errors,
+and certified LP bounds of h.p over the calibration's relaxation (accuracy/batch_lp.py: one LP per
+coordinate) bound f for every consistent vector. Either way the parameters' correlations count,
+where the box alone would add every parameter's uncertainty. All of it rounded outward. Validation
+compares held-out measurements with these boxes widened by each column's error bound.
 """
 
 from __future__ import annotations
