@@ -298,6 +298,8 @@ def _predicted(model: str, at: str, at_rows: str | None, at_skip: str | None,
         click.echo("the data are inconsistent (the solve proved it): nothing to predict",
                    err=True)
         sys.exit(1)
+    for warning in found.warnings:
+        click.echo(f"calibc: warning: {warning}", err=True)
     return found
 
 

@@ -33,7 +33,7 @@ from calib_dsl.ir.model import Model
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.status import Status
 from calib_dsl.outliers.at_fault import against_rows, of_outliers
-from calib_dsl.outliers.beyond_limits import beyond_limits
+from calib_dsl.outliers.beyond_limits import beyond_limits, table_beyond_limits
 from calib_dsl.outliers.conflict import Conflict, find_conflict
 from calib_dsl.outliers.proof import prove_outliers
 from calib_dsl.outliers.rows import Outliers, Row, data_rows, excluding
@@ -134,7 +134,8 @@ def predict_at(model: str | Path | Problem, at: str | Path, formulation: str = "
     chosen = prediction_relaxation(prog, sol.lo, sol.hi, settings)
     rel, center = chosen if chosen is not None else (None, None)
     cal = Calibrated(box, settings, rel, center, points, certify)
-    return sol, predict(held, cal)
+    faults = tuple(table_beyond_limits(problem.model, held.table))
+    return sol, replace(predict(held, cal), warnings=faults)
 
 
 Certify = Callable[[np.ndarray, np.ndarray], list]

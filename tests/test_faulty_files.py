@@ -253,6 +253,27 @@ def test_a_faulty_at_file_is_one_error_about_it(tmp_path, command, name):
     assert message in line and "calibc-predict" not in line, line
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["predict", "validate"])
+def test_configurations_beyond_the_joint_limits_are_named(tmp_path, command):
+    """(a joint column in degrees read as radians was predicted at without a word)"""
+    model = ROOT / "models" / "ur10_simulated.cal"
+    res = run("simulate", model, "--configs", "30", "--seed", "3", "-o", tmp_path / "d.csv",
+              "-q")
+    assert res.exit_code == 0, res.output
+    lines = (tmp_path / "d.csv").read_text(encoding="utf-8").splitlines()
+    cells = lines[2].split(";")
+    cells[2] = "100,5"  # rad: beyond the UR10's +- 2 pi
+    at = tmp_path / "at.csv"
+    at.write_text("\n".join([lines[0], lines[1], ";".join(cells), lines[3]]) + "\n",
+                  encoding="utf-8")
+    res = run(command, model, "--data", f"m={tmp_path / 'd.csv'}", "--at", at, "-q")
+    assert res.exit_code in (0, 1), res.output
+    warned = [ln for ln in res.output.splitlines() if "calibc: warning: " in ln]
+    assert len(warned) == 1 and "m.q3 lies outside the joint's limits" in warned[0] \
+        and f"{at}:3 (data row 2) 100.5" in warned[0], res.output
+
+
 def test_a_quoted_at_header_is_read(tmp_path):
     (tmp_path / "m.cal").write_text(MODEL)
     (tmp_path / "d.csv").write_text(GOOD)

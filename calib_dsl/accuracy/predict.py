@@ -71,6 +71,7 @@ class Prediction:
     # end was evaluated at, within their errors (accuracy/held_readings.py)
     inner_held: np.ndarray | None = None
     held_columns: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()  # about the file: configurations beyond the joints' limits
 
     def covered(self) -> np.ndarray:
         """Per row: every measured value within its box widened by its bound (a column the

@@ -12,18 +12,23 @@ from calib_dsl.ir.model import Model, Table
 
 def beyond_limits(model: Model | None) -> list[str]:
     """A warning per table column whose readings leave the limits of the joint they feed."""
-    out: list[str] = []
     if model is None:
-        return out
-    for t in model.tables:
-        for c in t.columns:
-            limits = model.joint_limits.get((t.name, c.name))
-            if limits is None or c.name not in t.readings:
-                continue
-            lo, hi = t.readings[c.name]
-            bad = np.flatnonzero((hi < limits[0]) | (lo > limits[1]))
-            if len(bad):
-                out.append(_line(t, c.name, limits, bad, 0.5 * (lo + hi)))
+        return []
+    return [w for t in model.tables for w in table_beyond_limits(model, t)]
+
+
+def table_beyond_limits(model: Model, t: Table) -> list[str]:
+    """The same for one table read with `model`'s joints (a file of configurations to
+    predict at, read as the model's table)."""
+    out: list[str] = []
+    for c in t.columns:
+        limits = model.joint_limits.get((t.name, c.name))
+        if limits is None or c.name not in t.readings:
+            continue
+        lo, hi = t.readings[c.name]
+        bad = np.flatnonzero((hi < limits[0]) | (lo > limits[1]))
+        if len(bad):
+            out.append(_line(t, c.name, limits, bad, 0.5 * (lo + hi)))
     return out
 
 
