@@ -30,7 +30,7 @@ from calib_dsl.analysis.certify_point import (
 )
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.compile.chunks import chunked
-from calib_dsl.ir.program import Program
+from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.models import U
 from calib_dsl.relax.taylor import Expansion, expand
@@ -71,16 +71,8 @@ def row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray, most_open: float =
     the whole program at every point decided by no model (in chunks of many points and
     rows: cheaper a row than one-row chunks at a few points each). Made once per program
     and box (the inner bounds and the predictions' extremes search the same box)."""
-    # (kept as ir/program.derived keeps its tables, but built outside its lock: the build
-    # runs threads that may build other tables, and would wait for the lock forever; two
-    # threads asking at once build it twice, the same screen)
-    key = _key(lo, hi)
-    cached = prog.derived_cache.get(key)
-    if cached is not None and cached[0] is prog.groups:
-        made = cached[1]
-    else:
-        made = _row_screen(prog, lo, hi)
-        prog.derived_cache[key] = (prog.groups, made)
+    # (outside derived's lock: the build runs threads, which may build other tables)
+    made = derived(prog, _key(lo, hi), lambda: _row_screen(prog, lo, hi), wait=False)
     return None if made is None else replace(made, most_open=most_open)
 
 

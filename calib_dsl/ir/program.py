@@ -92,13 +92,20 @@ def _count(seq: Sequence[T], key: Callable[[T], str]) -> Counter[str]:
     return Counter(map(key, seq))
 
 
-def derived(prog: Program, kind: str, build: Callable[[], T]) -> T:
+def derived(prog: Program, kind: str, build: Callable[[], T], wait: bool = True) -> T:
     """build(), made once per program and `kind` (the tight strategy runs the same program
     dozens of times), and made again if the program's groups were replaced. Threads that
-    ask while another builds wait for its table (one build, not one per thread)."""
+    ask while another builds wait for its table (one build, not one per thread); with
+    `wait` False, a build that runs threads of its own (which may ask for other tables, and
+    would wait forever for this one's lock) is made outside the lock: two threads asking at
+    once then build it twice, the same table."""
     cached = prog.derived_cache.get(kind)
     if cached is not None and cached[0] is prog.groups:
         return cached[1]  # type: ignore[no-any-return]
+    if not wait:
+        value = build()
+        prog.derived_cache[kind] = (prog.groups, value)
+        return value
     with _BUILDING:  # (reentrant: a build may ask for other tables)
         cached = prog.derived_cache.get(kind)
         if cached is not None and cached[0] is prog.groups:
