@@ -99,4 +99,4 @@ def simulate_at(model: str | Path, at: str | Path, out: str | Path, *, seed: int
     from calib_dsl.plan.measure import simulate_at as run
 
     problem = problem_of(model, defines, seed, formulation, None)
-    return run(model, at, seed, out, formulation, consts=problem.consts, table=table)
+    return run(model, at, seed, out, formulation, consts=problem.consts, table=table)[0]

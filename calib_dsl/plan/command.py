@@ -68,11 +68,11 @@ def simulated(asked: Simulation, progress: Any) -> int:
                  progress=progress, campaign=campaign, consts=consts)
         return configs
     from calib_dsl.elaborate.options import named
-    from calib_dsl.plan.measure import beyond_limits_at, simulate_at
+    from calib_dsl.plan.measure import simulate_at
 
     table, path = named(at, "--at")
-    n = simulate_at(model, path, seed, output, formulation, campaign, consts, table)
-    for warning in beyond_limits_at(model, path, formulation, consts, table):
+    n, warnings = simulate_at(model, path, seed, output, formulation, campaign, consts, table)
+    for warning in warnings:
         click.echo(f"calibc: warning: {warning}", err=True)
     return n
 

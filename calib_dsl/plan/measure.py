@@ -33,25 +33,24 @@ def measured_at(model_path: str | Path, configs: Configurations, seed: int,
 
 def simulate_at(model_path: str | Path, at: str | Path, seed: int, out: str | Path,
                 formulation: str = "matrix", campaign: Campaign = PLAIN,
-                consts: Mapping[str, str] | None = None, table: str = "") -> int:
+                consts: Mapping[str, str] | None = None, table: str = ""
+                ) -> tuple[int, list[str]]:
     """Measure the model's table at the configurations of the file `at` (in the table's
-    dialect; its measured columns may be absent) and write it to `out`; the row count."""
+    dialect; its measured columns may be absent) and write it to `out`; the row count, and
+    a warning per column beyond its joint's limits (beyond_limits_at)."""
     first = elaborate(str(model_path), formulation=formulation, simulate_rows=1,
                       inputs=Inputs(consts=dict(consts or {})))
     configs = read_configurations(table_of(first, table), at)
     model, data = measured_at(model_path, configs, seed, formulation, campaign, consts)
     write_csv(Path(out), table_of(model, configs.table), data)
-    return len(configs)
+    return len(configs), beyond_limits_at(first, configs)
 
 
-def beyond_limits_at(model_path: str | Path, at: str | Path, formulation: str = "matrix",
-                     consts: Mapping[str, str] | None = None, table: str = "") -> list[str]:
-    """A warning per input column of the file `at` whose configurations leave the limits of
-    the joint the column feeds: simulated there, the table measures poses the robot cannot
-    take (a column in degrees read as radians, a typo) and nothing else would say so."""
-    model = elaborate(str(model_path), formulation=formulation, simulate_rows=1,
-                      inputs=Inputs(consts=dict(consts or {})))
-    configs = read_configurations(table_of(model, table), at)
+def beyond_limits_at(model: Model, configs: Configurations) -> list[str]:
+    """A warning per input column of the configurations (read with `model`'s table) whose
+    values leave the limits of the joint the column feeds: simulated there, the table
+    measures poses the robot cannot take (a column in degrees read as radians, a typo) and
+    nothing else would say so."""
     out = []
     for j, name in enumerate(configs.columns):
         limits = model.joint_limits.get((configs.table, name))

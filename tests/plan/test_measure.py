@@ -55,7 +55,7 @@ def test_two_campaigns_at_the_same_poses_agree_within_their_bounds(tmp_path):
     at = configs_file(tmp_path, rows=8)
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     for seed, out in ((1, a), (2, b)):
-        assert simulate_at(UR10, at, seed, out, consts={"e": "0.5"}) == 8
+        assert simulate_at(UR10, at, seed, out, consts={"e": "0.5"}) == (8, [])
     ra, rb = read(a), read(b)
     gap = max(float(np.max(np.abs(ra[c] - rb[c]))) for c in X)
     assert 0 < gap <= 2 * 0.5 + 6 * 2e-5 * 1500
