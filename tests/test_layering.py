@@ -43,6 +43,7 @@ RANKS = {
     "outputs": 13,  # the figures, residuals and exports the command line writes
     "plan": 13,  # planning a campaign (calibc plan, simulate --at): simulated solves
     "cli": 14,
+    "__main__": 15,  # `python -m calib_dsl`: the command line
 }
 MAX_LINES = 450  # "no module over ~400 lines"
 

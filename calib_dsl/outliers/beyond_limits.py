@@ -5,6 +5,8 @@ solve proves nothing either way). The rows are named so the user can look."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from calib_dsl.ir.model import Model, Table
@@ -34,13 +36,20 @@ def table_beyond_limits(model: Model, t: Table) -> list[str]:
 
 def _line(t: Table, column: str, limits: tuple[float, float], bad: np.ndarray,
           value: np.ndarray) -> str:
-    # five rows named, the count says the rest
-    where = [f"{t.path}:{t.lines[k]} (data row {t.numbers[k]}) {value[k]:.6g}"
-             if k < len(t.lines) else f"row {k + 1} {value[k]:.6g}" for k in bad[:5]]
+    return outside_limits(f"{t.name}.{column}", limits, bad, value,
+                          lambda k: f"{t.path}:{t.lines[k]} (data row {t.numbers[k]})"
+                          if k < len(t.lines) else f"row {k + 1}")
+
+
+def outside_limits(what: str, limits: tuple[float, float], bad: np.ndarray,
+                   value: np.ndarray, place: Callable[[int], str]) -> str:
+    """The one warning for readings of the column `what` beyond its joint's limits: the
+    rows `bad` (0-based), each named by `place` with its value; five named, the count says
+    the rest."""
+    where = "; ".join(f"{place(int(k))} {value[k]:.6g}" for k in bad[:5])
     more = f", ... ({len(bad) - 5} more)" if len(bad) > 5 else ""
     many = len(bad) > 1
-    return (f"{len(bad)} reading{'s' if many else ''} of {t.name}.{column} "
+    return (f"{len(bad)} reading{'s' if many else ''} of {what} "
             f"lie{'' if many else 's'} "
             f"outside the joint's limits [{limits[0]:.6g}, {limits[1]:.6g}] (the robot "
-            f"cannot be there: check the file and the column's unit): {'; '.join(where)}"
-            f"{more}")
+            f"cannot be there: check the file and the column's unit): {where}{more}")

@@ -12,6 +12,7 @@ import numpy as np
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.model import Model
+from calib_dsl.outliers.beyond_limits import outside_limits
 from calib_dsl.plan.configs import Configurations, read_configurations, table_of
 from calib_dsl.studies.campaign import PLAIN, Campaign
 from calib_dsl.studies.simulate import simulate_model, write_csv
@@ -59,12 +60,8 @@ def beyond_limits_at(model: Model, configs: Configurations) -> list[str]:
         q = configs.q[:, j]
         bad = np.flatnonzero((q < limits[0]) | (q > limits[1]))
         if len(bad):
-            where = "; ".join(f"{configs.path}:{configs.line[k]} {q[k]:.6g}"
-                              if k < len(configs.line) else f"row {k + 1} {q[k]:.6g}"
-                              for k in bad[:5])
-            more = f", ... ({len(bad) - 5} more)" if len(bad) > 5 else ""
-            many = "s" if len(bad) > 1 else ""
-            out.append(f"{name} of {len(bad)} configuration{many} lies outside the joint's "
-                       f"limits [{limits[0]:.6g}, {limits[1]:.6g}] (the robot cannot be "
-                       f"there: check the file and the column's unit): {where}{more}")
+            out.append(outside_limits(
+                f"{configs.table}.{name}", limits, bad, q,
+                lambda k: f"{configs.path}:{configs.line[k]}"
+                if k < len(configs.line) else f"row {k + 1}"))
     return out

@@ -108,7 +108,7 @@ def test_configurations_beyond_the_joint_limits_are_named(tmp_path):
     res = run("simulate", UR10, "--at", at, "-o", tmp_path / "m.csv", "-q")
     assert res.exit_code == 0, res.output
     warned = [ln for ln in res.output.splitlines() if ln.startswith("calibc: warning: ")]
-    assert len(warned) == 1 and "q3 of 1 configuration lies outside the joint's limits" \
+    assert len(warned) == 1 and "1 reading of m.q3 lies outside the joint's limits" \
         in warned[0] and f"{at}:3 100.5" in warned[0], res.output
     res = run("simulate", UR10, "--at", configs_file(tmp_path), "-o", tmp_path / "m.csv", "-q")
     assert "warning" not in res.output, res.output
