@@ -102,7 +102,10 @@ class _Part:
 
 def _part(prog: Program, reading: np.ndarray, lo: np.ndarray, hi: np.ndarray,
           ind: np.ndarray, centre: np.ndarray, chunk: Chunk | None) -> _Part | None:
-    ev = Evaluation(prog, lo, hi, ind, centre)
+    # the readings' derivatives D and each row's configuration alone: the gradient in the
+    # unknowns (the models' c1 holds that part) is not computed (G with no columns). D is
+    # made from the slots' ranges over the box, never from G or the centre: the same bits
+    ev = Evaluation(prog, lo, hi, ind[:0], centre[:0])
     forms = ev.run()
     if not forms:
         return None

@@ -246,3 +246,99 @@ def test_chunks_give_the_whole_programs_relaxation(tmp_path_factory, monkeypatch
     at = {int(k): int(t) for k, t in zip(rq.keys, rq.targets, strict=True) if t >= 0}
     for k, t in zip(rp.keys, rp.targets, strict=True):
         assert t < 0 or at.get(int(k)) == int(t)
+
+
+def _with_gradients(monkeypatch) -> None:
+    """quadratic_readings' first-order pass with the gradient in the unknowns as well (at
+    the box's centre), as it was made before it computed the readings' part alone."""
+    import calib_dsl.relax.quadratic_readings as qr
+
+    plain = qr.Evaluation
+
+    def evaluation(prog, lo, hi, ind, centre):
+        ind = independents(prog)
+        return plain(prog, lo, hi, ind, 0.5 * lo[ind] + 0.5 * hi[ind])
+
+    monkeypatch.setattr(qr, "Evaluation", evaluation)
+
+
+def assert_same_relaxation(a, b) -> None:
+    """Two relaxations with the same bits: rows, sides, columns and keys."""
+    assert (a is None) == (b is None)
+    if a is None:
+        return
+    (ra, ea), (rb, eb) = a, b
+    for name in ("b", "b_lo", "lo", "hi", "keys", "targets", "col_keys", "slack"):
+        x, y = getattr(ra, name), getattr(rb, name)
+        assert (x is None) == (y is None), name
+        if x is not None:
+            assert np.array_equal(x, y, equal_nan=True), name
+    assert ra.A.shape == rb.A.shape
+    for name in ("data", "indices", "indptr"):
+        assert np.array_equal(getattr(ra.A, name), getattr(rb.A, name), equal_nan=True), name
+    assert np.array_equal(ea.kept, eb.kept)
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
+                                 HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), n_p=st.integers(1, 4), n_cfg=st.integers(1, 3),
+       n_con=st.integers(1, 5), depth=st.integers(1, 4), models=st.integers(1, 6),
+       mccormick=st.booleans())
+def test_readings_alone_give_the_same_relaxation(monkeypatch, seed, n_p, n_cfg, n_con, depth,
+                                                 models, mccormick):
+    """The first-order pass computes the readings' derivatives without the gradient in the
+    unknowns: the relaxation is the same, bit for bit, as with it, on random programs whose
+    rows mix configurations, over random boxes around the truth."""
+    built = build_random_model(seed, n_p, n_cfg, 2, n_con, depth, ops=SUPPORTED_OPS,
+                               models=models)
+    assume(built is not None)
+    prog, m = built
+    p_true, cell_true = truth_arrays(prog, m)
+    rng = np.random.default_rng(seed)
+    for trial in range(3):
+        lo, hi = random_box(rng, prog, p_true, cell_true, trial >= 1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            alone = relax_quadratic_readings(prog, lo, hi, mccormick=mccormick)
+            with monkeypatch.context() as mp:
+                _with_gradients(mp)
+                both = relax_quadratic_readings(prog, lo, hi, mccormick=mccormick)
+        assert_same_relaxation(alone, both)
+        if alone is not None:
+            check_readings(prog, lo, hi, p_true, cell_true, f"trial {trial}", bounds=False)
+
+
+@pytest.mark.slow
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), joints=st.integers(1, 3), rows=st.integers(3, 6),
+       formulation=st.sampled_from(["matrix", "rotation"]))
+def test_readings_alone_give_the_same_relaxation_of_chunked_robots(
+        tmp_path_factory, monkeypatch, seed, joints, rows, formulation):
+    """The same on random robots relaxed two rows at a time (a chunk's program: the relaxed
+    check's and a large campaign's path), and the truth satisfies it."""
+    import calib_dsl.relax.quadratic_readings as qr
+    import calib_dsl.relax.taylor as taylor
+
+    rng = np.random.default_rng(seed)
+    source = robot_source(rng, joints, 1e-4, 1e-4, True)
+    sim = simulate_cal(tmp_path_factory.mktemp("robot"), source, clean_version(source), rows,
+                       seed, formulation)
+    prog = sim.prog
+    assume(prog.rows is not None)
+    lo, hi = random_box(rng, prog, sim.p_true, sim.cell_true, False)
+    small = prog.rows.shared + 2 * prog.rows.width
+    with monkeypatch.context() as mp, warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        mp.setattr(qr, "CHUNK_SLOTS", small)
+        mp.setattr(taylor, "CHUNK_SLOTS", small)
+        alone = qr.relax_quadratic_readings(prog, lo, hi)
+        _with_gradients(mp)
+        both = qr.relax_quadratic_readings(prog, lo, hi)
+    assume(alone is not None)
+    assert_same_relaxation(alone, both)
+    rel, ex = alone
+    z = true_columns(prog, lo, hi, rel, ex, sim.p_true, sim.cell_true)
+    assert z is not None
+    assert_holds_truth(rel, ex, z, sim.p_true, "readings alone", False)
