@@ -60,7 +60,7 @@ def backward_step(g: Group, lo: np.ndarray, hi: np.ndarray) -> None:
 Step = Callable[[np.ndarray, np.ndarray, np.ndarray, "Share | None"], bool]
 
 
-Steps = list[tuple[np.ndarray, Step]]
+Steps = list[tuple[tuple[np.ndarray, ...], Step]]  # each with its group's columns of slots
 
 ALIGN = 64  # (elements: a multiple of any SIMD loop's width, so no share ends mid-vector)
 
@@ -118,11 +118,15 @@ def fast_sweep(steps: tuple[Steps, Steps], lo: np.ndarray, hi: np.ndarray,
             np.right_shift(stamp, 1, out=stamp)
         at = 0
         for part in steps:
-            for slots, step in part:
-                if (k == 1 or stamp[slots].any()) and step(lo, hi, stamp, share):
+            for cols, step in part:
+                if (k == 1 or _moved(stamp, cols)) and step(lo, hi, stamp, share):
                     return at
                 at += 1
     return None
+
+
+def _moved(stamp: np.ndarray, cols: tuple[np.ndarray, ...]) -> bool:
+    return any(stamp[c].any() for c in cols)
 
 
 def kernels(prog: Program) -> tuple[Steps, Steps]:
@@ -135,18 +139,18 @@ def _make_kernels(prog: Program) -> tuple[Steps, Steps]:
     fw: Steps = []
     bw: Steps = []
     for g in prog.groups:
-        slots = np.sort(np.concatenate([g.out.ravel(), g.args.ravel()]))
-        slots = slots[np.concatenate([[True], slots[1:] != slots[:-1]])]
+        # (the group's own columns, views: a large program's index arrays are held once)
+        cols = (*g.out.T, *g.args.T)
         f, b = _group_kernels(g)
-        fw.append((slots, f))
-        bw.append((slots, b))
+        fw.append((cols, f))
+        bw.append((cols, b))
     return fw, bw[::-1]
 
 
 def _group_kernels(g: Group) -> tuple[Step, Step]:
     n = len(g.out)
     if g.op == "rot":
-        cols = [np.ascontiguousarray(c) for c in (*g.args.T, *g.out.T)]
+        cols = [*g.args.T, *g.out.T]
         uniq = (*g.args_unique, *g.out_unique)
 
         def rot(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray,
@@ -154,12 +158,13 @@ def _group_kernels(g: Group) -> tuple[Step, Step]:
             def some(s: slice) -> list[tuple]:
                 beta, u, v, u2, v2 = [(lo[c[s]], hi[c[s]]) for c in cols]
                 return list(rot_contract_raw(beta, u, v, u2, v2, sweeps=_ROT_SWEEPS))
-            return _write_all(lo, hi, stamp, zip(cols, _shared(share, n, some), uniq, strict=True))
+            new = _shared(share, n, some)
+            return _write_all(lo, hi, stamp, zip(cols, new, uniq, strict=True))
         return rot, rot
 
-    out = np.ascontiguousarray(g.out[:, 0])
+    out = g.out[:, 0]
     out_u = g.out_unique[0]
-    acols = [np.ascontiguousarray(c) for c in g.args.T]
+    acols = list(g.args.T)
     aunique = g.args_unique
     param = g.param
     fw_fn = FORWARD[g.op]
@@ -169,14 +174,16 @@ def _group_kernels(g: Group) -> tuple[Step, Step]:
         def some(s: slice) -> list[tuple]:
             return [fw_fn([(lo[c[s]], hi[c[s]]) for c in acols],
                           None if param is None else param[s])]
-        return _write_all(lo, hi, stamp, zip([out], _shared(share, n, some), [out_u], strict=True))
+        new = _shared(share, n, some)
+        return _write_all(lo, hi, stamp, zip([out], new, [out_u], strict=True))
 
     def bw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, share: Share | None) -> bool:
         def some(s: slice) -> list[tuple]:
             o = out[s]
             return list(bw_fn((lo[o], hi[o]), [(lo[c[s]], hi[c[s]]) for c in acols],
                               None if param is None else param[s]))
-        return _write_all(lo, hi, stamp, zip(acols, _shared(share, n, some), aunique, strict=True))
+        new = _shared(share, n, some)
+        return _write_all(lo, hi, stamp, zip(acols, new, aunique, strict=True))
     return fw, bw
 
 
