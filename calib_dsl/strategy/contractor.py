@@ -199,11 +199,12 @@ class FixPoint(Composable):
             work = work + nxt.work
             if nxt.empty:
                 return replace(nxt, work=work, final=False)
-            old = out.hi - out.lo
+            # (measured now: no box-sized array is held through the next application)
+            narrowed = self.ratio is not None and _narrowed(out, nxt, self.ratio)
             out = nxt
             if self.progress is not None:
                 self.progress(f"{self.label} {k}", out.lo, out.hi)
-            if out.final or (self.ratio is not None and not _narrowed(old, out, self.ratio)):
+            if out.final or (self.ratio is not None and not narrowed):
                 break
         return replace(out, work=work, final=False)
 
@@ -211,8 +212,9 @@ class FixPoint(Composable):
         return replace(self, ctc=self.ctc.with_budget(sweeps))
 
 
-def _narrowed(old: np.ndarray, out: Outcome, ratio: float) -> bool:
-    """Whether some slot of `out` narrowed by more than `ratio` of its width `old`."""
+def _narrowed(before: Outcome, out: Outcome, ratio: float) -> bool:
+    """Whether some slot of `out` narrowed by more than `ratio` of its width in `before`."""
+    old = before.hi - before.lo
     with np.errstate(invalid="ignore", divide="ignore"):
         gained = np.where(old > 0, 1.0 - (out.hi - out.lo) / old, 0.0)
     return bool(np.any(gained > ratio))
