@@ -255,7 +255,9 @@ class _Rounds(Composable):
         s, n = self.spec.settings, len(self.ind)
         certs = self.fine_certs if self.phase.fine else self.spec.certs
         if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
-            certs.box = (self.lo.copy(), self.hi.copy())
+            # (the round's own arrays, not a copy: a box is never written in place once a
+            # round has it; `narrow` writes a copy)
+            certs.box = (self.lo, self.hi)
         self.skip = self.skip | self.never
         lp = replace(s.lp, workers=self.spec.threads or s.lp.workers)
         if this.quad is None:
