@@ -74,6 +74,14 @@ class Outcome:
         return self.emptied is not None
 
 
+def handed(out: Outcome) -> list[np.ndarray]:
+    """out's box as a list to pop into a call, `c.contract(box.pop(), box.pop())`, once the
+    caller's own name for `out` is gone: the callee then holds the only references, and a
+    box it replaces is freed at once (a large program's boxes are held no longer than
+    used). A contractor that wraps its given box likewise deletes its parameters."""
+    return [out.hi, out.lo]
+
+
 class Contractor(Protocol):
     @property
     def name(self) -> str: ...
@@ -148,6 +156,7 @@ class Sequence(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out = Outcome(lo, hi, Stop.NONE)
+        del lo, hi  # (see `handed`)
         work, stop = Work(), Stop.NONE
         for step in self.steps:
             if self.max_sweeps is not None:
@@ -156,7 +165,9 @@ class Sequence(Composable):
                     stop = Stop.MAX_SWEEPS
                     break
                 step = step.with_budget(left)
-            out = step.contract(out.lo, out.hi)
+            box = handed(out)
+            del out
+            out = step.contract(box.pop(), box.pop())
             work, stop = work + out.work, out.stop or stop
             if self.history is not None and not out.empty:
                 self.history.record(step.name, out.lo, out.hi)
@@ -194,6 +205,7 @@ class FixPoint(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out, work = Outcome(lo, hi, Stop.NONE), Work()
+        del lo, hi  # (see `handed`)
         for k in itertools.count(1) if self.most is None else range(1, self.most + 1):
             nxt = self.ctc.contract(out.lo, out.hi)
             work = work + nxt.work
