@@ -17,8 +17,8 @@ import numpy as np
 from calib_dsl.ir.program import Program
 from calib_dsl.ir.rows import tiled_mask
 from calib_dsl.ir.status import UNKNOWNS, Status, Stop
-from calib_dsl.propagate.diagnose import Emptied, diagnose
-from calib_dsl.propagate.kernels import Share, fast_sweep, kernels, sweep
+from calib_dsl.propagate.diagnose import Emptied, sweep_from
+from calib_dsl.propagate.kernels import MOVED, Share, fast_sweep, kernels
 
 
 @dataclass(frozen=True)
@@ -50,21 +50,20 @@ def propagate(prog: Program, tol: float = 1e-5, max_sweeps: int = 1000,
         return _infeasible(box, 0, start, Emptied(prog.slots.names[s], prog.slots.origin[s], None))
     sweeps, stop = 0, Stop.MAX_SWEEPS
     steps = kernels(prog)
-    # the last sweep that moved each slot (in half the bytes where the count allows)
-    stamp = np.zeros(len(box[0]), dtype=np.int32 if max_sweeps < 2**31 - 1 else np.int64)
+    # whether each slot moved in this sweep or the one before (kernels.MOVED)
+    stamp = np.zeros(len(box[0]), dtype=np.uint8)
     while sweeps < max_sweeps:
         before = (box[0][watch].copy(), box[1][watch].copy())
-        saved = (box[0].copy(), box[1].copy())
         sweeps += 1
-        fast_sweep(steps, box[0], box[1], stamp, sweeps, share)
-        if np.any(box[0] > box[1]):
-            # The fast sweep equals the general one until a domain first becomes empty; from
-            # there only the general one spreads emptiness exactly: replay the sweep with it.
-            box[0][:], box[1][:] = saved
-            sweep(prog.groups, box[0], box[1])
-            if np.any(box[0] > box[1]):
-                return _infeasible(box, sweeps, start, diagnose(prog, *saved))
-            stamp[:] = sweeps  # (cannot happen) as if everything moved
+        at = fast_sweep(steps, box[0], box[1], stamp, sweeps, share)
+        if at is not None:
+            # The fast sweep stopped before the step that would empty a domain; from there
+            # only the general steps spread emptiness exactly: the sweep goes on with them
+            # (no copy of the box is kept for this).
+            emptied = sweep_from(prog, box[0], box[1], at)
+            if emptied is not None:
+                return _infeasible(box, sweeps, start, emptied)
+            stamp[:] = MOVED  # (cannot happen) as if everything moved
         gain = _contraction(before, (box[0][watch], box[1][watch]))
         if gain == 0.0:
             stop = Stop.FIXED_POINT

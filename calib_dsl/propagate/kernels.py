@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import inspect
 import itertools
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,12 +55,18 @@ def backward_step(g: Group, lo: np.ndarray, hi: np.ndarray) -> None:
         _tighten(lo, hi, c, alo, ahi, unique)
 
 
-Step = Callable[[np.ndarray, np.ndarray, np.ndarray, int, "Share | None"], None]
+# A fast step: (lo, hi, stamp, share) -> whether it would have emptied a domain (its writes
+# then undone).
+Step = Callable[[np.ndarray, np.ndarray, np.ndarray, "Share | None"], bool]
 
 
-Steps = list[tuple[np.ndarray, Step]]
+Steps = list[tuple[tuple[np.ndarray, ...], Step]]  # each with its group's columns of slots
 
 ALIGN = 64  # (elements: a multiple of any SIMD loop's width, so no share ends mid-vector)
+
+# A slot's stamp (one byte): MOVED where a step moved it in this sweep, 1 where it moved in
+# the sweep before and not since (fast_sweep halves every stamp as a sweep begins).
+MOVED = 2
 
 
 @dataclass(frozen=True)
@@ -101,14 +107,26 @@ _ROT_SWEEPS = inspect.signature(rot_contract).parameters["sweeps"].default
 
 
 def fast_sweep(steps: tuple[Steps, Steps], lo: np.ndarray, hi: np.ndarray,
-               stamp: np.ndarray, k: int, share: Share | None = None) -> None:
-    """Sweep number k (1, 2, ...); large steps shared as `share` says."""
+               stamp: np.ndarray, k: int, share: Share | None = None) -> int | None:
+    """Sweep number k (1, 2, ...), large steps shared as `share` says; a step none of whose
+    slots moved in this sweep or the one before is skipped (it would move nothing). The fast
+    steps equal the general ones until a domain first becomes empty: a step that would empty
+    one is undone and the sweep stops before it, its position returned (the forward steps
+    in the groups' order, then the backward ones: diagnose.sweep_from goes on from there)."""
     with np.errstate(all="ignore"):
+        if k > 1:
+            np.right_shift(stamp, 1, out=stamp)
+        at = 0
         for part in steps:
-            for slots, step in part:
-                if k > 1 and stamp[slots].max() < k - 1:
-                    continue
-                step(lo, hi, stamp, k, share)
+            for cols, step in part:
+                if (k == 1 or _moved(stamp, cols)) and step(lo, hi, stamp, share):
+                    return at
+                at += 1
+    return None
+
+
+def _moved(stamp: np.ndarray, cols: tuple[np.ndarray, ...]) -> bool:
+    return any(stamp[c].any() for c in cols)
 
 
 def kernels(prog: Program) -> tuple[Steps, Steps]:
@@ -121,72 +139,79 @@ def _make_kernels(prog: Program) -> tuple[Steps, Steps]:
     fw: Steps = []
     bw: Steps = []
     for g in prog.groups:
-        slots = np.sort(np.concatenate([g.out.ravel(), g.args.ravel()]))
-        slots = slots[np.concatenate([[True], slots[1:] != slots[:-1]])]
+        # (the group's own columns, views: a large program's index arrays are held once)
+        cols = (*g.out.T, *g.args.T)
         f, b = _group_kernels(g)
-        fw.append((slots, f))
-        bw.append((slots, b))
+        fw.append((cols, f))
+        bw.append((cols, b))
     return fw, bw[::-1]
 
 
 def _group_kernels(g: Group) -> tuple[Step, Step]:
     n = len(g.out)
     if g.op == "rot":
-        cols = [np.ascontiguousarray(c) for c in (*g.args.T, *g.out.T)]
+        cols = [*g.args.T, *g.out.T]
         uniq = (*g.args_unique, *g.out_unique)
 
-        def rot(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int,
-                share: Share | None) -> None:
+        def rot(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray,
+                share: Share | None) -> bool:
             def some(s: slice) -> list[tuple]:
                 beta, u, v, u2, v2 = [(lo[c[s]], hi[c[s]]) for c in cols]
                 return list(rot_contract_raw(beta, u, v, u2, v2, sweeps=_ROT_SWEEPS))
             new = _shared(share, n, some)
-            for c, (nlo, nhi), one in zip(cols, new, uniq, strict=True):
-                _write(lo, hi, c, nlo, nhi, one, stamp, k)
+            return _write_all(lo, hi, stamp, zip(cols, new, uniq, strict=True))
         return rot, rot
 
-    out = np.ascontiguousarray(g.out[:, 0])
+    out = g.out[:, 0]
     out_u = g.out_unique[0]
-    acols = [np.ascontiguousarray(c) for c in g.args.T]
+    acols = list(g.args.T)
     aunique = g.args_unique
     param = g.param
     fw_fn = FORWARD[g.op]
     bw_fn = FAST_BACKWARD.get(g.op, BACKWARD[g.op])
 
-    def fw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int,
-           share: Share | None) -> None:
+    def fw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, share: Share | None) -> bool:
         def some(s: slice) -> list[tuple]:
             return [fw_fn([(lo[c[s]], hi[c[s]]) for c in acols],
                           None if param is None else param[s])]
-        ((zlo, zhi),) = _shared(share, n, some)
-        _write(lo, hi, out, zlo, zhi, out_u, stamp, k)
+        new = _shared(share, n, some)
+        return _write_all(lo, hi, stamp, zip([out], new, [out_u], strict=True))
 
-    def bw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, k: int,
-           share: Share | None) -> None:
+    def bw(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray, share: Share | None) -> bool:
         def some(s: slice) -> list[tuple]:
             o = out[s]
             return list(bw_fn((lo[o], hi[o]), [(lo[c[s]], hi[c[s]]) for c in acols],
                               None if param is None else param[s]))
         new = _shared(share, n, some)
-        for c, (nlo, nhi), u in zip(acols, new, aunique, strict=True):
-            _write(lo, hi, c, nlo, nhi, u, stamp, k)
+        return _write_all(lo, hi, stamp, zip(acols, new, aunique, strict=True))
     return fw, bw
 
 
-def _write(lo: np.ndarray, hi: np.ndarray, idx: np.ndarray, nlo: np.ndarray, nhi: np.ndarray,
-           unique: bool, stamp: np.ndarray, k: int) -> None:
-    """_tighten, and stamp the slots it moved with sweep k."""
-    olo, ohi = lo[idx], hi[idx]
-    if unique:
-        wlo, whi = np.fmax(olo, nlo), np.fmin(ohi, nhi)
-        lo[idx] = wlo
-        hi[idx] = whi
-    else:
-        np.fmax.at(lo, idx, nlo)
-        np.fmin.at(hi, idx, nhi)
-        wlo, whi = lo[idx], hi[idx]
-    moved = (wlo != olo) | (whi != ohi)
-    stamp[idx[moved]] = k
+def _write_all(lo: np.ndarray, hi: np.ndarray, stamp: np.ndarray,
+               writes: Iterable[tuple[np.ndarray, tuple[np.ndarray, np.ndarray], bool]]
+               ) -> bool:
+    """Each (slots, (new lo, new hi), unique) of one step written as _tighten writes it, the
+    slots it moved stamped; where that empties a domain, every write undone (last first: the
+    box as before the step) and True."""
+    undo = []
+    for idx, (nlo, nhi), unique in writes:
+        olo, ohi = lo[idx], hi[idx]
+        undo.append((idx, olo, ohi))
+        if unique:
+            wlo, whi = np.fmax(olo, nlo), np.fmin(ohi, nhi)
+            lo[idx] = wlo
+            hi[idx] = whi
+        else:
+            np.fmax.at(lo, idx, nlo)
+            np.fmin.at(hi, idx, nhi)
+            wlo, whi = lo[idx], hi[idx]
+        if np.any(wlo > whi):
+            for c, clo, chi in reversed(undo):
+                lo[c], hi[c] = clo, chi
+            return True
+        moved = (wlo != olo) | (whi != ohi)
+        stamp[idx[moved]] = MOVED
+    return False
 
 
 def _rotation(g: Group, lo: np.ndarray, hi: np.ndarray) -> None:

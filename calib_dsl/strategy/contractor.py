@@ -74,6 +74,14 @@ class Outcome:
         return self.emptied is not None
 
 
+def handed(out: Outcome) -> list[np.ndarray]:
+    """out's box as a list to pop into a call, `c.contract(box.pop(), box.pop())`, once the
+    caller's own name for `out` is gone: the callee then holds the only references, and a
+    box it replaces is freed at once (a large program's boxes are held no longer than
+    used). A contractor that wraps its given box likewise deletes its parameters."""
+    return [out.hi, out.lo]
+
+
 class Contractor(Protocol):
     @property
     def name(self) -> str: ...
@@ -148,6 +156,7 @@ class Sequence(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out = Outcome(lo, hi, Stop.NONE)
+        del lo, hi  # (see `handed`)
         work, stop = Work(), Stop.NONE
         for step in self.steps:
             if self.max_sweeps is not None:
@@ -156,7 +165,9 @@ class Sequence(Composable):
                     stop = Stop.MAX_SWEEPS
                     break
                 step = step.with_budget(left)
-            out = step.contract(out.lo, out.hi)
+            box = handed(out)
+            del out
+            out = step.contract(box.pop(), box.pop())
             work, stop = work + out.work, out.stop or stop
             if self.history is not None and not out.empty:
                 self.history.record(step.name, out.lo, out.hi)
@@ -194,16 +205,18 @@ class FixPoint(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         out, work = Outcome(lo, hi, Stop.NONE), Work()
+        del lo, hi  # (see `handed`)
         for k in itertools.count(1) if self.most is None else range(1, self.most + 1):
             nxt = self.ctc.contract(out.lo, out.hi)
             work = work + nxt.work
             if nxt.empty:
                 return replace(nxt, work=work, final=False)
-            old = out.hi - out.lo
+            # (measured now: no box-sized array is held through the next application)
+            narrowed = self.ratio is not None and _narrowed(out, nxt, self.ratio)
             out = nxt
             if self.progress is not None:
                 self.progress(f"{self.label} {k}", out.lo, out.hi)
-            if out.final or (self.ratio is not None and not _narrowed(old, out, self.ratio)):
+            if out.final or (self.ratio is not None and not narrowed):
                 break
         return replace(out, work=work, final=False)
 
@@ -211,8 +224,9 @@ class FixPoint(Composable):
         return replace(self, ctc=self.ctc.with_budget(sweeps))
 
 
-def _narrowed(old: np.ndarray, out: Outcome, ratio: float) -> bool:
-    """Whether some slot of `out` narrowed by more than `ratio` of its width `old`."""
+def _narrowed(before: Outcome, out: Outcome, ratio: float) -> bool:
+    """Whether some slot of `out` narrowed by more than `ratio` of its width in `before`."""
+    old = before.hi - before.lo
     with np.errstate(invalid="ignore", divide="ignore"):
         gained = np.where(old > 0, 1.0 - (out.hi - out.lo) / old, 0.0)
     return bool(np.any(gained > ratio))

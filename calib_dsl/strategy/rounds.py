@@ -106,7 +106,9 @@ class LPRounds(Composable):
 
     def contract(self, lo: np.ndarray, hi: np.ndarray) -> Outcome:
         rounds = FixPoint(_Rounds(self, lo, hi), ratio=None, most=None, name=self.name)
-        return rounds.contract(lo, hi)
+        box = [hi, lo]
+        del lo, hi  # (see contractor.handed)
+        return rounds.contract(box.pop(), box.pop())
 
     def with_budget(self, sweeps: int) -> LPRounds:
         return replace(self, max_sweeps=sweeps)
@@ -254,8 +256,12 @@ class _Rounds(Composable):
         """Certified bounds on the unknowns over this round's relaxation."""
         s, n = self.spec.settings, len(self.ind)
         certs = self.fine_certs if self.phase.fine else self.spec.certs
-        if this.fresh:  # (where the optima it keeps stand: strategy/relaxed_check.py)
-            certs.box = (self.lo.copy(), self.hi.copy())
+        if this.fresh and self.phase.fine:
+            # where the optima it keeps stand: the fine rounds' optima are checked on the
+            # rows left out (strategy/relaxed_check.py; the others' never are). The round's
+            # own arrays, not a copy: a box is never written in place once a round has it
+            # (`narrow` writes a copy).
+            certs.box = (self.lo, self.hi)
         self.skip = self.skip | self.never
         lp = replace(s.lp, workers=self.spec.threads or s.lp.workers)
         if this.quad is None:

@@ -39,7 +39,7 @@ from calib_dsl.lp.certify import Certificates
 from calib_dsl.progress import Meter
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
-from calib_dsl.strategy.contractor import Composable, Outcome, Work
+from calib_dsl.strategy.contractor import Composable, Outcome, Work, handed
 from calib_dsl.strategy.history import History
 from calib_dsl.strategy.relaxed_check import violated_rows
 from calib_dsl.strategy.rounds import LPRounds
@@ -70,6 +70,7 @@ class WorkingRows(Composable):
         s, work = self.settings, Work()
         rows = start_rows(self.prog, s.sampling.working_rows)
         out = Outcome(lo, hi, Stop.NONE)
+        del lo, hi  # (see contractor.handed)
         # a pass after a check resumes the fine rounds where the last ended (their box is
         # near its end: the first-order and wide rounds' gains are below their thresholds,
         # and would stop the rounds before the fine ones ran on the rows that joined)
@@ -95,7 +96,9 @@ class WorkingRows(Composable):
                               fine_kind=kind if resume else "readings",
                               fine_certs=fine, settled=settled, fine_rounds=limit)
             before = work
-            out = rounds.contract(out.lo, out.hi)
+            box = handed(out)
+            del out
+            out = rounds.contract(box.pop(), box.pop())
             work = work + out.work
             if last or out.empty or work.sweeps >= self.max_sweeps:
                 break
