@@ -24,6 +24,7 @@ from calib_dsl.accuracy.held_readings import Moves
 from calib_dsl.analysis.certify_point import check_points, reading_slots
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.chunked import CHUNK_THREADS, in_threads
 
 
 def inner_hull(prog: Program, points: Sequence[np.ndarray]
@@ -55,7 +56,7 @@ def inner_at(prog: Program, points: np.ndarray, slots: np.ndarray, picks: np.nda
     readings `moves.of` names for it (accuracy/held_readings.py), else at their middles.
     A loop's rows are evaluated `block` rows at a time, each pass at the (point, readings)
     pairs some slot of those rows picked (every point on every row would cost points x
-    rows)."""
+    rows), the passes shared among threads."""
     low, high = np.full(len(slots), np.inf), np.full(len(slots), -np.inf)
     ends = np.full((len(slots), 2), -1, dtype=np.int64)
     read = np.full((len(slots), 2), -1, dtype=np.int64)
@@ -70,15 +71,22 @@ def inner_at(prog: Program, points: np.ndarray, slots: np.ndarray, picks: np.nda
         rows = np.unique(row)
         groups = [(np.flatnonzero(np.isin(row, rows[a:a + block])), rows[a:a + block])
                   for a in range(0, len(rows), block)]
-    for mine, rows_ in groups:
-        if not len(mine):
-            continue
+
+    def evaluated(group: tuple[np.ndarray, np.ndarray | None]) -> tuple:
+        mine, rows_ = group
         # (a pair's key: its point and its readings)
         used, which = np.unique(picks[mine] * configs + of[mine], return_inverse=True)
-        which = which.reshape(len(mine), -1)
         point, config = used // configs, used % configs
-        enclosures = _evaluated(prog, points[point], slots[mine], rows_, block,
-                                None if moves is None else moves.configs[config])
+        return mine, which.reshape(len(mine), -1), point, config, _evaluated(
+            prog, points[point], slots[mine], rows_, block,
+            None if moves is None else moves.configs[config])
+
+    # (the blocks evaluated in threads, joined in their order: relax/chunked.py; one a thread
+    # at a time, their enclosures' memory bounded)
+    todo = [g for g in groups if len(g[0])]
+    done = (r for a in range(0, len(todo), CHUNK_THREADS)
+            for r in in_threads(evaluated, todo[a:a + CHUNK_THREADS]))
+    for mine, which, point, config, enclosures in done:
         for m in range(which.shape[1]):
             a_end, b_end = enclosures[0][which[:, m], np.arange(len(mine))], \
                 enclosures[1][which[:, m], np.arange(len(mine))]

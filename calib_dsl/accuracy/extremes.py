@@ -7,12 +7,15 @@ prediction LPs' own optima over the relaxation (outside the solution set, in gen
 first are corrected (accuracy/corrections.py: their LPs solved again with the rows their
 checks found violated tightened); what is still unproven, and the second, is pulled back
 towards the certified centre by bisection until certify_point.py proves it, all candidates
-checked in one pass per step.
+checked in one pass per step. Each sign's candidates are found and corrected on a thread of
+their own (one sign's checks, in Python, overlap the other's LPs, in HiGHS), and the
+relaxation's optima are pulled back beside them.
 """
 
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
@@ -35,27 +38,45 @@ def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre
                        screen: RowScreen | None = None) -> list[Found]:
     """Certified points towards the extremes of `directions` (one a row, independents'
     order) within `box` (the independents' bounds): the corrected optima of the model
-    linearized at `centre`, and the relaxation's `optima` (with the centre's readings)
-    pulled back towards the centre (`screen`: as pulled_back's)."""
+    linearized at `centre` (the largest's, then the smallest's), and the relaxation's
+    `optima` (with the centre's readings) pulled back towards the centre (`screen`: as
+    pulled_back's)."""
     def back(starts: np.ndarray, start_readings: np.ndarray, ends: np.ndarray,
              readings: np.ndarray) -> list[Found | None]:
         return pulled_back(prog, (starts, start_readings), ends, readings,
                            settings.pullback_steps, screen)
 
-    near = linearized_optima(prog, box, centre, directions, settings)
-    got = [] if near is None else \
-        corrected(prog, near, (centre.point, centre.readings), settings, back)
-    at_centre = np.repeat(centre.readings[None], len(optima), axis=0)
-    far = back(np.repeat(centre.point[None], len(optima), axis=0), at_centre, optima,
-               at_centre)
-    return [w for w in [*got, *far] if w is not None]
+    def far() -> list[Found | None]:
+        at_centre = np.repeat(centre.readings[None], len(optima), axis=0)
+        return back(np.repeat(centre.point[None], len(optima), axis=0), at_centre, optima,
+                    at_centre)
+
+    model = _linearized(prog, box, centre, directions, settings)
+    start = (centre.point, centre.readings)
+    if model is None:
+        return [w for w in far() if w is not None]
+    if settings.lp.workers <= 1:  # both signs' candidates corrected together, then the far
+        found = _candidates(model, (1.0, -1.0), settings.lp)
+        got = [] if found is None else corrected(prog, found, start, settings, back)
+        return [w for w in [*got, *far()] if w is not None]
+    one = replace(settings, lp=replace(settings.lp, workers=1))  # (a sign's LPs: one model)
+
+    def near(sign: float) -> list[Found | None]:
+        found = _candidates(model, (sign,), one.lp)
+        return [] if found is None else corrected(prog, found, start, one, back)
+
+    with ThreadPoolExecutor(3) as pool:
+        parts = [pool.submit(near, 1.0), pool.submit(near, -1.0), pool.submit(far)]
+        return [w for part in parts for w in part.result() if w is not None]
 
 
-def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
-                      directions: np.ndarray, settings: Settings) -> Candidates | None:
-    """The optima of the largest and smallest of each of a spread of the `directions` (one
-    a row, independents' order) over the model linearized at `centre` within `box` (the
-    independents' bounds), with their objectives and bases (None: no LP)."""
+Linearized = tuple[LinearModel, np.ndarray, np.ndarray]  # the model, objectives, their path
+
+
+def _linearized(prog: Program, box: tuple[np.ndarray, np.ndarray], centre: Witness,
+                directions: np.ndarray, settings: Settings) -> Linearized | None:
+    """The model linearized at `centre` within `box`, the objectives of a spread of the
+    `directions` over it and the path their LPs walk (None: no LP)."""
     box = _inside(prog, box)
     free = np.flatnonzero(box[1] > box[0])
     if not len(free) or not len(directions):
@@ -69,10 +90,18 @@ def linearized_optima(prog: Program, box: tuple[np.ndarray, np.ndarray], centre:
     objectives = np.zeros((len(picked), lm.n + lm.width))
     objectives[:, :lm.n] = picked[:, free] * lm.scale
     # (each sign walks the directions in a path, each LP from its neighbour's optimum)
-    order = path(objectives[:, :lm.n], settings.prediction_path_window)
-    with ThreadPoolExecutor(2 if settings.lp.workers > 1 else 1) as pool:
+    return lm, objectives, path(objectives[:, :lm.n], settings.prediction_path_window)
+
+
+def _candidates(model: Linearized, signs: tuple[float, ...], lp: LPSettings
+                ) -> Candidates | None:
+    """The LPs' optima of each sign in `signs` in turn (each sign's walk on a HiGHS model
+    of its own, two in threads of their own where lp.workers allows), with their
+    objectives and bases."""
+    lm, objectives, order = model
+    with ThreadPoolExecutor(2 if lp.workers > 1 and len(signs) > 1 else 1) as pool:
         walks = list(pool.map(lambda sign: (sign, _optima(lm.rel, sign * objectives[order],
-                                                          settings.lp)), (1.0, -1.0)))
+                                                          lp)), signs))
     found = [(sign * objectives[order[i]], y, basis) for sign, walk in walks
              for i, y, basis in walk]
     if not found:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from calib_dsl.lp.highs import RowCheck, add_rows, load
+from calib_dsl.lp.highs import RowCheck, load
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings
 
@@ -36,6 +36,7 @@ class WorkingRows:
         self.dense = _dense(rel.A) if m * rel.A.shape[1] <= lp.dense_entries else None
         self.check = RowCheck(rel, most) if self.dense is None else None
         self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(m, -np.inf)
+        self.rows_of = _RowsOf(rel)
 
     def missing(self, x: np.ndarray) -> np.ndarray:
         """The rows outside the model that x violates (the `most` most violated, the most
@@ -53,7 +54,7 @@ class WorkingRows:
         return bad[np.argsort(-excess[bad])[:self.most]]
 
     def add(self, more: np.ndarray) -> None:
-        add_rows(self.h, self.rel, more)
+        self.rows_of.add(self.h, more)
         self.rows = np.concatenate([self.rows, more])
         self.seen[more] = self.optima
 
@@ -91,3 +92,32 @@ def _dense(A: Any) -> tuple[np.ndarray, np.ndarray]:
     at = np.repeat(np.arange(m), np.diff(np.asarray(A.indptr)))
     np.add.at(out, (at, np.asarray(A.indices)), np.asarray(A.data))
     return out, np.abs(out)
+
+
+class _RowsOf:
+    """The relaxation's rows as HiGHS adds them (lp/highs.py add_rows' arrays), each row's
+    entries and sides converted once: a path's LPs add a few rows hundreds of times."""
+
+    def __init__(self, rel: LinearRelaxation) -> None:
+        import highspy
+
+        inf = highspy.kHighsInf
+        A = rel.A
+        ptr = np.asarray(A.indptr)
+        index = np.asarray(A.indices).astype(np.int32)
+        value = np.asarray(A.data).astype(float)
+        self.index = [index[ptr[r]:ptr[r + 1]] for r in range(A.shape[0])]
+        self.value = [value[ptr[r]:ptr[r + 1]] for r in range(A.shape[0])]
+        self.lower = (np.full(A.shape[0], -inf) if rel.b_lo is None
+                      else np.where(np.isfinite(rel.b_lo), rel.b_lo, -inf).astype(float))
+        self.upper = np.where(np.isfinite(rel.b), rel.b, inf).astype(float)
+
+    def add(self, h: Any, rows: np.ndarray) -> None:
+        if not len(rows):
+            return
+        index = [self.index[r] for r in rows]
+        starts = np.zeros(len(rows), dtype=np.int32)
+        np.cumsum([len(i) for i in index[:-1]], out=starts[1:])
+        value = np.concatenate([self.value[r] for r in rows])
+        h.addRows(len(rows), self.lower[rows], self.upper[rows], len(value), starts,
+                  np.concatenate(index), value)

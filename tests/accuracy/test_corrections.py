@@ -7,6 +7,7 @@ inner ends the distances at the certified points they name."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -123,3 +124,29 @@ def test_predictions_on_an_arc_keep_the_truth_and_name_certified_points(
     assert np.all(p.inner_hi[some, 0] <= p.hi[some, 0])
     for w, r in zip(points, p.inner_readings, strict=True):
         assert check_point(prog, w, r).holds
+
+
+def test_each_signs_thread_finds_the_points_of_both_signs_together(tmp_path):
+    """The candidates of each sign found and corrected on a thread of their own, the far
+    optima pulled back beside them: as many points, each proven, reaching as far along
+    every direction as both signs corrected together on one HiGHS model (the LPs' bases
+    differ only by the models' histories: their optima agree to the LPs' tolerances)."""
+    prog = load(arc(tmp_path, 20.0, 20.0))
+    sol = solve(prog)
+    ind = independents(prog)
+    s = Settings()
+    centre = inner_bounds(prog, sol.lo, sol.hi, sol.starts, s).centre
+    assert centre is not None
+    box = (sol.lo[ind], sol.hi[ind])
+    directions = np.array([[1.0, 0.2], [0.3, 1.0], [-1.0, 0.5], [0.7, -0.6]])
+    far = np.array([[0.9, 0.1], [-0.8, 0.05]])
+    reach = {}
+    for workers in (1, 2):
+        found = certified_extremes(prog, box, centre, directions, far,
+                                   s.tuned(lp=replace(s.lp, workers=workers)))
+        for p, r in found:
+            assert check_point(prog, p, r).holds
+        reach[workers] = (len(found), np.array([p for p, _ in found]) @ directions.T)
+    assert reach[1][0] == reach[2][0]
+    np.testing.assert_allclose(reach[2][1].max(axis=0), reach[1][1].max(axis=0), atol=1e-6)
+    np.testing.assert_allclose(reach[2][1].min(axis=0), reach[1][1].min(axis=0), atol=1e-6)

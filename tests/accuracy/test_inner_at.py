@@ -12,6 +12,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from calib_dsl.accuracy import certified
 from calib_dsl.accuracy.certified import inner_at, inner_hull, picks
 from calib_dsl.analysis.certify_point import check_points
 from calib_dsl.elaborate.elaborator import Inputs
@@ -73,3 +74,20 @@ def test_picks_are_each_rows_largest_and_smallest():
     values = W @ points.T
     np.testing.assert_array_equal(got[:, 0], values.argmax(axis=1))
     np.testing.assert_array_equal(got[:, 1], values.argmin(axis=1))
+
+
+def test_blocks_shared_among_threads_give_the_serial_pass(tmp_path, monkeypatch):
+    """More blocks than are evaluated at once, shared among threads: the same intervals,
+    ends and readings as the blocks one after another in this thread."""
+    rng = np.random.default_rng(11)
+    prog = _program(tmp_path, rng, 40)
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    points = lo + (hi - lo) * rng.uniform(0.2, 0.8, (5, len(ind)))
+    targets = inner_hull(prog, list(points))[2]
+    some = rng.integers(0, len(points), (len(targets), 2))
+    threaded = inner_at(prog, points, targets, some, 1)
+    monkeypatch.setattr(certified, "in_threads", lambda fn, items: [fn(x) for x in items])
+    serial = inner_at(prog, points, targets, some, 1)
+    for a, b in zip(threaded, serial, strict=True):
+        np.testing.assert_array_equal(a, b)
