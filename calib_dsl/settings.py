@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings, OutlierSettings
+from calib_dsl.settings_strategy import LooseSettings
 
 
 # The cores the solver's LP threads, chunk threads and piece processes share: CALIBC_CORES
@@ -267,10 +268,10 @@ class Settings:
     # inner interval (at most shave_unknowns) have each end's gap contracted as a slice of
     # its own by at most shave_rounds fine rounds of LPs, the next end always the worst
     # outer/inner ratio's in the box shaved so far; an end whose gap is under shave_min_gap
-    # of the result's width is left as it is. By default an
-    # end starts only if, at the mean cost of the ends before, shaving stays within
-    # shave_share of the solve's time (an end costs rounds of LPs of its own). Three rounds
-    # close most of a gap; a fourth adds little for a third more time (docs/decisions/15).
+    # of the result's width is left as it is. By default an end starts only if, at the mean
+    # cost of the ends before, shaving stays within shave_share of the solve's time (an end
+    # costs rounds of LPs of its own). Three rounds close most of a gap; a fourth adds little
+    # for a third more time (docs/decisions/15). An unknown still loose after them: `loose`.
     shave_above: float = 1.05
     shave_unknowns: int = 8
     shave_rounds: int = 3
@@ -301,14 +302,13 @@ class Settings:
     split_rounds: int = 10
     split_worth: float = 0.03
     split_tried: int = 3
+    loose: LooseSettings = LooseSettings()  # after shaving (settings_strategy.py)
     # Pieces are refined in child processes, one per core the LPs use (1: in the solving
     # process), each with cores / processes LP threads (two threads each overcommit).
     piece_processes: int = min(2, CORES)
 
-    # -- LPs (lp/) -----------------------------------------------------------------------------
-    lp: LPSettings = LPSettings()
-    # -- outliers (outliers/) -------------------------------------------------------------------
-    outliers: OutlierSettings = OutlierSettings()
+    lp: LPSettings = LPSettings()  # -- LPs (lp/)
+    outliers: OutlierSettings = OutlierSettings()  # -- outliers (outliers/)
     # -- inner bounds (inner/) -------------------------------------------------------------
     inner: InnerSettings = InnerSettings()
     # -- rounds of LPs (strategy/rounds.py) ----------------------------------------------
@@ -440,7 +440,7 @@ class Settings:
 
 
 # Settings' fields that are groups
-GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error")
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose")
 
 
 def _names(group: str) -> set[str]:

@@ -95,10 +95,49 @@ SIX_DOF_GEN = _SIX_DOF_HEAD + """for k in 1..rows(m) {
 }
 """
 
+# PUMA 560, standard DH from its published table (a2 = 431.8, a3 = 20.3, d3 = 150.05,
+# d4 = 431.8 mm), measured at a tool point 0.5 mm from joint 6's axis: th5 and al5 are barely
+# seen by the data (the point hardly moves when joint 5's axis tilts), so they keep wide
+# domains. 24 parameters: the base's pose (absorbing joint 1's offsets), joints 2-5, the tool.
+PUMA560 = """units mm, rad;
+const e = 0.1;
+const qe = 1e-5;
+param bx in 0 +- 5 true 1.3; param by in 0 +- 5 true -0.9; param bz in 0 +- 5 true 2.1;
+param brx in 0 +- 0.005 true 0.0012; param bry in 0 +- 0.005 true -0.0021;
+param brz in 0 +- 0.005 true 0.0017;
+param th2 in 0 +- 0.01 true 0.0031; param a2 in 431.8 +- 3 true 432.6;
+param al2 in 0 +- 0.01 true -0.0017;
+param th3 in 0 +- 0.01 true -0.0024; param d3 in 150.05 +- 3 true 149.3;
+param a3 in 20.3 +- 3 true 21.1; param al3 in -pi / 2 +- 0.01 true -pi / 2 + 0.0026;
+param th4 in 0 +- 0.01 true 0.0043; param d4 in 431.8 +- 3 true 430.9;
+param a4 in 0 +- 3 true 0.6; param al4 in pi / 2 +- 0.01 true pi / 2 - 0.0019;
+param th5 in 0 +- 0.01 true -0.0036; param d5 in 0 +- 3 true -0.7;
+param a5 in 0 +- 3 true 0.5; param al5 in -pi / 2 +- 0.01 true -pi / 2 + 0.0022;
+param tx in 0 +- 3 true 0.4; param ty in 0 +- 3 true -0.3; param tz in 100 +- 3 true 100.5;
+robot puma(q1, q2, q3, q4, q5, q6) dh {
+  base x = bx, y = by, z = bz, rx = brx, ry = bry, rz = brz;
+  joint theta = q1, alpha = pi / 2;
+  joint theta = q2 + th2, a = a2, alpha = al2;
+  joint theta = q3 + th3, d = d3, a = a3, alpha = al3;
+  joint theta = q4 + th4, d = d4, a = a4, alpha = al4;
+  joint theta = q5 + th5, d = d5, a = a5, alpha = al5;
+  joint theta = q6;
+}
+table m = "puma.csv" {
+  q1, q2, q3, q4, q5, q6 : +- qe simulate in [-2, 2];
+  x, y, z : +- e;
+}
+for k in 1..rows(m) {
+  puma(m.q1[k], m.q2[k], m.q3[k], m.q4[k], m.q5[k], m.q6[k]) at (tx, ty, tz)
+    == (m.x[k], m.y[k], m.z[k]);
+}
+"""
+
 # name: (model source, its table's file, the model that simulates the table)
 ROBOTS = {
     "arm4_dh.cal": (ARM4_DH, "arm4.csv", "arm4_dh.cal"),
     "arm5_mdh.cal": (ARM5_MDH, "arm5.csv", "arm5_mdh.cal"),
     "arm3_6dof.cal": (SIX_DOF, "arm3.csv", "arm3_6dof_gen.cal"),
+    "puma560.cal": (PUMA560, "puma.csv", "puma560.cal"),
 }
 GENERATORS = {"arm3_6dof_gen.cal": SIX_DOF_GEN}

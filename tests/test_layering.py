@@ -19,6 +19,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "calib_dsl"
 RANKS = {
     "settings": 0, "arith": 0, "frontend": 0, "progress": 0,
     "settings_analysis": -1,  # settings.py's groups for analysis/, which settings.py imports
+    "settings_strategy": -1,  # settings.py's group for the loose split, likewise
     "ir": 1,
     "elaborate": 2, "compile": 2,
     "propagate": 3,

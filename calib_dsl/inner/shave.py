@@ -20,6 +20,11 @@ relaxed in chunks (thousands of rows) is shaved by default only where its solve 
 rounds: there a slice's rounds cost about what the solve's did, where a solve that ended at
 its first-order fixed point says nothing of them (a slice's fine relaxation can cost many
 times that solve).
+
+An unknown still looser than `loose.above` after its ends are shaved may be loose because
+another kept its whole domain (a relaxation's remainder grows with that width, over every
+slice): `split.split_loose` then cuts those unknowns in halves, within `loose.share` of the
+solve's time.
 """
 
 from __future__ import annotations
@@ -31,13 +36,12 @@ import numpy as np
 
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program
-from calib_dsl.lp.certify import Certificates
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.taylor import CHUNK_SLOTS
 from calib_dsl.settings import Settings
-from calib_dsl.strategy.contractor import Outcome, Propagation, Sequence, Work
+from calib_dsl.strategy.contractor import Outcome, Work
 from calib_dsl.strategy.solution import Solution
-from calib_dsl.strategy.working import WorkingRows
+from calib_dsl.strategy.split import contract_fine, split_loose
 
 
 @dataclass(frozen=True)
@@ -47,6 +51,7 @@ class Shaved:
     names: tuple[str, ...]
     seconds: float
     work: Work
+    halved: tuple[str, ...] = ()  # the unknowns cut in halves after (split.split_loose)
 
 
 def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.ndarray,
@@ -86,6 +91,11 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
             hi[slot] = value if out.empty else out.hi[slot]
     if not shaved:
         return sol, None
+    # still loose: an unknown left its whole domain may be why (split.py's docstring)
+    halved = split_loose(prog, (lo, hi), (inside_lo, inside_hi), s,
+                         None if budget is None else s.loose.share * sol.seconds, tol,
+                         max_sweeps - sol.work.sweeps - work.sweeps)
+    lo, hi, work = halved.lo, halved.hi, work + halved.work
     names = tuple(dict.fromkeys(prog.slots.names[int(ind[k])] for k, _ in shaved))
     pieces = tuple(p for p in (_within(a, b, lo, hi) for a, b in sol.pieces) if p is not None)
     if pieces:  # every solution lies in a piece and in the shaved box: in their hull too
@@ -93,8 +103,8 @@ def shave(prog: Program, sol: Solution, inside_lo: np.ndarray, inside_hi: np.nda
         hi = np.minimum(hi, np.max([p[1] for p in pieces], axis=0))
     if sol.history is not None:
         sol.history.record("shave", lo, hi)
-    return replace(sol, lo=lo, hi=hi, pieces=pieces), Shaved(names,
-                                                             time.perf_counter() - start, work)
+    return replace(sol, lo=lo, hi=hi, pieces=pieces), Shaved(
+        names, time.perf_counter() - start, work, halved.names)
 
 
 def worst_end(lo: np.ndarray, hi: np.ndarray, inside_lo: np.ndarray, inside_hi: np.ndarray,
@@ -149,12 +159,7 @@ def _slice(prog: Program, box: tuple[np.ndarray, np.ndarray], end: tuple[int, in
         phi[slot] = value
     else:
         plo[slot] = value
-    steps = Sequence((
-        Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
-        WorkingRows(prog, s, Certificates(), tol, max_sweeps, max_rounds=s.shave_rounds,
-                    fine_start=True),
-    ), max_sweeps=max_sweeps)
-    return steps.contract(plo, phi)
+    return contract_fine(prog, plo, phi, s, tol, max_sweeps)
 
 
 def _within(plo: np.ndarray, phi: np.ndarray, lo: np.ndarray,

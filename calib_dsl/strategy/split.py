@@ -7,10 +7,18 @@ r2's domain r3 follows (r3 = (r2 + r3) - r2), both are four times narrower, and 
 slack. The pieces cover the box, so their hull holds every solution in it; each piece starts
 from the unsplit result (near its own fixed point: a few rounds). Nothing is cut unless a
 piece's relaxation is narrower than the whole box's (`worth_splitting`).
+
+After shaving (inner/shave.py), an unknown can still be loose (its result much wider than its
+certified inner interval) because another one kept its whole domain: the data barely see it
+(a tool point near a joint's axis leaves that joint's angle offsets unseen), every
+relaxation's remainder grows with its width, and a slice of the loose unknown is relaxed over
+that width as the whole box was. `split_loose` cuts such an unknown in halves and contracts
+each with the fine rounds a slice gets; the result is the hull of the halves.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -23,9 +31,10 @@ from calib_dsl.relax.layout import independents
 from calib_dsl.relax.linearize import relax
 from calib_dsl.settings import Settings
 from calib_dsl.strategy.cluster import ClusterPieces, cluster_pieces
-from calib_dsl.strategy.contractor import Composable, Outcome, Propagation, Work
+from calib_dsl.strategy.contractor import Composable, Outcome, Propagation, Sequence, Work
 from calib_dsl.strategy.rounds import LPRounds
 from calib_dsl.strategy.workers import Children
+from calib_dsl.strategy.working import WorkingRows
 
 
 @dataclass(frozen=True)
@@ -170,3 +179,88 @@ def pieces(lo: np.ndarray, hi: np.ndarray, slot: int,
         plo[slot], phi[slot] = edges[k], edges[k + 1]
         out.append((plo, phi))
     return out
+
+
+@dataclass(frozen=True)
+class Halved:
+    """What `split_loose` did: the box (the hull of the halves kept), the unknowns cut."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    names: tuple[str, ...]
+    work: Work
+
+
+def split_loose(prog: Program, box: tuple[np.ndarray, np.ndarray],
+                inside: tuple[np.ndarray, np.ndarray], s: Settings, budget: float | None,
+                tol: float, max_sweeps: int) -> Halved:
+    """The box with, while an unknown is loose (wider than `s.loose.above` times its
+    certified inner interval, `inside` over `independents(prog)`), an unknown that kept more
+    than `s.loose.whole` of its domain cut in halves, each contracted (`contract_fine`), and
+    the hull of those not proven empty kept. At most `s.loose.tried` cuts; with `budget`
+    (seconds), the next starts only if, at the mean cost of those before, it ends within it
+    (the first always starts, unless the budget is 0)."""
+    lo, hi = box[0].copy(), box[1].copy()
+    ind = independents(prog)
+    names: list[str] = []
+    work, start = Work(), time.perf_counter()
+    for slot in whole_domains(prog, lo, hi, s):
+        if not loose(lo[ind], hi[ind], inside, s.loose.above):
+            break
+        spent = time.perf_counter() - start
+        left = max_sweeps - work.sweeps
+        if left <= 0 or (budget is not None and (budget <= 0 or (
+                names and spent * (1 + 1 / len(names)) > budget))):
+            break
+        outs = [contract_fine(prog, plo, phi, s, tol, left) for plo, phi in pieces(lo, hi, slot, 2)]
+        for out in outs:
+            work = work + out.work
+        names.append(prog.slots.names[slot])
+        kept = [o for o in outs if not o.empty]
+        if kept:  # (none kept cannot be with certified points inside: the box stays)
+            lo = np.maximum(lo, np.min([o.lo for o in kept], axis=0))
+            hi = np.minimum(hi, np.max([o.hi for o in kept], axis=0))
+    return Halved(lo, hi, tuple(names), work)
+
+
+def loose(lo: np.ndarray, hi: np.ndarray, inside: tuple[np.ndarray, np.ndarray],
+          above: float) -> bool:
+    """Whether some unknown's result is wider than `above` times its certified inner
+    interval (the arrays over the unknowns; nan where none is certified)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = (hi - lo) / (inside[1] - inside[0])
+    return bool(np.any(np.isfinite(ratio) & (ratio > above)))
+
+
+def whole_domains(prog: Program, lo: np.ndarray, hi: np.ndarray, s: Settings) -> list[int]:
+    """The slots that kept more than `s.loose.whole` of their search domain, at most
+    `s.loose.tried`: first those whose halves' first-order relaxations lose the most
+    remainder (its share of the rows' widths) against the whole box's, then the widest."""
+    every = independents(prog)
+    left = _left(prog, every, lo, hi)
+    wide = [int(every[k]) for k in np.argsort(-left, kind="stable") if left[k] > s.loose.whole]
+    if len(wide) <= 1:
+        return wide[:s.loose.tried]
+    whole = relax(prog, lo, hi, cell_variables=False)
+    if whole is None:
+        return wide[:s.loose.tried]
+    loss = {}
+    for k in wide:
+        shares = [r.remainder_share for r in (relax(prog, a, b, cell_variables=False)
+                                              for a, b in pieces(lo, hi, k, 2))
+                  if r is not None]
+        loss[k] = whole.remainder_share - (np.mean(shares) if shares else whole.remainder_share)
+    return sorted(wide, key=lambda k: -loss[k])[:s.loose.tried]
+
+
+def contract_fine(prog: Program, plo: np.ndarray, phi: np.ndarray, s: Settings, tol: float,
+                  max_sweeps: int) -> Outcome:
+    """A part of a solved box contracted: propagation, then at most `s.shave_rounds` fine
+    rounds of LPs over the part alone (on a working set of the rows, grown by the rows their
+    optima violate: working.py)."""
+    steps = Sequence((
+        Propagation(prog, max(tol, s.preliminary_tol), max_sweeps),
+        WorkingRows(prog, s, Certificates(), tol, max_sweeps, max_rounds=s.shave_rounds,
+                    fine_start=True),
+    ), max_sweeps=max_sweeps)
+    return steps.contract(plo, phi)

@@ -1,0 +1,29 @@
+"""The tuning constants of the split of a loose result (strategy/split.py, `split_loose`): a
+group of `Settings` (settings.py), kept apart so that settings.py stays a size a reader can
+hold. Every field says why it has its value."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class LooseSettings:
+    """When shaving leaves an unknown loose, the unknowns the solve left (nearly) their whole
+    domain are cut in halves and the halves contracted (strategy/split.py)."""
+
+    # An unknown whose result is still wider than `above` times its certified inner interval
+    # after shaving is loose: the enclosure is far from the hull the data hold (the
+    # certificate the user reads; 1 is the best possible).
+    above: float = 1.15
+    # An unknown whose result spans more than `whole` of its search domain kept (nearly) its
+    # whole domain: the data barely see it, and every relaxation's remainder grows with its
+    # width, which neither the rounds nor shaving's slices of another unknown reduce.
+    whole: float = 0.5
+    # Of those, at most `tried` are cut (one after the other, each from the box the one
+    # before left), the one whose halves' relaxations lose most remainder first.
+    tried: int = 2
+    # A cut starts only if, at the cost of shaving's ends (a half costs about an end: the
+    # same fine rounds over a box as narrow), it ends within `share` of the solve's time
+    # (the first always starts: a loose certificate is what the user is told otherwise).
+    share: float = 0.5
