@@ -50,7 +50,9 @@ def arc(tmp: Path, radius: float, measured: float) -> Path:
     return tmp / "arc.cal"
 
 
-def test_corrections_raise_ends_the_centres_linearization_leaves_short(tmp_path):
+def solved_arc(tmp_path):
+    """The arc's program solved: (program, solution, independents, settings, the inner
+    bounds' centre, the box over the independents)."""
     prog = load(arc(tmp_path, 20.0, 20.0))
     sol = solve(prog)
     ind = independents(prog)
@@ -58,6 +60,11 @@ def test_corrections_raise_ends_the_centres_linearization_leaves_short(tmp_path)
     centre = inner_bounds(prog, sol.lo, sol.hi, sol.starts, s).centre
     assert centre is not None
     box = (sol.lo[ind], sol.hi[ind])
+    return prog, sol, ind, s, centre, box
+
+
+def test_corrections_raise_ends_the_centres_linearization_leaves_short(tmp_path):
+    prog, sol, ind, s, centre, box = solved_arc(tmp_path)
     directions = np.array([[1.0, 0.2], [0.3, 1.0], [-1.0, 0.5]])
     best = {}
     for corrections in (0, s.prediction_corrections):
@@ -131,13 +138,7 @@ def test_each_signs_thread_finds_the_points_of_both_signs_together(tmp_path):
     optima pulled back beside them: as many points, each proven, reaching as far along
     every direction as both signs corrected together on one HiGHS model (the LPs' bases
     differ only by the models' histories: their optima agree to the LPs' tolerances)."""
-    prog = load(arc(tmp_path, 20.0, 20.0))
-    sol = solve(prog)
-    ind = independents(prog)
-    s = Settings()
-    centre = inner_bounds(prog, sol.lo, sol.hi, sol.starts, s).centre
-    assert centre is not None
-    box = (sol.lo[ind], sol.hi[ind])
+    prog, sol, ind, s, centre, box = solved_arc(tmp_path)
     directions = np.array([[1.0, 0.2], [0.3, 1.0], [-1.0, 0.5], [0.7, -0.6]])
     far = np.array([[0.9, 0.1], [-0.8, 0.05]])
     reach = {}
