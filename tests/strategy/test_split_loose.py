@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -146,3 +147,15 @@ def test_the_report_and_json_name_the_unknowns_halved(tmp_path):
     extra.shaved = Shaved(("cx",), 0.5, Work())
     assert "halved" not in render_summary(prog, sol, "tight", extra)
     assert result_json(prog, sol, "tight", extra)["shaved"]["halved"] == []
+
+
+def test_a_result_not_loose_ranks_no_unknown(tmp_path, monkeypatch):
+    """Ranking the wide unknowns costs a relaxation per half: not run where nothing is cut."""
+    import calib_dsl.strategy.split as split
+
+    prog, sol, _ = _faint(tmp_path)
+    ind = independents(prog)
+    monkeypatch.setattr(split, "whole_domains", lambda *a: pytest.fail("ranked"))
+    out = split_loose(prog, (sol.lo, sol.hi), _inner_at_ratio(sol.lo[ind], sol.hi[ind], 1.1),
+                      DEFAULT, None, 1e-5, 1000)
+    assert out.names == ()
