@@ -147,7 +147,7 @@ class Evaluation:
             f = forward(g.op, fa, g.param)
             m = None
             if self.FM is not None:
-                fm = [(self.FM[0][r].ravel(), self.FM[1][r].ravel()) for r in rows]
+                fm = [(_taken(self.FM[0], r).ravel(), _taken(self.FM[1], r).ravel()) for r in rows]
                 lo, hi = forward(g.op, fm)
                 shape = (len(rows[0]), self.FM[0].shape[1])
                 m = lo.reshape(shape), hi.reshape(shape)
@@ -156,7 +156,7 @@ class Evaluation:
         gparts: list[list[Iv]] = parts
         mixed: list[Iv] | list[None] = [None] * len(ranges)
         if self.FM is not None:  # the same, over each column's box
-            fm = [(self.FM[0][r], self.FM[1][r]) for r in rows]
+            fm = [(_taken(self.FM[0], r), _taken(self.FM[1], r)) for r in rows]
             gparts, mixed = local_2d(g, fm)
             if not every:
                 gparts = [[(p[0][:, used], p[1][:, used]) for p in ps] for ps in gparts]
