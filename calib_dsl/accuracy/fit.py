@@ -42,9 +42,11 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
             lin = linearized(prog, p, owners=False, jacobian=jacobian)
         return (*normalized(lin), lin)
 
-    given = (rows is not None and np.array_equal(x, start)
-             and rows.jac.shape == (len(rows.d), len(ind)))
-    r, jac, kept = (*normalized(rows), rows) if given else evaluated(x)  # type: ignore[arg-type]
+    if (rows is not None and np.array_equal(x, start)
+            and rows.jac.shape == (len(rows.d), len(ind))):
+        (r, jac), kept = normalized(rows), rows
+    else:
+        r, jac, kept = evaluated(x)
     if seen is not None:
         seen[x.tobytes()] = kept
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
