@@ -344,7 +344,7 @@ def report_on(request: SolveRequest, problem: Problem,
             sections.identify(extra, prog, res, r.strategy == "tight", settings)
         if r.lsq:
             sections.least_squares(extra, prog, res, settings.sampling)
-        sections.accuracy(extra, prog, res, _units_of(elaborated), settings)
+        sections.accuracy(extra, prog, res, _units_of(elaborated), settings, problem.fit)
     found = None
     if res.status == Status.INFEASIBLE and r.diagnose:
         found = conflict(problem, settings=settings)

@@ -1,5 +1,6 @@
 """A model loaded once: parsed, elaborated with its inputs, compiled (and its `lsq +- w`
-domains centred on the data's least-squares estimate, the only least squares a load runs).
+domains centred on the data's least-squares estimate, the only least squares a load runs;
+the problem keeps that estimate as `fit`, where the accuracy statement starts its own).
 
 Everything a solve reports about the same model and data works on this one `Problem`: the
 pipeline, the verdict's proofs, the conflict search, the solve with outliers and the
@@ -22,6 +23,7 @@ from dataclasses import dataclass, fields, replace
 from fractions import Fraction
 from pathlib import Path
 
+from calib_dsl.analysis.lsq import Estimate
 from calib_dsl.analysis.priors import centre_on_least_squares
 from calib_dsl.compile.group import compile_model
 from calib_dsl.elaborate.elaborator import Inputs, elaborate
@@ -46,6 +48,17 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
     consts); `centre=False` leaves `lsq +- w` domains unbounded (for a caller that gives
     them another program's); `fits` and `sampling`: the settings of the fit that centres
     them."""
+    model_, prog, _ = load_fitted(model, formulation, data, inputs, centre, fits, sampling)
+    return model_, prog
+
+
+def load_fitted(model: str | Path, formulation: str = "matrix",
+                data: str | Path | None = None, inputs: Inputs | None = None,
+                centre: bool = True, fits: FitSettings | None = None,
+                sampling: SamplingSettings | None = None
+                ) -> tuple[Model, Program, Estimate | None]:
+    """`load_model`, and the least-squares estimate that centred the `lsq +- w` domains
+    (None: none did)."""
     # The DAG's nodes live as long as the program: the garbage collector would only rescan
     # them (docs/decisions/11), so it pauses while they are built.
     gc.disable()
@@ -54,10 +67,9 @@ def load_model(model: str | Path, formulation: str = "matrix", data: str | Path 
         prog = compile_model(elaborated)
     finally:
         gc.enable()
-    if centre:
-        # `param x in lsq +- w`: around the data's estimate
-        centre_on_least_squares(prog, fits, sampling)
-    return elaborated, prog
+    # `param x in lsq +- w`: around the data's estimate
+    fit = centre_on_least_squares(prog, fits, sampling) if centre else None
+    return elaborated, prog, fit
 
 
 class _Unrolled(Exception):
@@ -70,8 +82,10 @@ def _unrolled() -> Model:
 
 
 def _compiled(model: Model, centre: bool, fits: FitSettings | None = None,
-              sampling: SamplingSettings | None = None) -> Program | None:
-    """A derived model's program (None: elaborate anew, see _Unrolled)."""
+              sampling: SamplingSettings | None = None
+              ) -> tuple[Program, Estimate | None] | None:
+    """A derived model's program and the estimate that centred it (as `load_fitted`; None:
+    elaborate anew, see _Unrolled)."""
     gc.disable()
     try:
         prog = compile_model(model)
@@ -79,9 +93,7 @@ def _compiled(model: Model, centre: bool, fits: FitSettings | None = None,
         return None
     finally:
         gc.enable()
-    if centre:
-        centre_on_least_squares(prog, fits, sampling)
-    return prog
+    return prog, centre_on_least_squares(prog, fits, sampling) if centre else None
 
 
 @dataclass(frozen=True)
@@ -121,15 +133,19 @@ class Problem:
     priors: Priors | None = None
     fits: FitSettings | None = None  # the fit that centres `lsq +- w` domains (None: defaults)
     sampling: SamplingSettings | None = None  # the same fit's sample of rows (None: defaults)
+    # the least-squares estimate that centred this program's `lsq +- w` domains, its rows
+    # kept (None: none did)
+    fit: Estimate | None = None
 
     @classmethod
     def load(cls, path: str | Path, formulation: str = "matrix",
              inputs: Inputs | None = None, fits: FitSettings | None = None,
              sampling: SamplingSettings | None = None) -> Problem:
         inputs = inputs or Inputs()
-        model, prog = load_model(path, formulation, inputs=inputs, fits=fits,
-                                 sampling=sampling)
-        return cls(str(path), formulation, inputs, model, prog, fits=fits, sampling=sampling)
+        model, prog, fit = load_fitted(path, formulation, inputs=inputs, fits=fits,
+                                       sampling=sampling)
+        return cls(str(path), formulation, inputs, model, prog, fits=fits, sampling=sampling,
+                   fit=fit)
 
     @property
     def unknowns(self) -> list[str]:
@@ -152,14 +168,17 @@ class Problem:
             return self
         centre = centre and self.priors is None
         model = self._derived(inputs)
-        prog = None if model is None else _compiled(model, centre, self.fits, self.sampling)
-        if model is None or prog is None:
-            model, prog = load_model(self.path, self.formulation, inputs=inputs, centre=centre,
-                                     fits=self.fits, sampling=self.sampling)
+        made = None if model is None else _compiled(model, centre, self.fits, self.sampling)
+        if model is None or made is None:
+            model, prog, fit = load_fitted(self.path, self.formulation, inputs=inputs,
+                                           centre=centre, fits=self.fits,
+                                           sampling=self.sampling)
+        else:
+            prog, fit = made
         if self.priors is not None:
             self.priors.put_on(prog)
         return Problem(self.path, self.formulation, inputs, model, prog, self.priors, self.fits,
-                       self.sampling)
+                       self.sampling, fit)
 
     def keeping_priors(self) -> Problem:
         """This problem, but what it derives is on its `lsq +- w` domains (a bracket's
@@ -184,8 +203,8 @@ class Problem:
         derived without elaborating; None where the model does not allow it (then the
         caller elaborates it with the file)."""
         model = with_table(self.model, data, _unrolled)
-        prog = None if model is None else _compiled(model, centre=False)
-        return None if model is None or prog is None else (model, prog)
+        made = None if model is None else _compiled(model, centre=False)
+        return None if model is None or made is None else (model, made[0])
 
     def on_domains(self, prog: Program) -> Problem:
         """This problem's program on `prog`'s domains of the declared unknowns (and its
@@ -194,7 +213,7 @@ class Problem:
                         hi=self.program.slots.hi.copy())
         other = replace(self.program, slots=slots)
         pinned(lambda _: (self.model, other), prog)(self.inputs)
-        return replace(self, program=other)
+        return replace(self, program=other, fit=None)  # (a fit on other domains)
 
     def loader(self) -> Loader:
         """The model loaded with other inputs (`derive`); this problem itself for its own."""

@@ -14,7 +14,7 @@ import numpy as np
 from calib_dsl.accuracy.points import solve_statement
 from calib_dsl.analysis.identify import analyse, combination_enclosures
 from calib_dsl.analysis.leverage import heavy_rows
-from calib_dsl.analysis.lsq import estimate
+from calib_dsl.analysis.lsq import Estimate, estimate
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.inner.bounds import inner_bounds
 from calib_dsl.inner.shave import shave
@@ -111,10 +111,11 @@ def leverage(extra: Extras, prog: Program, res: Solution, model: Model,
 
 
 def accuracy(extra: Extras, prog: Program, res: Solution, units: tuple[str | None, frozenset[str]],
-             settings: Settings) -> None:
+             settings: Settings, fit: Estimate | None = None) -> None:
     """The residuals before calibration (nominal point), at the least-squares point and at
     the certified centre, and the guaranteed bound over the result box (`units`: the model's
-    length unit, and the measured columns read in an angle unit, left out of the distance)."""
+    length unit, and the measured columns read in an angle unit, left out of the distance;
+    `fit`: the least-squares estimate the load made of `prog`, where the statement's starts)."""
     if not prog.slots.measured_sides:
         extra.skipped.append("accuracy: the model compares no computed value with a "
                              "measured column")
@@ -124,7 +125,7 @@ def accuracy(extra: Extras, prog: Program, res: Solution, units: tuple[str | Non
     # reported as such, and never costs the user the result
     try:
         found = solve_statement(prog, res.lo, res.hi, extra.estimate, extra.inner, units[1],
-                                settings)
+                                settings, fit)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         extra.skipped.append(f"accuracy: not computed ({type(err).__name__}: {err})")
         return

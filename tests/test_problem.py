@@ -238,3 +238,25 @@ def test_predict_elaborates_its_model_once(tmp_path, monkeypatch):
                                     str(tmp_path / "p.json")])
     assert out.exit_code == 0, out.output
     assert count == [1]
+
+
+def test_a_problem_keeps_the_fit_that_centred_its_lsq_domains():
+    """`Problem.load` keeps the least-squares estimate that centred its `lsq +- w` domains
+    with its rows: the program's own at that point, bit for bit (the accuracy statement
+    starts there without evaluating them again), inside the centred domains; a problem on
+    another's domains, or without `lsq +- w` parameters, keeps none."""
+    from calib_dsl.analysis.lsq import linearized
+    from calib_dsl.relax.layout import independents
+
+    problem = Problem.load(ROOT / "models" / "ur10_simulated.cal")
+    prog, fit = problem.program, problem.fit
+    assert fit is not None and fit.converged and fit.rows is not None
+    ind = independents(prog)
+    assert np.all((prog.slots.lo[ind] <= fit.values) & (fit.values <= prog.slots.hi[ind]))
+    for name, (v, _) in prog.centred.items():
+        assert fit.values[fit.names.index(name)] == v
+    lin = linearized(prog, fit.values, owners=False)
+    assert np.array_equal(lin.d, fit.rows.d) and np.array_equal(lin.jac, fit.rows.jac)
+    assert problem.keeping_priors().fit is fit
+    assert problem.on_domains(prog).fit is None
+    assert Problem.load(ARM).fit is None

@@ -1,5 +1,6 @@
 """The least-squares point of the accuracy statement: a Levenberg–Marquardt fit in numpy,
-started near the fit (the certified centre), kept in the search domain by projection.
+started near the fit (the load's least-squares estimate, else the certified centre), kept in
+the search domain by projection.
 
 `solve --lsq` fits with scipy (analysis/lsq.py); the statement runs in every solve, where
 importing scipy.optimize alone would cost a small model most of its inner bounds' time, so
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import Estimate, Linearized, linearized
+from calib_dsl.analysis.lsq import Estimate, Linearized, linearized, normalized
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
@@ -20,30 +21,34 @@ Seen = dict[bytes, Linearized]  # a point's bytes -> every row there (floating p
 
 
 def polish(prog: Program, start: np.ndarray, settings: Settings,
-           seen: Seen | None = None) -> Estimate:
+           seen: Seen | None = None, rows: Linearized | None = None) -> Estimate:
     """The least-squares point from `start` (independents' order): damped Gauss-Newton steps
     scaled by the Jacobian's columns (Marquardt), each projected onto the domains and taken
-    only when it lowers the sum of squares. `seen`, if given, is given the rows at the
-    start and at the result (the statement's residuals there: each evaluation of every
-    row of a large campaign costs as much as a step)."""
+    only when it lowers the sum of squares; stopped when one lowers it by at most
+    settings.fit_tolerance of it, or when the linearized rows expect no more than that and
+    a step confirms it. `rows`: every row at `start` with its Jacobian, made
+    already (a fit's, Estimate.rows). `seen`, if given, is given the rows at the start and
+    at the result (the statement's residuals there: each evaluation of every row of a large
+    campaign costs as much as a step)."""
     ind = independents(prog)
     names = [prog.slots.names[k] for k in ind]
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     x = np.clip(start, lo, hi)
-    last: list[tuple[np.ndarray, Linearized]] = []
 
-    def residuals(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def evaluated(p: np.ndarray, jacobian: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, Linearized]:
         # (as analysis/lsq.residuals: every row normalized by its bound)
         with np.errstate(all="ignore"):  # an overflow is a non-finite residual
-            lin = linearized(prog, p, owners=False)
-            last[:] = [(p, lin)]
-            scale = np.maximum(lin.half, 1e-12)
-            return lin.d / scale, lin.jac / scale[:, None]
+            lin = linearized(prog, p, owners=False, jacobian=jacobian)
+        return (*normalized(lin), lin)
 
-    r, jac = residuals(x)
-    kept = last[0]
+    if (rows is not None and np.array_equal(x, start)
+            and rows.jac.shape == (len(rows.d), len(ind))):
+        (r, jac), kept = normalized(rows), rows
+    else:
+        r, jac, kept = evaluated(x)
     if seen is not None:
-        seen[x.tobytes()] = kept[1]
+        seen[x.tobytes()] = kept
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
         return Estimate(names, x, float("inf"), float("inf"), False)
     cost, damping, converged = float(r @ r), settings.fit_damping, False
@@ -51,13 +56,26 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
         scale = np.maximum(np.linalg.norm(jac, axis=0), 1e-300)
         step = _step(jac, r, scale, damping)
         trial = np.clip(x + step, lo, hi)
-        tr, tj = residuals(trial)
+        # the linearized rows' gain: one within the tolerance says x is the optimum (the
+        # gradient of the sum of squares vanishes), which the trial confirms when it lowers
+        # the sum by no more; it is then evaluated without its Jacobian (half the cost)
+        model = r + jac @ (trial - x)
+        final = cost - float(model @ model) <= settings.fit_tolerance * float(model @ model)
+        tr, tj, tlin = evaluated(trial, jacobian=not final)
         tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
+        if final and cost - tcost <= settings.fit_tolerance * min(cost, tcost):
+            if tcost < cost:
+                x, r, cost, kept = trial, tr, tcost, tlin
+            converged = True
+            break
+        if final and tcost < cost:  # (a larger gain than expected: on, with the Jacobian)
+            tr, tj, tlin = evaluated(trial)
+            tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
         if tcost < cost and np.all(np.isfinite(tj)):
             gain = cost - tcost
-            x, r, jac, cost, kept = trial, tr, tj, tcost, last[0]
+            x, r, jac, cost, kept = trial, tr, tj, tcost, tlin
             damping = max(damping / 3.0, 1e-12)
-            if gain <= settings.fit_tolerance * max(cost, 1e-300):
+            if gain <= settings.fit_tolerance * cost:
                 converged = True
                 break
         else:
@@ -67,7 +85,7 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
                 converged = True
                 break
     if seen is not None:
-        seen[x.tobytes()] = kept[1]
+        seen[x.tobytes()] = kept
     n = max(len(r), 1)
     return Estimate(names, x, float(np.sqrt(cost / n)) if len(r) else 0.0,
                     float(np.max(np.abs(r))) if len(r) else 0.0, converged)

@@ -10,6 +10,7 @@ import numpy as np
 
 from calib_dsl.accuracy.fit import Seen, polish
 from calib_dsl.accuracy.statement import Accuracy, accuracy, nominal_point
+from calib_dsl.analysis.lsq import Estimate
 from calib_dsl.analysis.residuals import residual_ranges
 from calib_dsl.inner.bounds import Inner, Witness
 from calib_dsl.ir.program import Program
@@ -19,9 +20,10 @@ from calib_dsl.settings import Settings
 
 def solve_statement(prog: Program, lo: np.ndarray, hi: np.ndarray, lsq: Any,
                     inner: Inner | None, angles: frozenset[str],
-                    settings: Settings) -> Accuracy:
+                    settings: Settings, fit: Estimate | None = None) -> Accuracy:
     """The accuracy over the result box [lo, hi] (the program's slots) at the nominal point,
     the least-squares point (`lsq`, an Estimate the solve was asked for, else polished here
+    from `fit`, the least-squares estimate the load made of this program with its rows, or
     from the certified centre or the box's middle) and the certified centre."""
     ind = independents(prog)
     points = {"nominal": nominal_point(prog)}
@@ -29,9 +31,11 @@ def solve_statement(prog: Program, lo: np.ndarray, hi: np.ndarray, lsq: Any,
     seen: Seen = {}  # (the polish's rows at its start, the centre, and at its result)
     if lsq is None:
         mid = 0.5 * (lo[ind] + hi[ind])
-        start = centre if centre is not None else mid
+        start, rows = (centre if centre is not None else mid), None
+        if fit is not None and fit.rows is not None and np.all(np.isfinite(fit.values)):
+            start, rows = fit.values, fit.rows
         if np.all(np.isfinite(start)):
-            lsq = polish(prog, start, settings, seen)
+            lsq = polish(prog, start, settings, seen, rows)
     if lsq is not None and np.all(np.isfinite(lsq.values)):
         points["least_squares"] = lsq.values
     if centre is not None:

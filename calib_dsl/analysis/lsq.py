@@ -9,7 +9,7 @@ when the data are inconsistent with their error bounds, or in a poorly identifia
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,6 +27,9 @@ class Estimate:
     rms: float  # root mean square of the normalized residuals (1 = at the error bound)
     worst: float  # largest normalized residual
     converged: bool
+    # every row at `values` with its Jacobian, from the fit's last evaluation of all rows
+    # (None: not kept); a polish from here starts without evaluating them again
+    rows: Linearized | None = field(default=None, repr=False, compare=False)
 
 
 def rows_at(prog: Program, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -103,10 +106,22 @@ def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
               ) -> tuple[np.ndarray, np.ndarray]:
     """Normalized residuals of every constraint row at p (of the loop's rows `rows` only,
     if given), and their Jacobian."""
+    return _evaluated(prog, p, rows)[:2]
+
+
+def normalized(lin: Linearized) -> tuple[np.ndarray, np.ndarray]:
+    """The rows' residuals divided by their bounds, and their Jacobian likewise."""
     with np.errstate(all="ignore"):  # an overflow is a non-finite residual: the caller's
-        lin = linearized(prog, p, owners=False, rows=rows)
         scale = np.maximum(lin.half, 1e-12)
         return lin.d / scale, lin.jac / scale[:, None]
+
+
+def _evaluated(prog: Program, p: np.ndarray, rows: np.ndarray | None
+               ) -> tuple[np.ndarray, np.ndarray, Linearized]:
+    """`residuals` and the rows they are made of."""
+    with np.errstate(all="ignore"):
+        lin = linearized(prog, p, owners=False, rows=rows)
+    return (*normalized(lin), lin)
 
 
 def estimate(prog: Program, start: np.ndarray | None = None, max_evaluations: int = 30,
@@ -157,15 +172,16 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
     # the rows at the last point evaluated and at the fit's current point (the last whose
     # Jacobian scipy asked for): a rejected trial step then leaves the current point's rows,
     # and a fit that ends there (as after a rejected step) is not evaluated there again
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray, Linearized]] = {}
     current = [b""]
 
-    def both(p: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def both(p: np.ndarray, jacobian: bool = False
+             ) -> tuple[np.ndarray, np.ndarray, Linearized]:
         key = p.tobytes()
         if key not in cache:
             for old in [k for k in cache if k != current[0]]:
                 del cache[old]
-            cache[key] = residuals(prog, p, rows)
+            cache[key] = _evaluated(prog, p, rows)
         if jacobian:
             current[0] = key
         return cache[key]
@@ -184,7 +200,7 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
 
     x, success = start, True
     with np.errstate(all="ignore"):
-        r0, j0 = both(start)
+        r0, j0, _ = both(start)
     if not (np.all(np.isfinite(r0)) and np.all(np.isfinite(j0))):
         # scipy refuses such a start: no estimate (numbers that overflow the floats)
         return Estimate(names, start, float("inf"), float("inf"), False)
@@ -195,6 +211,7 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
                                 bounds=(bounds[0][free], bounds[1][free]), method="trf",
                                 x_scale="jac", max_nfev=max_evaluations)
         x, success = full(sol.x), bool(sol.success)
-    r = both(x)[0]
+    r, _, lin = both(x)
     return Estimate(names, x, float(np.sqrt(np.mean(r**2))) if len(r) else 0.0,
-                    float(np.max(np.abs(r))) if len(r) else 0.0, success)
+                    float(np.max(np.abs(r))) if len(r) else 0.0, success,
+                    lin if rows is None else None)

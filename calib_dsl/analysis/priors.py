@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import estimate
+from calib_dsl.analysis.lsq import Estimate, estimate
 from calib_dsl.analysis.unit_spreads import spreads
 from calib_dsl.frontend.diagnostics import CalError
 from calib_dsl.ir.program import Program
@@ -21,14 +21,16 @@ from calib_dsl.settings_analysis import FitSettings
 
 
 def centre_on_least_squares(prog: Program, fits: FitSettings | None = None,
-                            sampling: SamplingSettings | None = None) -> None:
+                            sampling: SamplingSettings | None = None) -> Estimate | None:
     """Give each `lsq +- w` parameter its domain around the least-squares estimate (in place:
     the program's slots and declared domains); the other parameters keep theirs and bound
     the estimate (at most `fits`' prior_evaluations evaluations of the residuals; least
-    squares' sample of rows: `sampling`'s)."""
+    squares' sample of rows: `sampling`'s). The estimate, converged (None: no `lsq +- w`
+    parameter): the least-squares point of the program on its new domains too, as they
+    hold it and the others are unchanged."""
     f = fits or FitSettings()
     if not prog.priors:
-        return
+        return None
     ind = independents(prog)
     names = [prog.slots.names[i] for i in ind]
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
@@ -56,3 +58,4 @@ def centre_on_least_squares(prog: Program, fits: FitSettings | None = None,
         if prog.domains is not None:
             prog.domains[name] = (v - w, v + w)
         prog.centred[name] = (v, w)
+    return est

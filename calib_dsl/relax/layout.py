@@ -52,8 +52,8 @@ class Layout:
     pos: np.ndarray  # the row of each slot
     order: np.ndarray  # the slot of each row
     blocks: list[list[tuple[int, int]]]  # per group and output: its defining rows' slice
-    # per group and argument column: its rows, and the (rows, used unknowns) mesh
-    # (np.ix_ costs as much as a small copy)
+    # per group and argument column: its rows, and the (rows, used unknowns) pair of index
+    # arrays its gradients are taken at (made once: a pass takes them many times)
     args: list[list[np.ndarray]]
     takes: list[list[tuple]]
 
@@ -111,7 +111,7 @@ def _layout(prog: Program, ind: np.ndarray) -> Layout:
     pos = np.empty(len(temp), dtype=np.int64)
     pos[order] = np.arange(len(temp))
     args = [[pos[c] for c in g.args.T] for g in prog.groups]
-    takes = [[np.ix_(r, u) for r in rows] for rows, u in zip(args, used, strict=True)]
+    takes = [[(r, u) for r in rows] for rows, u in zip(args, used, strict=True)]
     return Layout(ind, temp, const, defining, used, pos, order, blocks, args,
                   takes)
 

@@ -231,12 +231,11 @@ class _Piece:
     whole: bool  # every row, in the same unknowns: a plain take
 
     def __post_init__(self) -> None:
-        # the open-mesh index pairs of the gather, made once (np.ix_ costs as much as a
-        # small copy, and a plan is used on every box)
+        # the open-mesh index pairs of the gather's stores, made once (np.ix_ costs as much
+        # as a small copy, and a plan is used on every box); its loads take a dimension at
+        # a time (_taken), cheaper than a mesh
         self.to1 = np.ix_(self.rows, self.c1_at)
         self.to2 = np.ix_(self.rows, self.c2_at)
-        self.from1 = self.src if self.c1_of is None else np.ix_(self.src, self.c1_of)
-        self.from2 = self.src if self.c2_of is None else np.ix_(self.src, self.c2_of)
 
 
 @dataclass
@@ -357,16 +356,23 @@ def _gathered(c0: np.ndarray, r: np.ndarray, store: list[list[Models]], half: np
     coefficient: a constant, or a temporary no group defines before)."""
     if len(pieces) == 1 and pieces[0].whole:
         s = store[pieces[0].group][pieces[0].out]
-        return Models(c0[slots], s.c1[pieces[0].src], s.c2[pieces[0].src], r[slots])
+        return Models(c0[slots], np.take(s.c1, pieces[0].src, axis=0),
+                      np.take(s.c2, pieces[0].src, axis=0), r[slots])
     c1, c2 = np.zeros((len(slots), n)), np.zeros((len(slots), p))
     for pc in pieces:
         if pc.group < 0:
             c1[pc.rows, pc.c1_at] = half[pc.src]
             continue
         s = store[pc.group][pc.out]
-        c1[pc.to1] = s.c1[pc.from1]
-        c2[pc.to2] = s.c2[pc.from2]
+        c1[pc.to1] = _taken(s.c1, pc.src, pc.c1_of)
+        c2[pc.to2] = _taken(s.c2, pc.src, pc.c2_of)
     return Models(c0[slots], c1, c2, r[slots])
+
+
+def _taken(a: np.ndarray, rows: np.ndarray, cols: np.ndarray | None) -> np.ndarray:
+    """a[rows][:, cols] (every column if cols is None), a dimension at a time."""
+    out = np.take(a, rows, axis=0)
+    return out if cols is None else np.take(out, cols, axis=1)
 
 
 def _global(plan: _Plan, c0: np.ndarray, r: np.ndarray, store: list[list[Models]],

@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from calib_dsl.accuracy.fit import polish
 from calib_dsl.analysis.lsq import estimate, residuals
@@ -39,3 +40,34 @@ def test_a_polish_out_of_steps_is_not_converged():
     fit = polish(prog, lo.copy(), replace(DEFAULT, fit_steps=1))
     assert not fit.converged
     assert np.all((lo <= fit.values) & (fit.values <= hi))
+
+
+def test_a_polish_from_a_fit_with_its_rows_evaluates_them_once_without_jacobian(monkeypatch):
+    """From scipy's fit with its rows (Estimate.rows), the polish evaluates every row once,
+    without the Jacobian (the linearized rows expect no gain, and the trial confirms it),
+    and ends at the fit's sum of squares within the tolerance; from the domains' middle it
+    needs Jacobians, and reaches the same."""
+    import calib_dsl.accuracy.fit as fit_module
+
+    prog = load(ROOT / "models" / "ur10_simulated.cal")
+    ind = independents(prog)
+    lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
+    theirs = estimate(prog, start=0.5 * (lo + hi))
+    assert theirs.converged and theirs.rows is not None
+    calls: list[bool] = []
+    real = fit_module.linearized
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs.get("jacobian", True))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "linearized", counted)
+    seen: dict = {}
+    mine = polish(prog, theirs.values, DEFAULT, seen, theirs.rows)
+    assert calls == [False]
+    assert mine.converged and mine.rms ** 2 <= theirs.rms ** 2 * (1 + DEFAULT.fit_tolerance)
+    assert seen[theirs.values.tobytes()] is theirs.rows and mine.values.tobytes() in seen
+    calls.clear()
+    afresh = polish(prog, 0.5 * (lo + hi), DEFAULT)
+    assert calls[0] and afresh.converged
+    assert afresh.rms ** 2 == pytest.approx(mine.rms ** 2, rel=10 * DEFAULT.fit_tolerance)

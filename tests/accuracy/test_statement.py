@@ -180,8 +180,8 @@ def test_columns_read_in_an_angle_unit_stay_out_of_the_distance(ur10):
 
 @pytest.mark.slow
 def test_the_statement_is_each_part_computed_afresh(ur10):
-    """The statement reuses the polish's evaluations at the certified centre and the
-    least-squares point: every array equals the one computed on its own, bit for bit."""
+    """The statement reuses the polish's evaluations at the least-squares point and the
+    load's fit: every array equals the one computed on its own, bit for bit."""
     acc, prog, res = ur10.extra.accuracy, ur10.prog, ur10.res
     at, ind = layout(prog), independents(prog)
     from calib_dsl.accuracy.fit import polish
@@ -191,10 +191,29 @@ def test_the_statement_is_each_part_computed_afresh(ur10):
     centre = certified_centre(ur10.extra.inner)
     assert centre is not None
     for label, p in (("nominal", nominal_point(prog)),
-                     ("least_squares", polish(prog, centre, DEFAULT).values),
+                     ("least_squares", polish(prog, ur10.problem.fit.values, DEFAULT).values),
                      ("certified", centre)):
         assert np.array_equal(acc.points[label], point_residuals(prog, at, p), equal_nan=True)
     box = {prog.slots.names[k]: (float(res.lo[k]), float(res.hi[k])) for k in ind}
     fresh = accuracy(prog, residual_ranges(prog, box), {})
     for field in ("worst", "bound", "box_worst", "box_bound"):
         assert np.array_equal(getattr(acc, field), getattr(fresh, field), equal_nan=True)
+
+
+@pytest.mark.slow
+def test_the_statement_from_the_loads_fit_is_one_from_a_fresh_fit(ur10):
+    """The least-squares point polished from the load's fit (its rows given, not evaluated
+    again) has the sum of squares of one polished afresh from the certified centre, within
+    the fit's tolerance, and residuals within its square root of their size."""
+    from calib_dsl.accuracy.points import solve_statement
+    from calib_dsl.settings import DEFAULT
+
+    prog, res, extra = ur10.prog, ur10.res, ur10.extra
+    assert ur10.problem.fit is not None and ur10.problem.fit.rows is not None
+    mine = extra.accuracy
+    fresh = solve_statement(prog, res.lo, res.hi, None, extra.inner, frozenset(), DEFAULT)
+    a, b = mine.points["least_squares"], fresh.points["least_squares"]
+    assert np.sum(a ** 2) == pytest.approx(np.sum(b ** 2), rel=DEFAULT.fit_tolerance)
+    assert np.allclose(a, b, rtol=0, atol=np.sqrt(DEFAULT.fit_tolerance) * np.max(np.abs(b)))
+    for label in ("nominal", "certified"):
+        assert np.array_equal(mine.points[label], fresh.points[label], equal_nan=True)
