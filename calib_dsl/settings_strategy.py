@@ -13,9 +13,11 @@ class LooseSettings:
     domain are cut in halves and the halves contracted (strategy/split.py)."""
 
     # An unknown whose result is still wider than `above` times its certified inner interval
-    # after shaving is loose: the enclosure is far from the hull the data hold (the
-    # certificate the user reads; 1 is the best possible).
-    above: float = 1.15
+    # after shaving is loose: the enclosure is farther from the hull the data hold than the
+    # product promises for every parameter (outer/inner at most 1.2; 1 is the best
+    # possible). A result within the promise is left as shaving made it: a cut costs about two
+    # shaving ends, often the solve's own time again.
+    above: float = 1.2
     # An unknown whose result spans more than `whole` of its search domain kept (nearly) its
     # whole domain: the data barely see it, and every relaxation's remainder grows with its
     # width, which neither the rounds nor shaving's slices of another unknown reduce.
@@ -23,7 +25,7 @@ class LooseSettings:
     # Of those, at most `tried` are cut (one after the other, each from the box the one
     # before left), the one whose halves' relaxations lose most remainder first.
     tried: int = 2
-    # A cut starts only if, at the cost of shaving's ends (a half costs about an end: the
-    # same fine rounds over a box as narrow), it ends within `share` of the solve's time
-    # (the first always starts: a loose certificate is what the user is told otherwise).
+    # A cut after the first starts only if, at the mean cost of those before, it ends
+    # within `share` of the solve's time (the first always starts: the result is beyond the
+    # promise, which the user is told otherwise).
     share: float = 0.5

@@ -69,7 +69,8 @@ def result_json(prog: Program, res: Solution, strategy: str,
         out["shaved"] = {"parameters": list(extra.shaved.names),
                          "seconds": extra.shaved.seconds,
                          "lp_rounds": extra.shaved.work.lp_rounds,
-                         "sweeps": extra.shaved.work.sweeps}
+                         "sweeps": extra.shaved.work.sweeps,
+                         "halved": list(extra.shaved.halved)}
     if extra.estimate is not None:
         e = extra.estimate
         out["least_squares"] = {"converged": e.converged, "rms": e.rms, "max": e.worst}

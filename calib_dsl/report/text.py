@@ -143,6 +143,9 @@ def render_summary(prog: Program, res: Solution, strategy: str,
     if extra.shaved is not None:
         lines.append(f"shaved: {' '.join(extra.shaved.names)} (the gap between each end and "
                      "the certified inner bound contracted as a slice of its own)")
+        if extra.shaved.halved:
+            lines.append(f"halved: {' '.join(extra.shaved.halved)} (left their whole domain "
+                         "while the result was still loose: cut in halves, the hull kept)")
     if res.split:
         lines.append(f"split: {' '.join(res.split)} (not identifiable alone) cut into pieces; "
                      f"the result is the hull of the {len(res.pieces)} that hold solutions")

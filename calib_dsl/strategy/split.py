@@ -204,8 +204,10 @@ def split_loose(prog: Program, box: tuple[np.ndarray, np.ndarray],
     ind = independents(prog)
     names: list[str] = []
     work, start = Work(), time.perf_counter()
+    if not loose(lo[ind], hi[ind], inside, s.loose.above):
+        return Halved(lo, hi, (), work)  # (ranking the unknowns costs relaxations)
     for slot in whole_domains(prog, lo, hi, s):
-        if not loose(lo[ind], hi[ind], inside, s.loose.above):
+        if names and not loose(lo[ind], hi[ind], inside, s.loose.above):
             break
         spent = time.perf_counter() - start
         left = max_sweeps - work.sweeps

@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -104,3 +105,57 @@ def test_halves_of_a_random_robot_hold_the_truth(tmp_path):
 def test_halves_of_random_robots_hold_the_truth(tmp_path_factory, seed, joints, rows,
                                                 formulation):
     _halved_holds_the_truth(tmp_path_factory.mktemp("loose"), seed, joints, rows, formulation)
+
+
+def _inner_at_ratio(lo: np.ndarray, hi: np.ndarray, ratio: float):
+    """Inner intervals `ratio` times narrower than [lo, hi], centred (what `loose` reads)."""
+    mid, half = (lo + hi) / 2, (hi - lo) / (2 * ratio)
+    return mid - half, mid + half
+
+
+@given(st.floats(1.0, 1.19))
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_a_result_within_the_promise_is_not_cut(tmp_path, ratio):
+    prog, sol, _ = _faint(tmp_path)
+    ind = independents(prog)
+    out = split_loose(prog, (sol.lo, sol.hi), _inner_at_ratio(sol.lo[ind], sol.hi[ind], ratio),
+                      DEFAULT, None, 1e-5, 1000)
+    assert out.names == () and np.array_equal(out.lo, sol.lo)
+
+
+def test_a_result_beyond_the_promise_is_cut(tmp_path):
+    prog, sol, _ = _faint(tmp_path)
+    ind = independents(prog)
+    inside = _inner_at_ratio(sol.lo[ind], sol.hi[ind], DEFAULT.loose.above * 1.01)
+    out = split_loose(prog, (sol.lo, sol.hi), inside, DEFAULT, None, 1e-5, 1000)
+    assert out.names == ("w",)
+    assert np.all(sol.lo <= out.lo) and np.all(out.hi <= sol.hi)
+
+
+def test_the_report_and_json_name_the_unknowns_halved(tmp_path):
+    from calib_dsl.inner.shave import Shaved
+    from calib_dsl.report.as_json import result_json
+    from calib_dsl.report.extras import Extras
+    from calib_dsl.report.text import render_summary
+    from calib_dsl.strategy.contractor import Work
+
+    prog, sol, _ = _faint(tmp_path)
+    extra = Extras()
+    extra.shaved = Shaved(("cx",), 0.5, Work(), ("w",))
+    assert "halved: w (" in render_summary(prog, sol, "tight", extra)
+    assert result_json(prog, sol, "tight", extra)["shaved"]["halved"] == ["w"]
+    extra.shaved = Shaved(("cx",), 0.5, Work())
+    assert "halved" not in render_summary(prog, sol, "tight", extra)
+    assert result_json(prog, sol, "tight", extra)["shaved"]["halved"] == []
+
+
+def test_a_result_not_loose_ranks_no_unknown(tmp_path, monkeypatch):
+    """Ranking the wide unknowns costs a relaxation per half: not run where nothing is cut."""
+    import calib_dsl.strategy.split as split
+
+    prog, sol, _ = _faint(tmp_path)
+    ind = independents(prog)
+    monkeypatch.setattr(split, "whole_domains", lambda *a: pytest.fail("ranked"))
+    out = split_loose(prog, (sol.lo, sol.hi), _inner_at_ratio(sol.lo[ind], sol.hi[ind], 1.1),
+                      DEFAULT, None, 1e-5, 1000)
+    assert out.names == ()
