@@ -5,11 +5,17 @@ the calibration's model linearized at the certified centre (inner/lp.py's, its r
 a little: its optima lie near the solution set's boundary, readings included), and the
 prediction LPs' own optima over the relaxation (outside the solution set, in general). The
 first are corrected (accuracy/corrections.py: their LPs solved again with the rows their
-checks found violated tightened); what is still unproven, and the second, is pulled back
-towards the certified centre by bisection until certify_point.py proves it, all candidates
-checked in one pass per step. Each sign's candidates are found and corrected on a thread of
-their own (one sign's checks, in Python, overlap the other's LPs, in HiGHS), and the
-relaxation's optima are pulled back beside them.
+checks found violated tightened); what is still unproven is pulled back towards the
+certified centre by bisection until certify_point.py proves it, all candidates checked in
+one pass per step. Each sign's candidates are found and corrected on a thread of their own
+(one sign's checks, in Python, overlap the other's LPs, in HiGHS).
+
+The second are pulled back the same way only where the linearized model gives no candidate
+(no model, or none of its LPs ended optimal): a relaxation optimum's direction is one of the
+predictions' gradients, as the linearized LPs' are, and pulled back along a segment from the
+centre it stops where the segment leaves the solution set, short of the point the corrected
+LP of a nearby direction reaches along the set's boundary. Fewer points can only leave an
+inner end where it is or move it inwards; nothing is certified differently.
 """
 
 from __future__ import annotations
@@ -38,9 +44,9 @@ def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre
                        screen: RowScreen | None = None) -> list[Found]:
     """Certified points towards the extremes of `directions` (one a row, independents'
     order) within `box` (the independents' bounds): the corrected optima of the model
-    linearized at `centre` (the largest's, then the smallest's), and the relaxation's
-    `optima` (with the centre's readings) pulled back towards the centre (`screen`: as
-    pulled_back's)."""
+    linearized at `centre` (the largest's, then the smallest's); only where that model gives
+    no candidate, the relaxation's `optima` (with the centre's readings) pulled back towards
+    the centre (`screen`: as pulled_back's)."""
     def back(starts: np.ndarray, start_readings: np.ndarray, ends: np.ndarray,
              readings: np.ndarray) -> list[Found | None]:
         return pulled_back(prog, (starts, start_readings), ends, readings,
@@ -55,19 +61,21 @@ def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre
     start = (centre.point, centre.readings)
     if model is None:
         return [w for w in far() if w is not None]
-    if settings.lp.workers <= 1:  # both signs' candidates corrected together, then the far
+    if settings.lp.workers <= 1:  # both signs' candidates corrected together
         found = _candidates(model, (1.0, -1.0), settings.lp)
-        got = [] if found is None else corrected(prog, found, start, settings, back)
-        return [w for w in [*got, *far()] if w is not None]
+        got = far() if found is None else corrected(prog, found, start, settings, back)
+        return [w for w in got if w is not None]
     one = replace(settings, lp=replace(settings.lp, workers=1))  # (a sign's LPs: one model)
 
-    def near(sign: float) -> list[Found | None]:
+    def near(sign: float) -> list[Found | None] | None:  # (None: no candidate)
         found = _candidates(model, (sign,), one.lp)
-        return [] if found is None else corrected(prog, found, start, one, back)
+        return None if found is None else corrected(prog, found, start, one, back)
 
-    with ThreadPoolExecutor(3) as pool:
-        parts = [pool.submit(near, 1.0), pool.submit(near, -1.0), pool.submit(far)]
-        return [w for part in parts for w in part.result() if w is not None]
+    with ThreadPoolExecutor(2) as pool:
+        parts = [part.result() for part in [pool.submit(near, 1.0), pool.submit(near, -1.0)]]
+    if all(part is None for part in parts):
+        parts = [far()]
+    return [w for part in parts if part is not None for w in part if w is not None]
 
 
 Linearized = tuple[LinearModel, np.ndarray, np.ndarray]  # the model, objectives, their path

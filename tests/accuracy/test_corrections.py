@@ -151,3 +151,30 @@ def test_each_signs_thread_finds_the_points_of_both_signs_together(tmp_path):
     assert reach[1][0] == reach[2][0]
     np.testing.assert_allclose(reach[2][1].max(axis=0), reach[1][1].max(axis=0), atol=1e-6)
     np.testing.assert_allclose(reach[2][1].min(axis=0), reach[1][1].min(axis=0), atol=1e-6)
+
+
+def test_the_relaxations_optima_are_pulled_back_only_without_linearized_candidates(tmp_path):
+    """With the linearized model's candidates, the relaxation's optima are not pulled back:
+    the same points with them or without (either worker count), and those points reach at
+    least as far along every direction as the optima pulled back alone (which is what
+    the search falls back to where there is no linearized candidate: no direction)."""
+    prog, sol, ind, s, centre, box = solved_arc(tmp_path)
+    directions = np.array([[1.0, 0.2], [0.3, 1.0], [-1.0, 0.5], [0.7, -0.6]])
+    far = np.array([[0.9, 0.1], [-0.8, 0.05]])
+    reach = []
+    for workers in (1, 2):
+        t = s.tuned(lp=replace(s.lp, workers=workers))
+        with_far = certified_extremes(prog, box, centre, directions, far, t)
+        without = certified_extremes(prog, box, centre, directions, np.zeros((0, 2)), t)
+        assert len(with_far) == len(without) > 0
+        for (p, r), (q, u) in zip(with_far, without, strict=True):
+            assert np.array_equal(p, q) and np.array_equal(r, u)
+        reach.append(np.array([p for p, _ in with_far]) @ directions.T)
+    alone = certified_extremes(prog, box, centre, np.zeros((0, 2)), far, s)
+    assert len(alone) == len(far)
+    for p, r in alone:
+        assert check_point(prog, p, r).holds
+    pulled = np.array([p for p, _ in alone]) @ directions.T
+    for got in reach:
+        assert np.all(got.max(axis=0) >= pulled.max(axis=0) - 1e-9)
+        assert np.all(got.min(axis=0) <= pulled.min(axis=0) + 1e-9)
