@@ -21,7 +21,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings, OutlierSettings
-from calib_dsl.settings_strategy import LooseSettings
+from calib_dsl.settings_strategy import BlockSettings, LooseSettings
 
 
 # The cores the solver's LP threads, chunk threads and piece processes share: CALIBC_CORES
@@ -303,6 +303,7 @@ class Settings:
     split_worth: float = 0.03
     split_tried: int = 3
     loose: LooseSettings = LooseSettings()  # after shaving (settings_strategy.py)
+    blocks: BlockSettings = BlockSettings()  # passes over every row (settings_strategy.py)
     # Pieces are refined in child processes, one per core the LPs use (1: in the solving
     # process), each with cores / processes LP threads (two threads each overcommit).
     piece_processes: int = min(2, CORES)
@@ -440,7 +441,8 @@ class Settings:
 
 
 # Settings' fields that are groups
-GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose")
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose",
+          "blocks")
 
 
 def _names(group: str) -> set[str]:

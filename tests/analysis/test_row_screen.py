@@ -151,7 +151,7 @@ def _one_row(c0: float, r: float, target: tuple[float, float]) -> rs.RowScreen:
     coef = np.zeros((2, 1))
     return rs.RowScreen(None, ex, -np.ones(1), np.ones(1),  # type: ignore[arg-type]
                         (np.array([target[0]]), np.array([target[1]])), np.array([0]),
-                        np.zeros(2, dtype=bool), coef, coef)
+                        np.zeros(2, dtype=bool), coef, rs.row_sizes(coef, 1))
 
 
 def test_a_bound_at_the_targets_end_is_not_proven():
@@ -180,3 +180,29 @@ def test_a_point_the_models_prove_false_is_not_evaluated(tmp_path):
     with mock.patch.object(rs, "check_points", side_effect=AssertionError("evaluated")):
         assert not rs.screened_holds(screen, pts, _middles(prog, 1))[0]
     assert not _full(prog, pts, _middles(prog, 1))[0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), terms=st.integers(1, 40), rows=st.integers(1, 60),
+       block=st.integers(-1, 80))
+def test_the_blockwise_sizes_are_the_whole_arrays(seed, terms, rows, block):
+    # any block (one row, more than the rows, none at all) gives the whole array's sums,
+    # bit for bit, and each bounds the magnitudes' product with any terms in [-1, 1]
+    rng = np.random.default_rng(seed)
+    coef = rng.standard_normal((terms, rows)) * 10.0 ** rng.integers(-8, 8, (terms, rows))
+    got = rs.row_sizes(coef, block)
+    assert np.array_equal(got, rs.row_sizes(coef, rows + 1))
+    assert np.array_equal(got, rs.row_sizes(coef, 1))
+    t = rng.uniform(-1.0, 1.0, (5, terms))
+    t[0] = 1.0
+    assert np.all(np.abs(t) @ np.abs(coef) <= got)
+
+
+def test_the_screen_keeps_the_models_coefficients_once(tmp_path):
+    # the kept expansion's c1 and c2 are views of the screen's coef: not a second copy
+    prog = _line(tmp_path)
+    screen = rs.row_screen(prog, np.array([0.9, -0.05]), np.array([1.05, 0.05]))
+    assert screen is not None
+    m = screen.ex.rows.models
+    assert np.shares_memory(m.c1, screen.coef) and np.shares_memory(m.c2, screen.coef)
+    assert np.array_equal(np.hstack([m.c1, m.c2]).T, screen.coef)
