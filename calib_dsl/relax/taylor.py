@@ -96,7 +96,9 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
         return None
     last = done[-1]
     assert last is not None  # (chunks are never empty)
-    return Expansion(*last[:3], joined([d[3] for d in done if d is not None]))
+    parts = [d[3] for d in done if d is not None]
+    del done
+    return Expansion(*last[:3], joined(parts, consume=True))
 
 
 def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
@@ -110,13 +112,16 @@ def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
     return part
 
 
-def joined(parts: list[Constraints]) -> Constraints:
+def joined(parts: list[Constraints], consume: bool = False) -> Constraints:
     """The rows of several passes, one after the other, without keys (a key is a place in
-    one pass's program); their ids are the whole program's."""
+    one pass's program); their ids are the whole program's. `consume`: the parts are the
+    caller's own, and each part's models are dropped once copied (the whole and every
+    part are then never held at once)."""
     ids = None if any(c.ids is None for c in parts) else np.concatenate([c.ids for c in parts])
     lo, hi, slots = (np.concatenate([getattr(c, a) for c in parts])
                      for a in ("lo", "hi", "slots"))
-    return Constraints(_concat([c.models for c in parts]), lo, hi, slots, ids=ids)
+    models = _moved(parts) if consume else _concat([c.models for c in parts])
+    return Constraints(models, lo, hi, slots, ids=ids)
 
 
 def constraint_ids(prog: Program, keys: np.ndarray, chunk: Chunk | None = None) -> np.ndarray:
@@ -404,3 +409,19 @@ def _constraint(f: Models, models: Models, slots: np.ndarray, known: np.ndarray,
 
 def _concat(ms: list[Models]) -> Models:
     return Models(*(np.concatenate([getattr(m, a) for m in ms]) for a in ("c0", "c1", "c2", "r")))
+
+
+def _moved(parts: list[Constraints]) -> Models:
+    """_concat of the parts' models, each part's models replaced by none (no rows) once
+    copied into the whole."""
+    first = parts[0].models
+    k = sum(len(c.models.c0) for c in parts)
+    out = Models(np.empty(k), np.empty((k,) + first.c1.shape[1:]),
+                 np.empty((k,) + first.c2.shape[1:]), np.empty(k))
+    a = 0
+    for c in parts:
+        m, b = c.models, a + len(c.models.c0)
+        out.c0[a:b], out.c1[a:b], out.c2[a:b], out.r[a:b] = m.c0, m.c1, m.c2, m.r
+        c.models, a = m.take(np.zeros(0, dtype=np.int64)), b
+        del m
+    return out
