@@ -97,7 +97,7 @@ def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | No
         return None
     slo, shi = prog.slots.lo.copy(), prog.slots.hi.copy()
     slo[ind], shi[ind] = lo, hi  # (the readings and measurements: their own intervals)
-    ex = expand(prog, slo, shi)
+    ex = expand(prog, slo, shi, by_terms=True)
     if ex is None:
         return None
     configs = len(lay.rows)
@@ -113,13 +113,15 @@ def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | No
     modelled = np.isin(whole.slots, ex.rows.slots) & ~whole.computed
     always = np.zeros(configs + 1, dtype=bool)
     always[config_of(whole.slots[~modelled])] = True
-    m = ex.rows.models
-    n = m.c1.shape[1]
-    coef = np.empty((n + m.c2.shape[1], len(m.c0)))
-    coef[:n], coef[n:] = m.c1.T, m.c2.T
-    # (the coefficients once, not twice: the screen reads them from coef only)
-    ex = replace(ex, rows=replace(ex.rows, models=Models(m.c0, coef[:n].T, coef[n:].T, m.r)))
-    del m
+    coef = ex.coef
+    if coef is None:  # (a program expanded whole: its models copied once, and dropped)
+        m = ex.rows.models
+        n = m.c1.shape[1]
+        coef = np.empty((n + m.c2.shape[1], len(m.c0)))
+        coef[:n], coef[n:] = m.c1.T, m.c2.T
+        models = Models(m.c0, coef[:n].T, coef[n:].T, m.r)
+        ex = replace(ex, rows=replace(ex.rows, models=models), coef=coef)
+        del m
     return RowScreen(prog, ex, lo.copy(), hi.copy(), exact_inside(ex.rows.lo, ex.rows.hi),
                      config_of(ex.rows.slots), always, coef, row_sizes(coef, SIZE_ROWS), 1.0,
                      whole, config_of(whole.slots))

@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import calib_dsl.analysis.row_screen as rs
+import calib_dsl.relax.taylor as taylor
 from calib_dsl.analysis.certify_point import check_points, exact_inside, reading_slots
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.pipeline import load
@@ -130,8 +131,8 @@ def test_a_row_no_model_covers_is_always_evaluated(tmp_path):
     assert lay is not None
     real = rs.expand
 
-    def without_row_2(p, lo, hi):
-        ex = real(p, lo, hi)
+    def without_row_2(p, lo, hi, **options):
+        ex = real(p, lo, hi, **options)
         keep = np.flatnonzero((ex.rows.slots - lay.shared) // lay.width != 2)
         return Expansion(ex.center, ex.half, ex.pairs, ex.rows.take(keep))
 
@@ -206,3 +207,23 @@ def test_the_screen_keeps_the_models_coefficients_once(tmp_path):
     m = screen.ex.rows.models
     assert np.shares_memory(m.c1, screen.coef) and np.shares_memory(m.c2, screen.coef)
     assert np.array_equal(np.hstack([m.c1, m.c2]).T, screen.coef)
+
+
+def test_a_chunked_screen_reads_the_joined_coefficients_in_place(tmp_path):
+    # expanded in chunks (by_terms): the screen's coef is the expansion's own buffer, and
+    # it holds what the models of a whole expansion hold
+    prog = _line(tmp_path, rows="1,1\n1,1.001\n0.5,0.5\n2,2\n1.5,1.5\n1,0.999\n")
+    lo, hi = np.array([0.9, -0.05]), np.array([1.05, 0.05])
+    whole = rs.row_screen(prog, lo, hi)
+    rs.forget(prog, lo, hi)
+    with mock.patch("calib_dsl.relax.taylor.CHUNK_SLOTS", 8), \
+            mock.patch("calib_dsl.relax.taylor._terms_buffer", wraps=taylor._terms_buffer) as made:
+        parts = rs.row_screen(prog, lo, hi)
+    assert made.called  # (in chunks: the joined buffer made)
+    assert whole is not None and parts is not None
+    assert parts.ex.coef is parts.coef
+    order = np.argsort(parts.ex.rows.slots, kind="stable")
+    same = np.argsort(whole.ex.rows.slots, kind="stable")
+    assert np.array_equal(parts.ex.rows.slots[order], whole.ex.rows.slots[same])
+    assert np.array_equal(parts.coef[:, order], whole.coef[:, same])
+    assert np.array_equal(parts.size[order], whole.size[same])
