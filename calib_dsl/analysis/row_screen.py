@@ -32,7 +32,7 @@ from calib_dsl.analysis.existence import prove_point
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.models import U, Models, up
+from calib_dsl.relax.models import Models, U, up
 from calib_dsl.relax.taylor import Expansion, expand
 from calib_dsl.settings import Settings
 
