@@ -60,8 +60,7 @@ class LPSettings:
     # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
     # primal. Each objective starts from the last one's optimum, which a new cost leaves
     # primal feasible, so the primal simplex needs fewer pivots than the dual. With few
-    # columns the dual stays faster, and on LPs that hold all their rows
-    # (docs/decisions/06).
+    # columns the dual stays faster, and on LPs that hold all their rows (docs/decisions/06).
     tall_simplex: int = 4
     tall_primal_columns: int = 64
     scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
@@ -441,8 +440,7 @@ class Settings:
 
 
 # Settings' fields that are groups
-GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose",
-          "blocks")
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose", "blocks")
 
 
 def _names(group: str) -> set[str]:
