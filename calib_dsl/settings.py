@@ -21,7 +21,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from calib_dsl.settings_analysis import FitSettings, MinErrorSettings, OutlierSettings
-from calib_dsl.settings_strategy import LooseSettings
+from calib_dsl.settings_strategy import BlockSettings, LooseSettings
 
 
 # The cores the solver's LP threads, chunk threads and piece processes share: CALIBC_CORES
@@ -60,8 +60,7 @@ class LPSettings:
     # HiGHS's simplex_strategy for such an LP with at least tall_primal_columns columns:
     # primal. Each objective starts from the last one's optimum, which a new cost leaves
     # primal feasible, so the primal simplex needs fewer pivots than the dual. With few
-    # columns the dual stays faster, and on LPs that hold all their rows
-    # (docs/decisions/06).
+    # columns the dual stays faster, and on LPs that hold all their rows (docs/decisions/06).
     tall_simplex: int = 4
     tall_primal_columns: int = 64
     scaling: int = 0  # HiGHS's simplex_scale_strategy: none (the bounds are certified anyway)
@@ -303,6 +302,7 @@ class Settings:
     split_worth: float = 0.03
     split_tried: int = 3
     loose: LooseSettings = LooseSettings()  # after shaving (settings_strategy.py)
+    blocks: BlockSettings = BlockSettings()  # passes over every row (settings_strategy.py)
     # Pieces are refined in child processes, one per core the LPs use (1: in the solving
     # process), each with cores / processes LP threads (two threads each overcommit).
     piece_processes: int = min(2, CORES)
@@ -441,7 +441,7 @@ class Settings:
 
 
 # Settings' fields that are groups
-GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose")
+GROUPS = ("rounds", "sampling", "lp", "inner", "outliers", "fits", "min_error", "loose", "blocks")
 
 
 def _names(group: str) -> set[str]:

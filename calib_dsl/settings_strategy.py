@@ -29,3 +29,18 @@ class LooseSettings:
     # within `share` of the solve's time (the first always starts: the result is beyond the
     # promise, which the user is told otherwise).
     share: float = 0.5
+
+
+@dataclass(frozen=True)
+class BlockSettings:
+    """Rows per block of the passes over every row of a large program whose whole-size
+    temporaries would set the peak memory (a 12,000-row campaign's row models hold some
+    200 bytes per unknown and row). Results do not depend on them: each block's arithmetic
+    is the whole array's, row by row."""
+
+    # The row screen's coefficient sizes (analysis/row_screen.py): each block's temporary
+    # holds the models' coefficients of this many rows (some 4 KB a row).
+    size_rows: int = 4096
+    # The LP row generation's check of a point (lp/highs.py, RowCheck): each block's
+    # products and excesses hold this many rows (a few hundred bytes a row with its indices).
+    check_rows: int = 16384

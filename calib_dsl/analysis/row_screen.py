@@ -32,10 +32,13 @@ from calib_dsl.analysis.existence import prove_point
 from calib_dsl.compile.chunks import chunked
 from calib_dsl.ir.program import Program, derived
 from calib_dsl.relax.layout import independents
-from calib_dsl.relax.models import U
+from calib_dsl.relax.models import Models, U, up
 from calib_dsl.relax.taylor import Expansion, expand
+from calib_dsl.settings import Settings
 
 _BLOCK = 256  # points a block of the bounds' products: (points, rows) matrices stay small
+# (module attribute, the settings' declared value: tests make blocks small)
+SIZE_ROWS = Settings.blocks.size_rows
 
 
 @dataclass(frozen=True)
@@ -51,8 +54,9 @@ class RowScreen:
     inside: tuple[np.ndarray, np.ndarray]
     config: np.ndarray
     always: np.ndarray
-    # the models' coefficients of (t, the products t_i t_j), one column a row, and their
-    # magnitudes (made once: every block of points multiplies by both)
+    # the models' coefficients of (t, the products t_i t_j), one column a row (made once:
+    # every block of points multiplies by them; ex's models' c1 and c2 are views of it), and
+    # per row an upper bound on the sum of their magnitudes (every term lies in [-1, 1])
     coef: np.ndarray
     size: np.ndarray
     # above this share of the points' loop rows left open, a pass is the whole check
@@ -93,7 +97,7 @@ def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | No
         return None
     slo, shi = prog.slots.lo.copy(), prog.slots.hi.copy()
     slo[ind], shi[ind] = lo, hi  # (the readings and measurements: their own intervals)
-    ex = expand(prog, slo, shi)
+    ex = expand(prog, slo, shi, by_terms=True)
     if ex is None:
         return None
     configs = len(lay.rows)
@@ -109,11 +113,30 @@ def _row_screen(prog: Program, lo: np.ndarray, hi: np.ndarray) -> RowScreen | No
     modelled = np.isin(whole.slots, ex.rows.slots) & ~whole.computed
     always = np.zeros(configs + 1, dtype=bool)
     always[config_of(whole.slots[~modelled])] = True
-    m = ex.rows.models
-    coef = np.ascontiguousarray(np.hstack([m.c1, m.c2]).T)
+    coef = ex.coef
+    if coef is None:  # (a program expanded whole: its models copied once, and dropped)
+        m = ex.rows.models
+        n = m.c1.shape[1]
+        coef = np.empty((n + m.c2.shape[1], len(m.c0)))
+        coef[:n], coef[n:] = m.c1.T, m.c2.T
+        models = Models(m.c0, coef[:n].T, coef[n:].T, m.r)
+        ex = replace(ex, rows=replace(ex.rows, models=models), coef=coef)
+        del m
     return RowScreen(prog, ex, lo.copy(), hi.copy(), exact_inside(ex.rows.lo, ex.rows.hi),
-                     config_of(ex.rows.slots), always, coef, np.abs(coef), 1.0, whole,
-                     config_of(whole.slots))
+                     config_of(ex.rows.slots), always, coef, row_sizes(coef, SIZE_ROWS), 1.0,
+                     whole, config_of(whole.slots))
+
+
+def row_sizes(coef: np.ndarray, block: int) -> np.ndarray:
+    """Per column of `coef` (a row's coefficients), an upper bound on the sum of its
+    entries' magnitudes, `block` columns at a time (the magnitudes of a block only are
+    made: a copy of the whole would double the screen's memory)."""
+    out, block = np.zeros(coef.shape[1]), max(1, block)
+    for a in range(0, coef.shape[1], block):
+        part = np.abs(coef[:, a:a + block])
+        for k in range(len(part)):  # (term by term: the same sums for any block)
+            out[a:a + block] += part[k]
+    return up(out)
 
 
 def screened_checks(screen: RowScreen, points: np.ndarray, readings: np.ndarray
@@ -262,7 +285,8 @@ def _judged(screen: RowScreen, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     its value inside its target's exact inside (the row holds), and outside the target's
     float enclosure (it fails, for every reading within its interval), every rounding of the
     float evaluation bounded: the terms' magnitudes times (terms + 16) 4U (each product, sum
-    and the point's own t = (p - c) / w contribute a few U of a term's magnitude)."""
+    and the point's own t = (p - c) / w contribute a few U of a term's magnitude), the terms'
+    magnitudes bounded by the coefficients' (every t_i and product lies in [-1, 1])."""
     ex = screen.ex
     m = ex.rows.models
     # exact t lies in [-1, 1] (the half-widths are rounded up): clipping only moves the
@@ -270,7 +294,7 @@ def _judged(screen: RowScreen, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     t = np.clip((points - ex.center) / ex.half, -1.0, 1.0)
     terms = np.hstack([t, t[:, ex.pairs.i] * t[:, ex.pairs.j]])
     value = m.c0[None, :] + terms @ screen.coef
-    size = np.abs(m.c0)[None, :] + np.abs(terms) @ screen.size
+    size = (np.abs(m.c0) + screen.size)[None, :]
     count = terms.shape[1] + 16
     err = size * (count * 4 * U) + 1e-300
     reach = m.r[None, :] + err

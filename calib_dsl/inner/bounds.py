@@ -31,6 +31,7 @@ from calib_dsl.inner.lp import LinearModel, Solver
 from calib_dsl.inner.screen import checks
 from calib_dsl.inner.starts import Starts
 from calib_dsl.ir.program import Program
+from calib_dsl.relax.chunked import release_freed
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import InnerSettings, LPSettings, Settings
 
@@ -99,10 +100,14 @@ def inner_bounds(prog: Program, lo: np.ndarray, hi: np.ndarray,
     box = (np.where(some, np.maximum(lo[ind], dlo), lo[ind]).astype(float),
            np.where(some, np.minimum(hi[ind], dhi), hi[ind]).astype(float))
     found = _Points(len(ind), box)
+    # (the solve's freed memory back to the system before this phase's threads allocate
+    # the row screen and the LPs, and the screen's once it is dropped)
+    release_freed()
     try:
         _search(prog, box, found, starts, (settings.lp, settings.inner))
     finally:
         forget(prog, *box)  # (the checks' screen: inner/screen.py)
+        release_freed()
     return Inner(names, found.lo, found.hi, tuple(found.all), found.lo_at, found.hi_at,
                  time.perf_counter() - start)
 

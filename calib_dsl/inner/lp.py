@@ -7,6 +7,7 @@ thread, from the solve's final basis for that end where there is one (inner/star
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cached_property
 
 import numpy as np
 
@@ -101,13 +102,26 @@ class LinearModel:
         """How far each row stuck out at a failed point, in units of its bound, and which
         failed rows compare two computed values."""
         assert check.computed is not None and check.ok is not None
-        plain = ~check.computed
-        out = np.zeros(self.nslots)
-        np.maximum.at(out, check.slots[plain],
+        # (over this LP's slots, not every slot of the program: a tall program's slot
+        # arrays, one per thread, would add to the peak memory)
+        slots, back = self._lp_slots
+        if not len(slots):
+            return np.zeros(0), np.zeros(0, dtype=bool)
+        at = np.minimum(np.searchsorted(slots, check.slots), len(slots) - 1)
+        mine = slots[at] == check.slots
+        plain = mine & ~check.computed
+        out = np.zeros(len(slots))
+        np.maximum.at(out, at[plain],
                       np.where(np.isfinite(check.excess[plain]), check.excess[plain], 0.0))
-        failed = np.zeros(self.nslots, dtype=bool)
-        failed[check.slots[check.computed & ~check.ok]] = True
-        return out[self.slots] / self.unit, failed[self.slots]
+        failed = np.zeros(len(slots), dtype=bool)
+        failed[at[mine & check.computed & ~check.ok]] = True
+        return out[back] / self.unit, failed[back]
+
+    @cached_property
+    def _lp_slots(self) -> tuple[np.ndarray, np.ndarray]:
+        """The LP's rows' slots, each once (sorted), and each row's place among them."""
+        slots, back = np.unique(self.slots, return_inverse=True)
+        return slots, back.reshape(-1)
 
 
 class Solver:

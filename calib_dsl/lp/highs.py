@@ -16,10 +16,13 @@ from typing import Any
 import numpy as np
 
 from calib_dsl.relax.relaxation import LinearRelaxation, Rows
+from calib_dsl.settings import Settings
 
 LOWER, BASIC = 0, 1  # HiGHS's basis statuses kLower, kBasic
 MANY_PIVOTS = 2**31 - 1  # HiGHS's own default: no limit
 DUAL_SIMPLEX = 1  # HiGHS's simplex_strategy kSimplexStrategyDual
+# (module attribute, the settings' declared value: tests make blocks small)
+CHECK_ROWS = Settings.blocks.check_rows
 
 
 def optimal(h: Any) -> bool:
@@ -76,20 +79,31 @@ def starting_rows(rel: LinearRelaxation) -> np.ndarray:
 
 class RowCheck:
     """Which rows outside the LP a point violates (the `most` most violated). A x and |A| |x|
-    are two sparse products (made once per LP: the row generation checks many points)."""
+    are sparse products, `block` rows at a time (|A| of a block only is made: a copy of a
+    tall LP's whole matrix per check would add to the peak memory; each row's sum is the
+    same for any block)."""
 
-    def __init__(self, rel: LinearRelaxation, most: int) -> None:
+    def __init__(self, rel: LinearRelaxation, most: int, block: int = CHECK_ROWS) -> None:
+        self.rel, self.most, self.block = rel, most, max(1, block)
+        self.rows = _rows_of(rel.A)
+        self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(rel.A.shape[0], -np.inf)
+
+    def products(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A x, |A| |x|)."""
         from scipy.sparse import csr_matrix  # (a tall LP's row generation only: a slow import)
 
-        A = rel.A
-        self.rel, self.most = rel, most
-        self.A = csr_matrix((A.data, A.indices, A.indptr), shape=A.shape)
-        self.absA = csr_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape)
-        self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(A.shape[0], -np.inf)
+        r, (m, n) = self.rows, self.rows.shape
+        ax, scale, size = np.empty(m), np.empty(m), np.abs(x)
+        for a in range(0, m, self.block):
+            b = min(m, a + self.block)
+            s, e = r.indptr[a], r.indptr[b]
+            ptr, cols, vals = r.indptr[a:b + 1] - s, r.indices[s:e], r.data[s:e]
+            ax[a:b] = csr_matrix((vals, cols, ptr), shape=(b - a, n)) @ x
+            scale[a:b] = csr_matrix((np.abs(vals), cols, ptr), shape=(b - a, n)) @ size
+        return ax, scale
 
     def violated(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        ax = self.A @ x
-        scale = self.absA @ np.abs(x)
+        ax, scale = self.products(x)
         tol = 1e-9 * scale + 1e-12
         with np.errstate(invalid="ignore"):
             excess = np.maximum(ax - self.rel.b, self.b_lo - ax) - tol

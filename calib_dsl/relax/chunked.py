@@ -181,6 +181,19 @@ def _cap_arenas(arenas: int) -> bool:
         return False
 
 
+def release_freed() -> bool:
+    """Freed heap memory handed back to the system (glibc's malloc_trim; False where this is
+    no glibc): memory a phase freed in one thread's arena is otherwise still held there
+    while another arena grows for the next phase, and the peak adds both. Only the memory's
+    placement changes."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        return bool(ctypes.CDLL("libc.so.6").malloc_trim(0))
+    except (OSError, AttributeError):
+        return False
+
+
 def evaluation(prog: Program, lo: np.ndarray, hi: np.ndarray, center: np.ndarray,
                point: bool = False, mixed: bool = False, owners: bool = False,
                rows: np.ndarray | None = None) -> Evaluated:

@@ -68,6 +68,9 @@ class Expansion:
     pairs: Pairs
     rows: Constraints
     kept: np.ndarray | None = None  # the products given LP columns (set by quadratic.py)
+    # the rows' coefficients of (t, the products), one column a row, the rows' models' c1
+    # and c2 views of it (expand's `by_terms`, where it joined chunks)
+    coef: np.ndarray | None = None
 
 
 def supported(prog: Program) -> bool:
@@ -75,13 +78,15 @@ def supported(prog: Program) -> bool:
 
 
 def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
-           rows: np.ndarray | None = None) -> Expansion | None:
+           rows: np.ndarray | None = None, by_terms: bool = False) -> Expansion | None:
     """Second-order models of every constraint row over the box [lo, hi] (the unknowns'
     entries; the other slots' entries give the constants' and the targets' ranges); of the
     loop's rows `rows` only, if given. None when a primitive has no model, an unknown is
     unbounded, or the models would not fit in MAX_TABLE_BYTES (settings.max_table_bytes). A large
     program whose rows were compiled once is expanded a chunk of rows at a time
-    (compile/chunks.py): the models live for one chunk; the rows' models are kept."""
+    (compile/chunks.py): the models live for one chunk; the rows' models are kept (with
+    `by_terms`, in the Expansion's `coef`, one column a row: what a product of many points'
+    terms by every row's coefficients reads, made without a second copy)."""
     chunks = chunked(prog, CHUNK_SLOTS, rows)
     if chunks is None:
         return _expand(prog, lo, hi)
@@ -96,7 +101,10 @@ def expand(prog: Program, lo: np.ndarray, hi: np.ndarray,
         return None
     last = done[-1]
     assert last is not None  # (chunks are never empty)
-    return Expansion(*last[:3], joined([d[3] for d in done if d is not None]))
+    parts = [d[3] for d in done if d is not None]
+    del done
+    coef = _terms_buffer(parts) if by_terms else None
+    return Expansion(*last[:3], joined(parts, consume=True, into=coef), coef=coef)
 
 
 def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
@@ -110,13 +118,18 @@ def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
     return part
 
 
-def joined(parts: list[Constraints]) -> Constraints:
+def joined(parts: list[Constraints], consume: bool = False,
+           into: np.ndarray | None = None) -> Constraints:
     """The rows of several passes, one after the other, without keys (a key is a place in
-    one pass's program); their ids are the whole program's."""
+    one pass's program); their ids are the whole program's. `consume`: the parts are the
+    caller's own, and each part's models are dropped once copied (the whole and every
+    part are then never held at once), their c1 and c2 written into `into` if given (one
+    column a row, _terms_buffer)."""
     ids = None if any(c.ids is None for c in parts) else np.concatenate([c.ids for c in parts])
     lo, hi, slots = (np.concatenate([getattr(c, a) for c in parts])
                      for a in ("lo", "hi", "slots"))
-    return Constraints(_concat([c.models for c in parts]), lo, hi, slots, ids=ids)
+    models = _moved(parts, into) if consume else _concat([c.models for c in parts])
+    return Constraints(models, lo, hi, slots, ids=ids)
 
 
 def constraint_ids(prog: Program, keys: np.ndarray, chunk: Chunk | None = None) -> np.ndarray:
@@ -410,3 +423,29 @@ def _constraint(f: Models, models: Models, slots: np.ndarray, known: np.ndarray,
 
 def _concat(ms: list[Models]) -> Models:
     return Models(*(np.concatenate([getattr(m, a) for m in ms]) for a in ("c0", "c1", "c2", "r")))
+
+
+def _terms_buffer(parts: list[Constraints]) -> np.ndarray:
+    """An empty (terms, rows) array for the parts' joined c1 and c2, one column a row."""
+    first = parts[0].models
+    k = sum(len(c.models.c0) for c in parts)
+    return np.empty((first.c1.shape[1] + first.c2.shape[1], k))
+
+
+def _moved(parts: list[Constraints], into: np.ndarray | None = None) -> Models:
+    """_concat of the parts' models, each part's models replaced by none (no rows) once
+    copied into the whole (c1 and c2 views of `into`, one column a row, if given)."""
+    first = parts[0].models
+    k, n = sum(len(c.models.c0) for c in parts), first.c1.shape[1]
+    if into is None:
+        out = Models(np.empty(k), np.empty((k, n)), np.empty((k,) + first.c2.shape[1:]),
+                     np.empty(k))
+    else:
+        out = Models(np.empty(k), into[:n].T, into[n:].T, np.empty(k))
+    a = 0
+    for c in parts:
+        m, b = c.models, a + len(c.models.c0)
+        out.c0[a:b], out.c1[a:b], out.c2[a:b], out.r[a:b] = m.c0, m.c1, m.c2, m.r
+        c.models, a = m.take(np.zeros(0, dtype=np.int64)), b
+        del m
+    return out

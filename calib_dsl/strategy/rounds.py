@@ -43,6 +43,7 @@ from calib_dsl.lp.certify import Certificates, reused_bounds
 from calib_dsl.progress import Meter
 from calib_dsl.propagate.diagnose import Emptied
 from calib_dsl.propagate.fixpoint import propagate
+from calib_dsl.relax.chunked import release_freed
 from calib_dsl.relax.layout import independents, measured_cells
 from calib_dsl.relax.linearize import relax
 from calib_dsl.relax.quadratic import FAMILY, narrowed, relax_quadratic, to_box
@@ -192,6 +193,9 @@ class _Rounds(Composable):
         if self.work.sweeps >= self.spec.max_sweeps:  # the sweeps it was given are spent
             self.stop = Stop.MAX_SWEEPS
             return False
+        # (the last round's freed relaxation and sweeps back to the system: held in the
+        # chunk threads' arenas, they add to what this round's threads allocate elsewhere)
+        release_freed()
         this = self.relaxation()
         if this is None:
             return False

@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import calib_dsl.analysis.row_screen as rs
+import calib_dsl.relax.taylor as taylor
 from calib_dsl.analysis.certify_point import check_points, exact_inside, reading_slots
 from calib_dsl.analysis.existence import prove_point
 from calib_dsl.pipeline import load
@@ -130,8 +131,8 @@ def test_a_row_no_model_covers_is_always_evaluated(tmp_path):
     assert lay is not None
     real = rs.expand
 
-    def without_row_2(p, lo, hi):
-        ex = real(p, lo, hi)
+    def without_row_2(p, lo, hi, **options):
+        ex = real(p, lo, hi, **options)
         keep = np.flatnonzero((ex.rows.slots - lay.shared) // lay.width != 2)
         return Expansion(ex.center, ex.half, ex.pairs, ex.rows.take(keep))
 
@@ -151,7 +152,7 @@ def _one_row(c0: float, r: float, target: tuple[float, float]) -> rs.RowScreen:
     coef = np.zeros((2, 1))
     return rs.RowScreen(None, ex, -np.ones(1), np.ones(1),  # type: ignore[arg-type]
                         (np.array([target[0]]), np.array([target[1]])), np.array([0]),
-                        np.zeros(2, dtype=bool), coef, coef)
+                        np.zeros(2, dtype=bool), coef, rs.row_sizes(coef, 1))
 
 
 def test_a_bound_at_the_targets_end_is_not_proven():
@@ -180,3 +181,49 @@ def test_a_point_the_models_prove_false_is_not_evaluated(tmp_path):
     with mock.patch.object(rs, "check_points", side_effect=AssertionError("evaluated")):
         assert not rs.screened_holds(screen, pts, _middles(prog, 1))[0]
     assert not _full(prog, pts, _middles(prog, 1))[0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), terms=st.integers(1, 40), rows=st.integers(1, 60),
+       block=st.integers(-1, 80))
+def test_the_blockwise_sizes_are_the_whole_arrays(seed, terms, rows, block):
+    # any block (one row, more than the rows, none at all) gives the whole array's sums,
+    # bit for bit, and each bounds the magnitudes' product with any terms in [-1, 1]
+    rng = np.random.default_rng(seed)
+    coef = rng.standard_normal((terms, rows)) * 10.0 ** rng.integers(-8, 8, (terms, rows))
+    got = rs.row_sizes(coef, block)
+    assert np.array_equal(got, rs.row_sizes(coef, rows + 1))
+    assert np.array_equal(got, rs.row_sizes(coef, 1))
+    t = rng.uniform(-1.0, 1.0, (5, terms))
+    t[0] = 1.0
+    assert np.all(np.abs(t) @ np.abs(coef) <= got)
+
+
+def test_the_screen_keeps_the_models_coefficients_once(tmp_path):
+    # the kept expansion's c1 and c2 are views of the screen's coef: not a second copy
+    prog = _line(tmp_path)
+    screen = rs.row_screen(prog, np.array([0.9, -0.05]), np.array([1.05, 0.05]))
+    assert screen is not None
+    m = screen.ex.rows.models
+    assert np.shares_memory(m.c1, screen.coef) and np.shares_memory(m.c2, screen.coef)
+    assert np.array_equal(np.hstack([m.c1, m.c2]).T, screen.coef)
+
+
+def test_a_chunked_screen_reads_the_joined_coefficients_in_place(tmp_path):
+    # expanded in chunks (by_terms): the screen's coef is the expansion's own buffer, and
+    # it holds what the models of a whole expansion hold
+    prog = _line(tmp_path, rows="1,1\n1,1.001\n0.5,0.5\n2,2\n1.5,1.5\n1,0.999\n")
+    lo, hi = np.array([0.9, -0.05]), np.array([1.05, 0.05])
+    whole = rs.row_screen(prog, lo, hi)
+    rs.forget(prog, lo, hi)
+    with mock.patch("calib_dsl.relax.taylor.CHUNK_SLOTS", 8), \
+            mock.patch("calib_dsl.relax.taylor._terms_buffer", wraps=taylor._terms_buffer) as made:
+        parts = rs.row_screen(prog, lo, hi)
+    assert made.called  # (in chunks: the joined buffer made)
+    assert whole is not None and parts is not None
+    assert parts.ex.coef is parts.coef
+    order = np.argsort(parts.ex.rows.slots, kind="stable")
+    same = np.argsort(whole.ex.rows.slots, kind="stable")
+    assert np.array_equal(parts.ex.rows.slots[order], whole.ex.rows.slots[same])
+    assert np.array_equal(parts.coef[:, order], whole.coef[:, same])
+    assert np.array_equal(parts.size[order], whole.size[same])

@@ -968,3 +968,25 @@ def test_a_coefficient_that_is_no_number_bounds_nothing():
     rows = box_maxes_up(np.array([[1.0, 0.0], [2.0, np.nan]]),
                         np.array([[1.0, 0.0], [2.0, np.nan]]), lo, hi)
     assert rows[0] <= 1.0 + 1e-8 and rows[1] == np.inf
+
+
+@SETTINGS
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.integers(1, 6), st.integers(-1, 50))
+def test_the_row_checks_blocks_give_the_whole_products(seed, m, n, block):
+    # any block of rows (one, more than the rows, none at all) gives the whole matrix's
+    # products bit for bit, and so the same violated rows
+    from calib_dsl.lp.highs import RowCheck
+
+    rng = np.random.default_rng(seed)
+    full = rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.5) * 10.0 ** rng.integers(-4, 5)
+    full[rng.random(m) < 0.2] = 0.0  # (empty rows among them)
+    A = sparse.csr_matrix(full)
+    x = rng.normal(size=n)
+    rel = LinearRelaxation(Rows(A.data, A.indices, A.indptr, A.shape), full @ x - 0.1, -np.ones(n),
+                           np.ones(n))
+    ax, scale = RowCheck(rel, m, block).products(x)
+    assert np.array_equal(ax, A @ x)
+    assert np.array_equal(scale, abs(A) @ np.abs(x))
+    inside = rng.permutation(m)[: int(rng.integers(0, m + 1))]
+    assert np.array_equal(RowCheck(rel, m, block).violated(x, inside),
+                          RowCheck(rel, m, m + 1).violated(x, inside))
