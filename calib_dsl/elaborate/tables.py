@@ -227,9 +227,6 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
     value = float(number)  # correctly rounded, however many digits
     if not np.isfinite(value):
         raise CalError(f"{where}: '{cell}' is too large for a float", loc)
-    if abs(value) > LARGEST_SQUARE_ROOT:
-        raise CalError(f"{where}: '{cell}' is too large to compute with (its square "
-                       "overflows a float): a typo in its exponent?", loc)
     exponent = match.group(3)
     if len(number) > MAX_EXACT_CHARS or (exponent and abs(int(exponent[1:])) > MAX_EXACT_CHARS):
         # exactly, it would cost a huge integer; the floats on each side of the correctly
@@ -237,10 +234,6 @@ def _cell(text: str, name: str, line: int, row: int, col: str,
         return value, float(np.nextafter(value, -np.inf)), float(np.nextafter(value, np.inf))
     return (value, *enclose_decimal(number))
 
-
-# a cell larger than this in magnitude has a square past the largest float: distances,
-# rotations and least squares over it overflow, whatever the model
-LARGEST_SQUARE_ROOT = float(np.sqrt(np.finfo(float).max))
 
 # a cell longer than this is enclosed by its float's neighbours instead of exactly (an
 # exponent past it would make an exact Fraction of 10**exponent): far past a float's 17 digits
