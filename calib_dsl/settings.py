@@ -371,9 +371,8 @@ class Settings:
     prediction_rows_added: int = 20
     prediction_row_passes: int = 8
     # The LP optima of this many predicted coordinates, far apart in direction (both ends),
-    # become candidate extremes for the inner intervals (accuracy/extremes.py) where the
-    # linearized model gives none: each costs a bisection of certify_point passes and a
-    # place among the points each row picks from.
+    # become candidate extremes for the inner intervals (accuracy/extremes.py) where the linearized
+    # model gives none: each costs certify_point passes and a place among a row's points.
     prediction_candidates: int = 128
     # Those LPs' optima are pulled back towards the certified centre by bisection until
     # certified (accuracy/extremes.py): pullback_steps halvings leave an end within 2^-steps

@@ -121,10 +121,9 @@ def chunk_rows(rows: Constraints, ch: Chunk) -> Constraints:
 def joined(parts: list[Constraints], consume: bool = False,
            into: np.ndarray | None = None) -> Constraints:
     """The rows of several passes, one after the other, without keys (a key is a place in
-    one pass's program); their ids are the whole program's. `consume`: the parts are the
-    caller's own, and each part's models are dropped once copied (the whole and every
-    part are then never held at once), their c1 and c2 written into `into` if given (one
-    column a row, _terms_buffer)."""
+    one pass's program); their ids are the whole program's. `consume`: each part's models
+    (the caller's own) dropped once copied, the whole and every part never held at once;
+    c1 and c2 written into `into` if given (one column a row, _terms_buffer)."""
     ids = None if any(c.ids is None for c in parts) else np.concatenate([c.ids for c in parts])
     lo, hi, slots = (np.concatenate([getattr(c, a) for c in parts])
                      for a in ("lo", "hi", "slots"))
