@@ -114,7 +114,8 @@ def _inner_at_ratio(lo: np.ndarray, hi: np.ndarray, ratio: float):
 
 
 @given(st.floats(1.0, 1.19))
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 def test_a_result_within_the_promise_is_not_cut(tmp_path, ratio):
     prog, sol, _ = _faint(tmp_path)
     ind = independents(prog)
