@@ -81,25 +81,35 @@ class RowCheck:
     """Which rows outside the LP a point violates (the `most` most violated). A x and |A| |x|
     are sparse products, `block` rows at a time (|A| of a block only is made: a copy of a
     tall LP's whole matrix per check would add to the peak memory; each row's sum is the
-    same for any block)."""
+    same for any block). An LP of one block keeps its two matrices: the row generation
+    checks many points, and they hold no more than one check's temporaries."""
 
     def __init__(self, rel: LinearRelaxation, most: int, block: int = CHECK_ROWS) -> None:
         self.rel, self.most, self.block = rel, most, max(1, block)
         self.rows = _rows_of(rel.A)
         self.b_lo = rel.b_lo if rel.b_lo is not None else np.full(rel.A.shape[0], -np.inf)
+        m = self.rows.shape[0]
+        self.whole = self._block(0, m) if m <= self.block else None
+
+    def _block(self, a: int, b: int) -> tuple[Any, Any]:
+        """Rows a..b-1 as (A, |A|), sparse."""
+        from scipy.sparse import csr_matrix  # (a tall LP's row generation only: a slow import)
+
+        r = self.rows
+        s, e = r.indptr[a], r.indptr[b]
+        ptr, cols, vals = r.indptr[a:b + 1] - s, r.indices[s:e], r.data[s:e]
+        shape = (b - a, r.shape[1])
+        return csr_matrix((vals, cols, ptr), shape=shape), \
+            csr_matrix((np.abs(vals), cols, ptr), shape=shape)
 
     def products(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(A x, |A| |x|)."""
-        from scipy.sparse import csr_matrix  # (a tall LP's row generation only: a slow import)
-
-        r, (m, n) = self.rows, self.rows.shape
+        m = self.rows.shape[0]
         ax, scale, size = np.empty(m), np.empty(m), np.abs(x)
         for a in range(0, m, self.block):
             b = min(m, a + self.block)
-            s, e = r.indptr[a], r.indptr[b]
-            ptr, cols, vals = r.indptr[a:b + 1] - s, r.indices[s:e], r.data[s:e]
-            ax[a:b] = csr_matrix((vals, cols, ptr), shape=(b - a, n)) @ x
-            scale[a:b] = csr_matrix((np.abs(vals), cols, ptr), shape=(b - a, n)) @ size
+            A, absA = self.whole if self.whole is not None else self._block(a, b)
+            ax[a:b], scale[a:b] = A @ x, absA @ size
         return ax, scale
 
     def violated(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:

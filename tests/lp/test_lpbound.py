@@ -984,7 +984,9 @@ def test_the_row_checks_blocks_give_the_whole_products(seed, m, n, block):
     x = rng.normal(size=n)
     rel = LinearRelaxation(Rows(A.data, A.indices, A.indptr, A.shape), full @ x - 0.1, -np.ones(n),
                            np.ones(n))
-    ax, scale = RowCheck(rel, m, block).products(x)
+    check = RowCheck(rel, m, block)
+    assert (check.whole is not None) == (max(1, block) >= m)  # (one block: made once)
+    ax, scale = check.products(x)
     assert np.array_equal(ax, A @ x)
     assert np.array_equal(scale, abs(A) @ np.abs(x))
     inside = rng.permutation(m)[: int(rng.integers(0, m + 1))]
