@@ -151,6 +151,14 @@ def load(rel: LinearRelaxation, rows: np.ndarray | None = None,
 
     h = _new_highs()
     h.setOptionValue("output_flag", False)
+    # one thread a model: our LPs already run one per thread of our own, and HiGHS's workers
+    # would only compete with them for the cores
+    h.setOptionValue("threads", 1)
+    # no callbacks: highspy sets a Python one, and HiGHS copies it at every run's start, which
+    # takes the interpreter's lock (a run on one thread waits for Python work on another)
+    disable = getattr(h, "disableCallbacks", None)
+    if disable is not None:  # (an older highspy has neither the method nor the callback)
+        disable()
     h.setOptionValue("simplex_iteration_limit", iterations)  # counted per run
     # HiGHS equilibrates rows and columns by default. Our relaxations are built scaled (the
     # second-order ones in t-units, each column in [-1, 1]), and without HiGHS's own scaling
