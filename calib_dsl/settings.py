@@ -361,9 +361,9 @@ class Settings:
     # and a tall relaxation's can need more pivots than one run allows.
     prediction_lp_runs: int = 4
     # The prediction LPs run on the rows the path needs (accuracy/working_rows.py): a row
-    # stays in the model until it was inactive at this many consecutive optima (HiGHS's
-    # cost per run grows with the model's rows; a row dropped too early comes back as a
-    # violated row and costs a re-run); at most prediction_rows_added violated rows are
+    # stays in the model until it was inactive at this many consecutive optima, this many
+    # more each time it came back (HiGHS's cost per run grows with the model's rows; a row
+    # dropped too early comes back as a violated row and costs a re-run); at most prediction_rows_added violated rows are
     # added per pass (the most violated), and at most prediction_row_passes passes per LP
     # (an LP still violating rows after them is certified as it stands and solved again
     # after the walk).

@@ -2,11 +2,12 @@
 
 HiGHS's cost per run grows with the loaded matrix, and along a path of nearby objectives
 only a few dozen of a relaxation's rows are active at each optimum, much the same ones from
-one LP to the next. So the model holds the rows active at the last `keep` optima: an LP over
+one LP to the next. So the model holds the rows active at the last `keep` optima (a row that
+came back violated after it was deleted: `keep` more each time it did): an LP over
 those is a relaxation of the whole one (its multipliers, zero on the rows left out, certify
 a bound over all rows), and its optimum, checked against every row, is the whole LP's when
 it violates none; the violated rows are added and the LP run again from its basis. A row
-inactive at the last `keep` optima is deleted (only rows whose slack is basic: the basis
+inactive at the last optima it may stay for is deleted (only rows whose slack is basic: the basis
 stays a basis). The check multiplies a dense copy of the matrix where it is small (the
 prediction LPs' are: a sparse product's overhead would cost about as much as a run).
 """
@@ -32,6 +33,9 @@ class WorkingRows:
         self.rows = np.arange(m, dtype=np.int64)  # the model's rows, in its order
         self.seen = np.zeros(m, dtype=np.int64)  # per row: the last optimum it was active at
         self.optima = 0
+        # per row: the optima it may stay inactive at before it is deleted, `keep` more
+        # each time it came back violated (a row the path keeps needing stays)
+        self.kept_for = np.full(m, keep, dtype=np.int64)
         self.most = most
         self.dense = _dense(rel.A) if m * rel.A.shape[1] <= lp.dense_entries else None
         self.check = RowCheck(rel, most) if self.dense is None else None
@@ -57,6 +61,7 @@ class WorkingRows:
         self.rows_of.add(self.h, more)
         self.rows = np.concatenate([self.rows, more])
         self.seen[more] = self.optima
+        self.kept_for[more] += self.keep
 
     def multipliers(self) -> np.ndarray:
         """The last run's multipliers over all the relaxation's rows (0 on those left out;
@@ -66,10 +71,11 @@ class WorkingRows:
         return y
 
     def settle(self) -> None:
-        """After an LP: its active rows marked, rows inactive at the last `keep` optima
-        deleted. A row strictly inside its sides is inactive and its slack basic (a
-        nonbasic slack sits at a side); one at a side is taken as active (a basic slack
-        at its side, degenerate, is kept too: the basis stays a basis)."""
+        """After an LP: its active rows marked, rows inactive at the last optima they may
+        stay for (`keep`, more for a row that came back) deleted. A row strictly inside its
+        sides is inactive and its slack basic (a nonbasic slack sits at a side); one at a
+        side is taken as active (a basic slack at its side, degenerate, is kept too: the
+        basis stays a basis)."""
         self.optima += 1
         sol = self.h.getSolution()
         if not sol.value_valid:
@@ -79,7 +85,8 @@ class WorkingRows:
         inside = (value < self.rel.b[self.rows] - margin) & \
             (value > self.b_lo[self.rows] + margin)
         self.seen[self.rows[~inside]] = self.optima
-        stale = np.flatnonzero(inside & (self.seen[self.rows] < self.optima - self.keep))
+        since = self.optima - self.kept_for[self.rows]
+        stale = np.flatnonzero(inside & (self.seen[self.rows] < since))
         if len(stale):
             self.h.deleteRows(len(stale), stale.astype(np.int32))
             self.rows = np.delete(self.rows, stale)

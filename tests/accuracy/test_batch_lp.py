@@ -169,3 +169,38 @@ def test_the_working_rows_leave_out_rows_the_optima_do_not_need():
     with mock.patch.object(batch_lp, "_run", counted):
         batch_bounds(rel, C, _working_set_settings(2, 8))
     assert sizes[0] == rel.A.shape[0] and min(sizes[-10:]) < rel.A.shape[0] // 2
+
+
+def test_a_row_that_keeps_coming_back_stays_in_the_model():
+    # a path that cycles through three directions: each LP's optimum needs the rows the
+    # model dropped since the last LP in its direction. A row dropped after `keep` LPs and
+    # added back each time would cost every LP a run per row it adds back (about twenty
+    # here); one kept `keep` LPs longer each time it came back soon stays, and the later
+    # LPs end in one run (two where a row is new)
+    rel = relaxation()
+    rng = np.random.default_rng(3)
+    base = rng.normal(size=(3, rel.main))
+    C = base[np.arange(45) % 3] + 1e-3 * rng.normal(size=(45, rel.main))
+    runs: list[int] = []
+    real_run, real_solve = batch_lp._run, batch_lp._solve
+
+    def counted_solve(*args):
+        runs.append(0)
+        return real_solve(*args)
+
+    def counted_run(h, limits):
+        runs[-1] += 1
+        return real_run(h, limits)
+
+    one = _working_set_settings(1, 8).tuned(lp__workers=1)
+    with mock.patch.object(batch_lp, "_run", counted_run), \
+            mock.patch.object(batch_lp, "_solve", counted_solve), \
+            mock.patch.object(batch_lp, "path", lambda C, w: np.arange(len(C))):
+        lo, hi, _, settled = batch_bounds(rel, C, one)
+    assert settled.all()
+    per_sign = len(runs) // 2
+    assert max(runs[per_sign - 10:per_sign]) <= 2 and max(runs[-10:]) <= 2
+    want_lo, want_hi = lp_bounds(rel, C, DEFAULT.tuned(lp__seconds=600.0).lp)
+    scale = np.maximum(1.0, np.abs(want_hi - want_lo)).max()
+    np.testing.assert_allclose(lo, want_lo, atol=1e-6 * scale)
+    np.testing.assert_allclose(hi, want_hi, atol=1e-6 * scale)
