@@ -363,10 +363,10 @@ class Settings:
     # The prediction LPs run on the rows the path needs (accuracy/working_rows.py): a row
     # stays in the model until it was inactive at this many consecutive optima, this many
     # more each time it came back (HiGHS's cost per run grows with the model's rows; a row
-    # dropped too early comes back as a violated row and costs a re-run); at most prediction_rows_added violated rows are
-    # added per pass (the most violated), and at most prediction_row_passes passes per LP
-    # (an LP still violating rows after them is certified as it stands and solved again
-    # after the walk).
+    # dropped too early comes back as a violated row and costs a re-run); at most
+    # prediction_rows_added violated rows are added per pass (the most violated), and at
+    # most prediction_row_passes passes per LP (an LP still violating rows after them is
+    # certified as it stands and solved again after the walk).
     prediction_rows_kept: int = 10
     prediction_rows_added: int = 20
     prediction_row_passes: int = 8
