@@ -158,7 +158,13 @@ def kept_basis(h: Any) -> Basis | None:
 
 
 def restart(h: Any, basis: Basis) -> None:
-    """The next solve from `basis` (kept_basis's), taken as lp/highs.py's set_basis takes
-    one: alien, HiGHS completing it where it must (the same statuses, the same solve)."""
-    basis.alien = True
-    h.setBasis(basis)
+    """The next solve from `basis` (kept_basis's, from a model of the same rows and columns):
+    set as it is. HiGHS completes an "alien" basis first (a factorization that finds which
+    columns to swap in, as lp/highs.py's set_basis needs for a mapped one), more than many
+    of these re-solves' pivots; only a basis it refuses as it is is set again as alien."""
+    import highspy
+
+    basis.alien = False
+    if h.setBasis(basis) != highspy.HighsStatus.kOk:
+        basis.alien = True
+        h.setBasis(basis)

@@ -57,3 +57,25 @@ def test_a_highspy_without_disable_callbacks_still_loads():
     with mock.patch.object(lp_highs, "_new_highs", Older):
         h = load(_rel())
     assert _threads(h) == 1
+
+
+def test_a_kept_basis_restarts_its_lp_where_it_ended_and_a_refused_one_is_taken_as_alien():
+    from calib_dsl.accuracy.corrections import kept_basis, restart
+
+    h = load(_rel())
+    h.changeColsCost(2, np.arange(2, dtype=np.int32), np.array([-1.0, -2.0]))
+    h.run()
+    basis = kept_basis(h)
+    assert basis is not None
+    other = load(_rel())  # (a model of the same rows and columns, as the corrections' are)
+    other.changeColsCost(2, np.arange(2, dtype=np.int32), np.array([-1.0, -2.0]))
+    restart(other, basis)
+    other.run()
+    assert optimal(other) and other.getInfo().simplex_iteration_count == 0
+    assert not basis.alien  # (set as it is: no completion)
+    wide = load(_rel())
+    wide.addCol(0.0, 0.0, 1.0, 0, np.zeros(0, dtype=np.int32), np.zeros(0))
+    restart(wide, basis)  # (a column short: HiGHS refuses it as it is)
+    assert basis.alien
+    wide.run()
+    assert optimal(wide)
