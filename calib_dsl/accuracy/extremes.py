@@ -8,7 +8,8 @@ first are corrected (accuracy/corrections.py: their LPs solved again with the ro
 checks found violated tightened); what is still unproven is pulled back towards the
 certified centre by bisection until certify_point.py proves it, all candidates checked in
 one pass per step. Each sign's candidates are found and corrected on a thread of their own
-(one sign's checks, in Python, overlap the other's LPs, in HiGHS).
+(one sign's checks, in Python, overlap the other's LPs, in HiGHS), whose checks evaluate
+their chunks on it alone (the two threads already take both cores).
 
 The second are pulled back the same way only where the linearized model gives no candidate
 (no model, or none of its LPs ended optimal): a relaxation optimum's direction is one of the
@@ -34,6 +35,7 @@ from calib_dsl.inner.bounds import Witness
 from calib_dsl.inner.lp import LinearModel
 from calib_dsl.ir.program import Program
 from calib_dsl.lp.highs import load, optimal
+from calib_dsl.relax.chunked import alone
 from calib_dsl.relax.layout import independents
 from calib_dsl.relax.relaxation import LinearRelaxation
 from calib_dsl.settings import LPSettings, Settings
@@ -68,8 +70,9 @@ def certified_extremes(prog: Program, box: tuple[np.ndarray, np.ndarray], centre
     one = replace(settings, lp=replace(settings.lp, workers=1))  # (a sign's LPs: one model)
 
     def near(sign: float) -> list[Found | None] | None:  # (None: no candidate)
-        found = _candidates(model, (sign,), one.lp)
-        return None if found is None else corrected(prog, found, start, one, back)
+        with alone():  # (the other sign's thread takes the other core)
+            found = _candidates(model, (sign,), one.lp)
+            return None if found is None else corrected(prog, found, start, one, back)
 
     with ThreadPoolExecutor(2) as pool:
         parts = [part.result() for part in [pool.submit(near, 1.0), pool.submit(near, -1.0)]]

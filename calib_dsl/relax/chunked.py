@@ -13,8 +13,9 @@ from __future__ import annotations
 import ctypes
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import TypeVar
 
 import numpy as np
@@ -155,6 +156,19 @@ def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = N
 
 
 _here = threading.local()
+
+
+@contextmanager
+def alone() -> Iterator[None]:
+    """Within it, this thread's in_threads calls run their items themselves: for a caller
+    that already runs beside another busy thread of its own (both cores taken), where the
+    pool's workers would only contend with the two for the cores and the interpreter."""
+    before = getattr(_here, "worker", False)
+    _here.worker = True
+    try:
+        yield
+    finally:
+        _here.worker = before
 _pools: dict[int, ThreadPoolExecutor] = {}
 _lock = threading.Lock()
 

@@ -219,3 +219,17 @@ def test_malloc_arenas_are_capped_on_glibc_only_when_asked():
         except OSError:
             glibc = False
         assert _cap_arenas(8) == glibc  # (glibc accepts the cap: mallopt returns 1)
+
+
+def test_alone_runs_the_items_on_the_calling_thread_and_then_shares_them_again():
+    import threading
+
+    from calib_dsl.relax.chunked import alone, in_threads
+
+    def where(_: int) -> int:
+        return threading.get_ident()
+
+    me = threading.get_ident()
+    with alone():
+        assert set(in_threads(where, list(range(8)), threads=2)) == {me}
+    assert len(set(in_threads(where, list(range(8)), threads=2))) == 2
