@@ -82,10 +82,12 @@ def check_point(prog: Program, point: np.ndarray, readings: np.ndarray | None = 
 # Slots times points evaluated in one pass at most (each array of the pass 8 bytes a cell): a
 # program of many slots checks fewer points at once (32 MB an array)
 CHECK_CELLS = 4_000_000
-# Slots times points of a pass over a chunk of a loop's rows: a pass's arrays (2 MB each)
-# stay in the cache, where a pass over the whole program reads its slots from memory once
-# per primitive that reads them
-CHUNK_CELLS = 250_000
+# Slots times points of a pass over a chunk of a loop's rows: a pass's arrays (8 MB each)
+# stay near the cache, where a pass over the whole program reads its slots from memory once
+# per primitive that reads them; and each primitive group's Python work (under the
+# interpreter's lock, which a check on another thread waits for) is spread over that many
+# cells (docs/decisions/69)
+CHUNK_CELLS = 1_000_000
 
 
 def check_points(prog: Program, points: np.ndarray, readings: np.ndarray | None = None,
