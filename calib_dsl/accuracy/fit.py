@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib_dsl.analysis.lsq import Estimate, Linearized, linearized, normalized
+from calib_dsl.analysis.lsq import Estimate, Linearized, evaluated, normalized
 from calib_dsl.ir.program import Program
 from calib_dsl.relax.layout import independents
 from calib_dsl.settings import Settings
@@ -35,18 +35,11 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
     lo, hi = prog.slots.lo[ind], prog.slots.hi[ind]
     x = np.clip(start, lo, hi)
 
-    def evaluated(p: np.ndarray, jacobian: bool = True
-                  ) -> tuple[np.ndarray, np.ndarray, Linearized]:
-        # (as analysis/lsq.residuals: every row normalized by its bound)
-        with np.errstate(all="ignore"):  # an overflow is a non-finite residual
-            lin = linearized(prog, p, owners=False, jacobian=jacobian)
-        return (*normalized(lin), lin)
-
     if (rows is not None and np.array_equal(x, start)
             and rows.jac.shape == (len(rows.d), len(ind))):
         (r, jac), kept = normalized(rows), rows
     else:
-        r, jac, kept = evaluated(x)
+        r, jac, kept = evaluated(prog, x)
     if seen is not None:
         seen[x.tobytes()] = kept
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
@@ -61,7 +54,7 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
         # the sum by no more; it is then evaluated without its Jacobian (half the cost)
         model = r + jac @ (trial - x)
         final = cost - float(model @ model) <= settings.fit_tolerance * float(model @ model)
-        tr, tj, tlin = evaluated(trial, jacobian=not final)
+        tr, tj, tlin = evaluated(prog, trial, jacobian=not final)
         tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
         if final and cost - tcost <= settings.fit_tolerance * min(cost, tcost):
             if tcost < cost:
@@ -69,7 +62,7 @@ def polish(prog: Program, start: np.ndarray, settings: Settings,
             converged = True
             break
         if final and tcost < cost:  # (a larger gain than expected: on, with the Jacobian)
-            tr, tj, tlin = evaluated(trial)
+            tr, tj, tlin = evaluated(prog, trial)
             tcost = float(tr @ tr) if np.all(np.isfinite(tr)) else np.inf
         if tcost < cost and np.all(np.isfinite(tj)):
             gain = cost - tcost

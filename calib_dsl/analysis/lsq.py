@@ -106,7 +106,7 @@ def residuals(prog: Program, p: np.ndarray, rows: np.ndarray | None = None
               ) -> tuple[np.ndarray, np.ndarray]:
     """Normalized residuals of every constraint row at p (of the loop's rows `rows` only,
     if given), and their Jacobian."""
-    return _evaluated(prog, p, rows)[:2]
+    return evaluated(prog, p, rows)[:2]
 
 
 def normalized(lin: Linearized) -> tuple[np.ndarray, np.ndarray]:
@@ -116,11 +116,12 @@ def normalized(lin: Linearized) -> tuple[np.ndarray, np.ndarray]:
         return lin.d / scale, lin.jac / scale[:, None]
 
 
-def _evaluated(prog: Program, p: np.ndarray, rows: np.ndarray | None
-               ) -> tuple[np.ndarray, np.ndarray, Linearized]:
-    """`residuals` and the rows they are made of."""
-    with np.errstate(all="ignore"):
-        lin = linearized(prog, p, owners=False, rows=rows)
+def evaluated(prog: Program, p: np.ndarray, rows: np.ndarray | None = None,
+              jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, Linearized]:
+    """`residuals` and the rows they are made of (without `jacobian`, the Jacobian has no
+    columns: the residuals alone cost about half)."""
+    with np.errstate(all="ignore"):  # an overflow is a non-finite residual: the caller's
+        lin = linearized(prog, p, owners=False, rows=rows, jacobian=jacobian)
     return (*normalized(lin), lin)
 
 
@@ -181,7 +182,7 @@ def _fit(prog: Program, start: np.ndarray, max_evaluations: int,
         if key not in cache:
             for old in [k for k in cache if k != current[0]]:
                 del cache[old]
-            cache[key] = _evaluated(prog, p, rows)
+            cache[key] = evaluated(prog, p, rows)
         if jacobian:
             current[0] = key
         return cache[key]

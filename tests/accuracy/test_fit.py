@@ -47,7 +47,7 @@ def test_a_polish_from_a_fit_with_its_rows_evaluates_them_once_without_jacobian(
     without the Jacobian (the linearized rows expect no gain, and the trial confirms it),
     and ends at the fit's sum of squares within the tolerance; from the domains' middle it
     needs Jacobians, and reaches the same."""
-    import calib_dsl.accuracy.fit as fit_module
+    import calib_dsl.analysis.lsq as lsq_module
 
     prog = load(ROOT / "models" / "ur10_simulated.cal")
     ind = independents(prog)
@@ -55,13 +55,13 @@ def test_a_polish_from_a_fit_with_its_rows_evaluates_them_once_without_jacobian(
     theirs = estimate(prog, start=0.5 * (lo + hi))
     assert theirs.converged and theirs.rows is not None
     calls: list[bool] = []
-    real = fit_module.linearized
+    real = lsq_module.linearized
 
     def counted(*args, **kwargs):
         calls.append(kwargs.get("jacobian", True))
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(fit_module, "linearized", counted)
+    monkeypatch.setattr(lsq_module, "linearized", counted)
     seen: dict = {}
     mine = polish(prog, theirs.values, DEFAULT, seen, theirs.rows)
     assert calls == [False]
