@@ -156,6 +156,17 @@ def in_threads(fn: Callable[[T], U], items: Sequence[T], threads: int | None = N
 
 
 _here = threading.local()
+_pools: dict[int, ThreadPoolExecutor] = {}
+_lock = threading.Lock()
+
+
+def _pool(workers: int) -> ThreadPoolExecutor:
+    with _lock:  # (callers in several threads: the inner bounds' own)
+        if workers not in _pools:
+            if not _pools:
+                _cap_arenas(MALLOC_ARENAS)
+            _pools[workers] = ThreadPoolExecutor(workers, thread_name_prefix="chunks")
+        return _pools[workers]
 
 
 @contextmanager
@@ -169,17 +180,6 @@ def alone() -> Iterator[None]:
         yield
     finally:
         _here.worker = before
-_pools: dict[int, ThreadPoolExecutor] = {}
-_lock = threading.Lock()
-
-
-def _pool(workers: int) -> ThreadPoolExecutor:
-    with _lock:  # (callers in several threads: the inner bounds' own)
-        if workers not in _pools:
-            if not _pools:
-                _cap_arenas(MALLOC_ARENAS)
-            _pools[workers] = ThreadPoolExecutor(workers, thread_name_prefix="chunks")
-        return _pools[workers]
 
 
 def _cap_arenas(arenas: int) -> bool:
